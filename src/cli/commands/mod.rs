@@ -1,0 +1,9 @@
+//! One module per subcommand.
+
+pub mod dag;
+pub mod gc;
+pub mod kinds;
+pub mod run;
+pub mod show;
+pub mod status;
+pub mod validate;

@@ -1,0 +1,126 @@
+//! `modalflow run`: run a pipeline, reusing every cached stage.
+
+use crate::cli::exit;
+use crate::cli::output::{print_json, print_text, Locations};
+use modalflow::pipeline::execute::Status;
+use modalflow::pipeline::plan;
+use modalflow::pipeline::progress::ProgressMode;
+use modalflow::pipeline::run::{self, RunOptions, RunReport};
+use std::path::PathBuf;
+
+/// Run a pipeline: stages whose key is cached are reused, the rest run in
+/// dependency order, independent ones in parallel.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The pipeline file.
+    file: PathBuf,
+    /// Stages run at once (default: number of cores).
+    #[arg(long, short)]
+    jobs: Option<usize>,
+    /// After a failure, still run the stages that do not depend on it.
+    #[arg(long)]
+    keep_going: bool,
+    /// Recompute this stage even if cached (a matrix stage's base name forces all expansions).
+    #[arg(long, value_name = "STAGE")]
+    force: Vec<String>,
+    /// Say what would run and why, without running anything.
+    #[arg(long)]
+    dry_run: bool,
+    /// Print one JSON object on stdout instead of a summary.
+    #[arg(long)]
+    json: bool,
+    /// Progress display on stderr.
+    #[arg(long, value_enum, default_value_t = Progress::Auto)]
+    progress: Progress,
+    #[command(flatten)]
+    locations: Locations,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Progress {
+    Auto,
+    Bars,
+    Lines,
+    None,
+}
+
+pub fn options(
+    locations: &Locations,
+    jobs: Option<usize>,
+    keep_going: bool,
+    force: Vec<String>,
+    progress: ProgressMode,
+) -> RunOptions {
+    RunOptions {
+        jobs: jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get())),
+        keep_going,
+        force,
+        cache: locations.cache.clone(),
+        results: locations.results.clone(),
+        progress,
+    }
+}
+
+pub fn exec(args: Args) -> anyhow::Result<u8> {
+    let plan = plan::load(&args.file)?;
+    let progress = match args.progress {
+        Progress::Auto => ProgressMode::Auto,
+        Progress::Bars => ProgressMode::Bars,
+        Progress::Lines => ProgressMode::Lines,
+        Progress::None => ProgressMode::Quiet,
+    };
+    let opts = options(
+        &args.locations,
+        args.jobs,
+        args.keep_going,
+        args.force,
+        progress,
+    );
+    let report = if args.dry_run {
+        run::status(&plan, &opts)?
+    } else {
+        run::run(&plan, &opts)?
+    };
+    if args.json {
+        print_json(&report)?;
+    } else {
+        print_text(&summary(&report, args.dry_run))?;
+    }
+    Ok(if report.failed() {
+        exit::STAGE_FAILED
+    } else {
+        exit::SUCCESS
+    })
+}
+
+/// The human summary printed after a run.
+pub fn summary(report: &RunReport, dry: bool) -> String {
+    let count = |s: Status| report.stages.iter().filter(|r| r.status == s).count();
+    let mut out = String::new();
+    for r in &report.stages {
+        if r.status == Status::Failed {
+            out.push_str(&format!(
+                "stage {} failed: {}\n",
+                r.name,
+                r.error.as_deref().unwrap_or("")
+            ));
+        }
+    }
+    if dry {
+        out.push_str(&crate::cli::commands::status::table(report));
+    }
+    out.push_str(&format!(
+        "{}: {} ran, {} cached, {} failed, {} skipped{}\n",
+        report.pipeline,
+        count(Status::Ran),
+        count(Status::Cached),
+        count(Status::Failed),
+        count(Status::Skipped),
+        if dry {
+            format!(", {} would run", count(Status::WillRun))
+        } else {
+            String::new()
+        }
+    ));
+    out
+}

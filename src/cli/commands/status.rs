@@ -1,0 +1,68 @@
+//! `modalflow status`: what is cached and why the rest would run.
+
+use crate::cli::output::{print_json, print_text, Locations};
+use modalflow::pipeline::execute::Status;
+use modalflow::pipeline::plan;
+use modalflow::pipeline::progress::ProgressMode;
+use modalflow::pipeline::run::{self, RunReport};
+use std::path::PathBuf;
+
+/// Show each stage as cached or will-run, with the reason (which param,
+/// input or file changed, kind version bumped, never ran).
+#[derive(clap::Args)]
+pub struct Args {
+    /// The pipeline file.
+    file: PathBuf,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+    #[command(flatten)]
+    locations: Locations,
+}
+
+pub fn exec(args: Args) -> anyhow::Result<u8> {
+    let plan = plan::load(&args.file)?;
+    let opts = super::run::options(
+        &args.locations,
+        Some(1),
+        false,
+        Vec::new(),
+        ProgressMode::Quiet,
+    );
+    let report = run::status(&plan, &opts)?;
+    if args.json {
+        print_json(&report)?;
+    } else {
+        print_text(&table(&report))?;
+    }
+    Ok(crate::cli::exit::SUCCESS)
+}
+
+/// One line per stage: status, name, reason.
+pub fn table(report: &RunReport) -> String {
+    let width = report
+        .stages
+        .iter()
+        .map(|s| s.name.len())
+        .max()
+        .unwrap_or(0);
+    let mut out = String::new();
+    for s in &report.stages {
+        let status = match s.status {
+            Status::Cached => "cached",
+            _ => "will-run",
+        };
+        let reason = if s.status == Status::Cached {
+            ""
+        } else {
+            s.reason.as_str()
+        };
+        out.push_str(
+            &format!("{status:<9} {:<width$}  {reason}\n", s.name)
+                .trim_end()
+                .to_string(),
+        );
+        out.push('\n');
+    }
+    out
+}

@@ -1,0 +1,36 @@
+//! `modalflow validate`: check a pipeline file without running anything.
+
+use crate::cli::output::{print_json, print_text};
+use modalflow::pipeline::plan;
+use std::path::PathBuf;
+
+/// Check a pipeline file: schema, kinds, params, references, files, cycles.
+#[derive(clap::Args)]
+pub struct Args {
+    /// The pipeline file.
+    file: PathBuf,
+    /// Print one JSON object on stdout.
+    #[arg(long)]
+    json: bool,
+}
+
+pub fn exec(args: Args) -> anyhow::Result<u8> {
+    let plan = plan::load(&args.file)?;
+    let edges: usize = plan.upstream.iter().map(Vec::len).sum();
+    if args.json {
+        print_json(&serde_json::json!({
+            "pipeline": plan.name,
+            "valid": true,
+            "stages": plan.nodes.len(),
+            "edges": edges,
+        }))?;
+    } else {
+        print_text(&format!(
+            "{}: valid ({} stages, {} edges)\n",
+            plan.name,
+            plan.nodes.len(),
+            edges
+        ))?;
+    }
+    Ok(crate::cli::exit::SUCCESS)
+}

@@ -1,0 +1,25 @@
+//! Exit codes, documented in the README; scripts rely on them.
+
+use modalflow::pipeline::plan::PlanError;
+
+/// Everything succeeded (or, for `status`, the question was answered).
+pub const SUCCESS: u8 = 0;
+/// At least one stage failed; the others' results are cached.
+pub const STAGE_FAILED: u8 = 1;
+/// The pipeline file (or a flag) is invalid; nothing ran.
+pub const INVALID: u8 = 2;
+/// The cache or the file system failed.
+pub const ERROR: u8 = 3;
+
+pub fn for_error(e: &anyhow::Error) -> u8 {
+    if e.downcast_ref::<PlanError>().is_some() {
+        INVALID
+    } else if e
+        .downcast_ref::<modalflow::pipeline::run::RunError>()
+        .is_some_and(|r| matches!(r, modalflow::pipeline::run::RunError::UnknownForce { .. }))
+    {
+        INVALID
+    } else {
+        ERROR
+    }
+}

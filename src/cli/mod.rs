@@ -1,0 +1,56 @@
+//! Command-line front end: one module per subcommand in [`commands`], each
+//! holding its clap `Args` and `exec`. Errors are printed once, as
+//! `modalflow: …`, and mapped to the documented [`exit`] codes.
+
+pub mod commands;
+pub mod exit;
+pub mod output;
+
+use clap::{Parser, Subcommand};
+use std::process::ExitCode;
+
+/// Reproducible, content-hashed pipelines for structural-dynamics model updating.
+///
+/// A YAML file declares stages as a DAG; every stage result is cached under a
+/// content hash, so a rerun after an edit recomputes only what changed.
+#[derive(Parser)]
+#[command(name = "modalflow", version, propagate_version = true)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    Run(commands::run::Args),
+    Status(commands::status::Args),
+    Dag(commands::dag::Args),
+    Show(commands::show::Args),
+    Validate(commands::validate::Args),
+    Gc(commands::gc::Args),
+    Kinds(commands::kinds::Args),
+}
+
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let result = match cli.command {
+        Command::Run(a) => commands::run::exec(a),
+        Command::Status(a) => commands::status::exec(a),
+        Command::Dag(a) => commands::dag::exec(a),
+        Command::Show(a) => commands::show::exec(a),
+        Command::Validate(a) => commands::validate::exec(a),
+        Command::Gc(a) => commands::gc::exec(a),
+        Command::Kinds(a) => commands::kinds::exec(a),
+    };
+    match result {
+        Ok(code) => ExitCode::from(code),
+        Err(e) => {
+            if output::is_broken_pipe(&e) {
+                return ExitCode::from(exit::SUCCESS);
+            }
+            let code = exit::for_error(&e);
+            eprintln!("modalflow: {e:#}");
+            ExitCode::from(code)
+        }
+    }
+}

@@ -1,0 +1,41 @@
+//! Shared pieces of command output: cache/results location flags, JSON on
+//! stdout, broken-pipe detection.
+
+use std::io::Write;
+use std::path::PathBuf;
+
+/// Where the cache and results live; shared by every command that reads them.
+#[derive(clap::Args, Clone, Debug)]
+pub struct Locations {
+    /// Cache directory (content-addressed store).
+    #[arg(long, env = "MODALFLOW_CACHE", default_value = "cache")]
+    pub cache: PathBuf,
+    /// Results root; a pipeline's results go to RESULTS/<name>/.
+    #[arg(long, default_value = "results")]
+    pub results: PathBuf,
+}
+
+/// Print one JSON object on stdout.
+pub fn print_json<T: serde::Serialize>(value: &T) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    serde_json::to_writer_pretty(&mut out, value)?;
+    writeln!(out)?;
+    Ok(())
+}
+
+/// Print text on stdout (errors, e.g. a closed pipe, propagate).
+pub fn print_text(text: &str) -> anyhow::Result<()> {
+    let mut out = std::io::stdout().lock();
+    out.write_all(text.as_bytes())?;
+    out.flush()?;
+    Ok(())
+}
+
+pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
+    e.chain().any(|c| {
+        c.downcast_ref::<std::io::Error>()
+            .is_some_and(|io| io.kind() == std::io::ErrorKind::BrokenPipe)
+            || c.downcast_ref::<serde_json::Error>()
+                .is_some_and(|j| j.io_error_kind() == Some(std::io::ErrorKind::BrokenPipe))
+    })
+}

@@ -1,0 +1,11 @@
+//! modalflow: reproducible, content-hashed pipelines for updating
+//! structural-dynamics models of machine tools from vibration measurements.
+//!
+//! The engine ([`pipeline`]) runs stage kinds ([`stages`]) declared in a YAML
+//! file; the numerical core (frequency-response data in [`frf`], modal models
+//! in [`modal`]) knows nothing of pipelines.
+
+pub mod frf;
+pub mod modal;
+pub mod pipeline;
+pub mod stages;

@@ -1,0 +1,81 @@
+//! Garbage collection: drop run records and objects that no pipeline's last
+//! run references. Holds the cache exclusively, so no run is in flight.
+
+use super::provenance;
+use super::store::{self, Store, StoreError};
+use std::collections::HashSet;
+use std::fs;
+
+/// What `gc` removed (or would remove with `dry_run`).
+#[derive(Debug, Default, serde::Serialize)]
+pub struct GcReport {
+    pub dry_run: bool,
+    pub kept_objects: usize,
+    pub kept_bytes: u64,
+    pub removed_objects: usize,
+    pub removed_bytes: u64,
+    pub removed_records: usize,
+    pub removed_temp: usize,
+}
+
+pub fn collect(store: &Store, dry_run: bool) -> Result<GcReport, StoreError> {
+    let _guard = store.lock_cache(true)?;
+    let mut live_keys = HashSet::new();
+    let mut live_objects = HashSet::new();
+    for last in provenance::load_all(store) {
+        for stage in last.stages.values() {
+            let Some(rec) = store.record(&stage.key) else {
+                continue;
+            };
+            live_keys.insert(stage.key.clone());
+            for out in rec.outputs.values() {
+                live_objects.extend(store.object_hashes(&out.artifact));
+            }
+        }
+    }
+    let mut report = GcReport {
+        dry_run,
+        ..GcReport::default()
+    };
+    for (hash, path, bytes) in store::list_objects(store) {
+        if live_objects.contains(&hash) {
+            report.kept_objects += 1;
+            report.kept_bytes += bytes;
+        } else {
+            report.removed_objects += 1;
+            report.removed_bytes += bytes;
+            if !dry_run {
+                let _ = fs::remove_file(path);
+            }
+        }
+    }
+    for sub in ["runs", "tmp", "locks"] {
+        let Ok(dir) = fs::read_dir(store.root().join(sub)) else {
+            continue;
+        };
+        for entry in dir.flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            let remove = match sub {
+                "runs" => !live_keys.contains(name.trim_end_matches(".json")),
+                _ => true,
+            };
+            if !remove {
+                continue;
+            }
+            match sub {
+                "runs" => report.removed_records += 1,
+                "tmp" => report.removed_temp += 1,
+                _ => {}
+            }
+            if !dry_run {
+                let p = entry.path();
+                let _ = if p.is_dir() {
+                    fs::remove_dir_all(&p)
+                } else {
+                    fs::remove_file(&p)
+                };
+            }
+        }
+    }
+    Ok(report)
+}

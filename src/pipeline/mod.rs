@@ -1,0 +1,19 @@
+//! The pipeline engine: a YAML file of stages becomes a validated DAG
+//! ([`plan`]), each stage's result is cached under a content hash of what
+//! determines it ([`key`], [`store`]), and the scheduler ([`run`]) reruns
+//! only what an edit touched.
+
+pub mod diagnostic;
+pub mod execute;
+pub mod gc;
+pub mod graph;
+pub mod key;
+pub mod matrix;
+pub mod plan;
+pub mod progress;
+pub mod provenance;
+pub mod results;
+pub mod run;
+pub mod span;
+pub mod spec;
+pub mod store;

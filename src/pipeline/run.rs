@@ -1,0 +1,313 @@
+//! The scheduler: runs a [`Plan`]'s stages in dependency order, independent
+//! stages concurrently (`--jobs`), and the dry variant behind `status` and
+//! `run --dry-run` that says what would run and why.
+
+use super::execute::{Done, Engine, Outcome, StageReport, Status};
+use super::plan::Plan;
+use super::progress::{ProgressMode, Reporter};
+use super::provenance::{self, StageProvenance};
+use super::store::{Store, StoreError};
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+use std::sync::mpsc;
+
+/// Options of `modalflow run`.
+#[derive(Clone, Debug)]
+pub struct RunOptions {
+    pub jobs: usize,
+    pub keep_going: bool,
+    /// Stage names (expanded, or a matrix stage's base name for all of its
+    /// expansions) to recompute even when cached.
+    pub force: Vec<String>,
+    pub cache: PathBuf,
+    /// Results root; the pipeline's results go to `<results>/<name>/`
+    /// unless `results_exact` is set.
+    pub results: PathBuf,
+    pub progress: ProgressMode,
+}
+
+/// Result of a run or a status query.
+#[derive(Debug, serde::Serialize)]
+pub struct RunReport {
+    pub pipeline: String,
+    pub stages: Vec<StageReport>,
+}
+
+impl RunReport {
+    pub fn failed(&self) -> bool {
+        self.stages.iter().any(|s| s.status == Status::Failed)
+    }
+}
+
+/// Errors that stop a run as a whole (stage failures are reported per stage).
+#[derive(Debug, thiserror::Error)]
+pub enum RunError {
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    #[error("--force {name}: no such stage\n  = help: stages: {known}")]
+    UnknownForce { name: String, known: String },
+}
+
+fn engine<'a>(plan: &'a Plan, opts: &RunOptions) -> Result<Engine<'a>, RunError> {
+    let store = Store::open(&opts.cache)?;
+    let last = provenance::load(&store, &plan.name);
+    let mut forced = vec![false; plan.nodes.len()];
+    for f in &opts.force {
+        let mut hit = false;
+        for (i, n) in plan.nodes.iter().enumerate() {
+            if &n.name == f || &n.base == f {
+                forced[i] = true;
+                hit = true;
+            }
+        }
+        if !hit {
+            let known: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
+            return Err(RunError::UnknownForce {
+                name: f.clone(),
+                known: known.join(", "),
+            });
+        }
+    }
+    Ok(Engine {
+        plan,
+        store,
+        last,
+        results: opts.results.join(&plan.name),
+        forced,
+    })
+}
+
+#[derive(Clone)]
+enum State {
+    Pending,
+    Running,
+    Finished(Option<Done>),
+}
+
+/// Run the pipeline.
+pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
+    let engine = engine(plan, opts)?;
+    let _cache_lock = engine.store.lock_cache(false)?;
+    let n = plan.nodes.len();
+    let reporter = Reporter::new(n, opts.progress);
+    let mut state = vec![State::Pending; n];
+    let mut reports: Vec<Option<StageReport>> = vec![None; n];
+    let mut updates: Vec<(String, StageProvenance)> = Vec::new();
+    let mut stop_reason: Option<String> = None;
+    let jobs = opts.jobs.max(1);
+
+    std::thread::scope(|scope| {
+        let (tx, rx) = mpsc::channel::<(usize, Outcome, super::progress::Progress)>();
+        let mut running = 0usize;
+        loop {
+            // Skip stages whose upstream failed or was skipped.
+            for &i in &plan.order {
+                if !matches!(state[i], State::Pending) {
+                    continue;
+                }
+                let bad: Vec<&str> = plan.upstream[i]
+                    .iter()
+                    .filter(|&&u| matches!(state[u], State::Finished(None)))
+                    .map(|&u| plan.nodes[u].name.as_str())
+                    .collect();
+                if !bad.is_empty() {
+                    state[i] = State::Finished(None);
+                    reports[i] = Some(skipped(
+                        plan,
+                        i,
+                        format!("upstream {} did not finish", bad.join(", ")),
+                    ));
+                }
+            }
+            // Launch ready stages in plan order.
+            if stop_reason.is_none() {
+                for &i in &plan.order {
+                    if running >= jobs {
+                        break;
+                    }
+                    let ready = matches!(state[i], State::Pending)
+                        && plan.upstream[i]
+                            .iter()
+                            .all(|&u| matches!(state[u], State::Finished(Some(_))));
+                    if !ready {
+                        continue;
+                    }
+                    state[i] = State::Running;
+                    running += 1;
+                    let upstream: BTreeMap<usize, Done> = plan.upstream[i]
+                        .iter()
+                        .filter_map(|&u| match &state[u] {
+                            State::Finished(Some(d)) => Some((u, d.clone())),
+                            _ => None,
+                        })
+                        .collect();
+                    let progress = reporter.stage(&plan.nodes[i].name);
+                    let tx = tx.clone();
+                    let engine = &engine;
+                    scope.spawn(move || {
+                        let lookup = |u: usize| upstream.get(&u).cloned();
+                        let outcome = engine.execute(i, &lookup, &progress);
+                        let _ = tx.send((i, outcome, progress));
+                    });
+                }
+            }
+            if running == 0 {
+                break;
+            }
+            let Ok((i, outcome, progress)) = rx.recv() else {
+                break;
+            };
+            running -= 1;
+            for w in &outcome.warnings {
+                reporter.line(&format!("warning: {w}"));
+            }
+            reporter.done(progress, &line(&outcome.report));
+            if outcome.report.status == Status::Failed && !opts.keep_going && stop_reason.is_none()
+            {
+                stop_reason = Some(format!(
+                    "not started: {} failed (use --keep-going to run independent stages)",
+                    outcome.report.name
+                ));
+            }
+            if let Some(p) = outcome.provenance {
+                updates.push((plan.nodes[i].name.clone(), p));
+            }
+            state[i] = State::Finished(outcome.done);
+            reports[i] = Some(outcome.report);
+        }
+    });
+    reporter.finish();
+    for &i in &plan.order {
+        if reports[i].is_none() {
+            let why = stop_reason.clone().unwrap_or_else(|| "not started".into());
+            reports[i] = Some(skipped(plan, i, why));
+        }
+    }
+    let keep: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
+    provenance::update(&engine.store, &plan.name, updates, &keep)?;
+    Ok(RunReport {
+        pipeline: plan.name.clone(),
+        stages: plan
+            .order
+            .iter()
+            .filter_map(|&i| reports[i].take())
+            .collect(),
+    })
+}
+
+fn skipped(plan: &Plan, i: usize, reason: String) -> StageReport {
+    StageReport {
+        name: plan.nodes[i].name.clone(),
+        kind: plan.nodes[i].kind.kind().to_string(),
+        status: Status::Skipped,
+        key: None,
+        seconds: 0.0,
+        reason,
+        error: None,
+        counters: BTreeMap::new(),
+    }
+}
+
+fn line(r: &StageReport) -> String {
+    match r.status {
+        Status::Ran => format!("  ran     {} ({:.2} s) — {}", r.name, r.seconds, r.reason),
+        Status::Cached => format!("  cached  {}", r.name),
+        Status::Failed => format!("  FAILED  {}: {}", r.name, r.error.as_deref().unwrap_or("")),
+        Status::Skipped => format!("  skipped {} — {}", r.name, r.reason),
+        Status::WillRun => format!("  will run {} — {}", r.name, r.reason),
+    }
+}
+
+/// What `run` would do, without running anything: each stage is `cached`
+/// (verified entry for its key) or `will-run` with the reason.
+pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
+    let engine = engine(plan, opts)?;
+    let mut done: Vec<Option<Done>> = vec![None; plan.nodes.len()];
+    let mut reports: Vec<Option<StageReport>> = vec![None; plan.nodes.len()];
+    for &i in &plan.order {
+        let node = &plan.nodes[i];
+        let mut report = skipped(plan, i, String::new());
+        report.status = Status::WillRun;
+        let running: Vec<String> = plan.upstream[i]
+            .iter()
+            .filter(|&&u| done[u].is_none())
+            .map(|&u| plan.nodes[u].name.clone())
+            .collect();
+        let previous = engine.last.stages.get(&node.name);
+        let refs = engine.input_refs(node);
+        if !running.is_empty() {
+            // Inputs are unknown until upstream runs; still name own changes.
+            let material =
+                engine.material(i, &|u| done[u].clone().or_else(|| placeholder(plan, u)));
+            report.reason = match material {
+                Ok(mut m) => {
+                    m.files.retain(|_, h| h != PENDING);
+                    provenance::explain(previous, &m, &running, &refs)
+                }
+                Err(e) => e,
+            };
+        } else {
+            match engine.material(i, &|u| done[u].clone()) {
+                Err(e) => report.reason = e,
+                Ok(m) => {
+                    let key = m.key();
+                    report.key = Some(key.clone());
+                    match (engine.forced[i], engine.cached(&key)) {
+                        (false, Ok(rec)) => {
+                            report.status = Status::Cached;
+                            report.reason = "up to date".into();
+                            report.seconds = rec.seconds;
+                            report.counters = rec.counters.clone();
+                            done[i] = Some(Done {
+                                key,
+                                outputs: rec.outputs,
+                            });
+                        }
+                        (true, _) => report.reason = "forced".into(),
+                        (false, Err(Some(problem))) => {
+                            report.reason = format!("cache entry corrupt ({problem})")
+                        }
+                        (false, Err(None)) => {
+                            report.reason = provenance::explain(previous, &m, &[], &refs)
+                        }
+                    }
+                }
+            }
+        }
+        reports[i] = Some(report);
+    }
+    Ok(RunReport {
+        pipeline: plan.name.clone(),
+        stages: plan
+            .order
+            .iter()
+            .filter_map(|&i| reports[i].take())
+            .collect(),
+    })
+}
+
+const PENDING: &str = "pending";
+
+/// Stand-in outputs for an upstream stage that will run, so a downstream
+/// stage's own param and file changes can still be explained.
+fn placeholder(plan: &Plan, u: usize) -> Option<Done> {
+    let outputs = plan.nodes[u]
+        .outputs
+        .iter()
+        .map(|o| {
+            let rec = super::store::OutputRecord {
+                file: o.clone(),
+                artifact: super::store::Artifact {
+                    kind: super::store::ArtifactKind::File,
+                    hash: PENDING.into(),
+                    bytes: 0,
+                },
+            };
+            (o.clone(), rec)
+        })
+        .collect();
+    Some(Done {
+        key: PENDING.into(),
+        outputs,
+    })
+}

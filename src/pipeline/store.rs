@@ -1,0 +1,476 @@
+//! The content-addressed cache: immutable objects named by their blake3
+//! hash, run records mapping a stage key to output hashes, and advisory
+//! locks so that several `modalflow` processes can share one cache.
+//!
+//! Layout under the cache root:
+//! ```text
+//! objects/ab/cdef…   file contents (blobs) and directory listings (trees)
+//! runs/<key>.json     run record: outputs of the stage with that key
+//! pipelines/<n>.json  last run of pipeline <n> (provenance, for status and gc)
+//! locks/              one lock file per stage key being computed
+//! tmp/                staging area; everything is written here, fsynced, renamed
+//! ```
+//! Every write is atomic (temp file, fsync, rename, fsync of the directory)
+//! and a run record is written only after all its objects, so a killed run
+//! leaves either a complete entry or none.
+
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::fs::{self, File};
+use std::io::{self, Read, Write};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// What a cache operation was doing when the file system failed.
+#[derive(Debug, thiserror::Error)]
+#[error("cache {op} {}: {source}", path.display())]
+pub struct StoreError {
+    pub op: &'static str,
+    pub path: PathBuf,
+    #[source]
+    pub source: io::Error,
+}
+
+fn err<'a>(op: &'static str, path: &'a Path) -> impl FnOnce(io::Error) -> StoreError + 'a {
+    move |source| StoreError {
+        op,
+        path: path.to_path_buf(),
+        source,
+    }
+}
+
+pub type Result<T> = std::result::Result<T, StoreError>;
+
+/// A stored output: one file (a blob) or a directory (a tree object listing
+/// relative paths and blob hashes).
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq, Eq)]
+pub struct Artifact {
+    #[serde(rename = "type")]
+    pub kind: ArtifactKind,
+    pub hash: String,
+    pub bytes: u64,
+}
+
+#[derive(Clone, Copy, Debug, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum ArtifactKind {
+    File,
+    Dir,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct Tree {
+    entries: Vec<TreeEntry>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct TreeEntry {
+    path: String,
+    hash: String,
+    bytes: u64,
+}
+
+/// One output in a run record.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct OutputRecord {
+    /// File or directory name the stage gave it (relative path for `command` outs).
+    pub file: String,
+    #[serde(flatten)]
+    pub artifact: Artifact,
+}
+
+/// The cache entry for one stage key. Written last, after every object.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RunRecord {
+    pub key: String,
+    pub kind: String,
+    pub version: u32,
+    /// Stage that first produced it (informational; keys do not depend on names).
+    pub stage: String,
+    pub outputs: BTreeMap<String, OutputRecord>,
+    pub seconds: f64,
+    pub counters: BTreeMap<String, u64>,
+    pub modalflow_version: String,
+}
+
+/// Handle on a cache directory.
+#[derive(Clone, Debug)]
+pub struct Store {
+    root: PathBuf,
+}
+
+static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
+
+impl Store {
+    /// Open (creating if needed) the cache at `root`.
+    pub fn open(root: &Path) -> Result<Store> {
+        for sub in ["objects", "runs", "pipelines", "locks", "tmp"] {
+            let p = root.join(sub);
+            fs::create_dir_all(&p).map_err(err("create", &p))?;
+        }
+        Ok(Store {
+            root: root.to_path_buf(),
+        })
+    }
+
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// A fresh path in the staging area (unique within this machine).
+    pub fn temp_path(&self, label: &str) -> PathBuf {
+        let n = TMP_COUNTER.fetch_add(1, Ordering::Relaxed);
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.subsec_nanos())
+            .unwrap_or(0);
+        self.root
+            .join("tmp")
+            .join(format!("{label}-{}-{n}-{nanos}", std::process::id()))
+    }
+
+    pub fn object_path(&self, hash: &str) -> PathBuf {
+        let (a, b) = hash.split_at(2.min(hash.len()));
+        self.root.join("objects").join(a).join(b)
+    }
+
+    /// Store the file or directory at `path`; returns its artifact.
+    pub fn put(&self, path: &Path) -> Result<Artifact> {
+        let meta = fs::metadata(path).map_err(err("read", path))?;
+        if meta.is_dir() {
+            let mut entries = Vec::new();
+            for rel in walk(path).map_err(err("read", path))? {
+                let a = self.put_file(&path.join(&rel))?;
+                entries.push(TreeEntry {
+                    path: rel,
+                    hash: a.hash,
+                    bytes: a.bytes,
+                });
+            }
+            entries.sort_by(|a, b| a.path.cmp(&b.path));
+            let bytes = entries.iter().map(|e| e.bytes).sum();
+            let listing = serde_json::to_vec(&Tree { entries }).unwrap_or_default();
+            let hash = self.put_bytes(&listing)?;
+            Ok(Artifact {
+                kind: ArtifactKind::Dir,
+                hash,
+                bytes,
+            })
+        } else {
+            self.put_file(path)
+        }
+    }
+
+    /// Copy one file into the object store, hashing while copying.
+    fn put_file(&self, path: &Path) -> Result<Artifact> {
+        let mut src = File::open(path).map_err(err("read", path))?;
+        let tmp = self.temp_path("obj");
+        let mut dst = File::create(&tmp).map_err(err("write", &tmp))?;
+        let mut hasher = blake3::Hasher::new();
+        let mut buf = vec![0u8; 1 << 16];
+        let mut bytes = 0u64;
+        loop {
+            let n = src.read(&mut buf).map_err(err("read", path))?;
+            if n == 0 {
+                break;
+            }
+            hasher.update(&buf[..n]);
+            dst.write_all(&buf[..n]).map_err(err("write", &tmp))?;
+            bytes += n as u64;
+        }
+        dst.sync_all().map_err(err("sync", &tmp))?;
+        drop(dst);
+        let hash = hasher.finalize().to_hex().to_string();
+        self.commit_object(&tmp, &hash)?;
+        Ok(Artifact {
+            kind: ArtifactKind::File,
+            hash,
+            bytes,
+        })
+    }
+
+    /// Store bytes as a blob; returns the hash.
+    pub fn put_bytes(&self, data: &[u8]) -> Result<String> {
+        let hash = blake3::hash(data).to_hex().to_string();
+        if self.object_path(&hash).exists() && self.verify_blob(&hash) {
+            return Ok(hash);
+        }
+        let tmp = self.temp_path("obj");
+        write_synced(&tmp, data)?;
+        self.commit_object(&tmp, &hash)?;
+        Ok(hash)
+    }
+
+    fn commit_object(&self, tmp: &Path, hash: &str) -> Result<()> {
+        let dest = self.object_path(hash);
+        if let Some(dir) = dest.parent() {
+            fs::create_dir_all(dir).map_err(err("create", dir))?;
+        }
+        fs::rename(tmp, &dest).map_err(err("rename", &dest))?;
+        sync_dir(dest.parent().unwrap_or(&self.root));
+        Ok(())
+    }
+
+    fn verify_blob(&self, hash: &str) -> bool {
+        hash_file(&self.object_path(hash)).is_ok_and(|h| h == hash)
+    }
+
+    /// Check that an artifact's objects exist and match their hashes.
+    /// Returns a description of the first problem found.
+    pub fn verify(&self, a: &Artifact) -> std::result::Result<(), String> {
+        let check = |hash: &str| -> std::result::Result<(), String> {
+            match hash_file(&self.object_path(hash)) {
+                Ok(h) if h == hash => Ok(()),
+                Ok(h) => Err(format!("object {hash} is corrupt (content hashes to {h})")),
+                Err(e) => Err(format!("object {hash} is missing ({e})")),
+            }
+        };
+        check(&a.hash)?;
+        if a.kind == ArtifactKind::Dir {
+            for e in self.tree(&a.hash).map_err(|e| e.to_string())? {
+                check(&e.hash)?;
+            }
+        }
+        Ok(())
+    }
+
+    fn tree(&self, hash: &str) -> Result<Vec<TreeEntry>> {
+        let p = self.object_path(hash);
+        let bytes = fs::read(&p).map_err(err("read", &p))?;
+        let tree: Tree = serde_json::from_slice(&bytes).map_err(|e| StoreError {
+            op: "parse tree",
+            path: p.clone(),
+            source: io::Error::new(io::ErrorKind::InvalidData, e),
+        })?;
+        Ok(tree.entries)
+    }
+
+    /// Object hashes an artifact consists of (its own and, for trees, entries').
+    pub fn object_hashes(&self, a: &Artifact) -> Vec<String> {
+        let mut out = vec![a.hash.clone()];
+        if a.kind == ArtifactKind::Dir {
+            out.extend(
+                self.tree(&a.hash)
+                    .unwrap_or_default()
+                    .into_iter()
+                    .map(|e| e.hash),
+            );
+        }
+        out
+    }
+
+    /// Copy an artifact out of the cache to `dest` (replacing what is there),
+    /// via a temp path and rename so readers never see half a file.
+    pub fn checkout(&self, a: &Artifact, dest: &Path) -> Result<()> {
+        if let Some(dir) = dest.parent() {
+            fs::create_dir_all(dir).map_err(err("create", dir))?;
+        }
+        match a.kind {
+            ArtifactKind::File => {
+                let tmp = sibling_temp(dest);
+                fs::copy(self.object_path(&a.hash), &tmp).map_err(err("copy", &tmp))?;
+                fs::rename(&tmp, dest).map_err(err("rename", dest))?;
+            }
+            ArtifactKind::Dir => {
+                if dest.exists() {
+                    let remove = if dest.is_dir() {
+                        fs::remove_dir_all(dest)
+                    } else {
+                        fs::remove_file(dest)
+                    };
+                    remove.map_err(err("remove", dest))?;
+                }
+                for e in self.tree(&a.hash)? {
+                    let target = dest.join(&e.path);
+                    if let Some(dir) = target.parent() {
+                        fs::create_dir_all(dir).map_err(err("create", dir))?;
+                    }
+                    fs::copy(self.object_path(&e.hash), &target).map_err(err("copy", &target))?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn record_path(&self, key: &str) -> PathBuf {
+        self.root.join("runs").join(format!("{key}.json"))
+    }
+
+    /// The run record for `key`, if one was committed and parses.
+    pub fn record(&self, key: &str) -> Option<RunRecord> {
+        let bytes = fs::read(self.record_path(key)).ok()?;
+        serde_json::from_slice(&bytes).ok()
+    }
+
+    /// Commit a run record (the last write of a stage run).
+    pub fn write_record(&self, rec: &RunRecord) -> Result<()> {
+        let json = serde_json::to_vec_pretty(rec).unwrap_or_default();
+        self.write_atomic(&self.record_path(&rec.key), &json)
+    }
+
+    pub fn remove_record(&self, key: &str) {
+        let _ = fs::remove_file(self.record_path(key));
+    }
+
+    /// Write `data` to `dest` atomically (temp in the cache, fsync, rename).
+    pub fn write_atomic(&self, dest: &Path, data: &[u8]) -> Result<()> {
+        let tmp = self.temp_path("rec");
+        write_synced(&tmp, data)?;
+        fs::rename(&tmp, dest).map_err(err("rename", dest))?;
+        sync_dir(dest.parent().unwrap_or(&self.root));
+        Ok(())
+    }
+
+    /// Exclusive lock on one stage key while it is computed, so two runs that
+    /// need the same result compute it once.
+    pub fn lock_key(&self, key: &str) -> Result<File> {
+        lock(&self.root.join("locks").join(format!("{key}.lock")), true)
+    }
+
+    /// Whole-cache lock: shared for runs, exclusive for `gc`.
+    pub fn lock_cache(&self, exclusive: bool) -> Result<File> {
+        lock(&self.root.join("lock"), exclusive)
+    }
+}
+
+fn lock(path: &Path, exclusive: bool) -> Result<File> {
+    let f = fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(path)
+        .map_err(err("open lock", path))?;
+    let r = if exclusive { f.lock() } else { f.lock_shared() };
+    r.map_err(err("lock", path))?;
+    Ok(f)
+}
+
+fn write_synced(path: &Path, data: &[u8]) -> Result<()> {
+    let mut f = File::create(path).map_err(err("write", path))?;
+    f.write_all(data).map_err(err("write", path))?;
+    f.sync_all().map_err(err("sync", path))
+}
+
+fn sync_dir(dir: &Path) {
+    if let Ok(d) = File::open(dir) {
+        let _ = d.sync_all();
+    }
+}
+
+fn sibling_temp(dest: &Path) -> PathBuf {
+    let name = dest
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let n = TMP_COUNTER.fetch_add(1, Ordering::Relaxed);
+    dest.with_file_name(format!(".{name}.modalflow-tmp-{}-{n}", std::process::id()))
+}
+
+/// blake3 of a file's content, hex.
+pub fn hash_file(path: &Path) -> io::Result<String> {
+    let mut hasher = blake3::Hasher::new();
+    let mut f = File::open(path)?;
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        let n = f.read(&mut buf)?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+    }
+    Ok(hasher.finalize().to_hex().to_string())
+}
+
+/// Content hash of a workspace path as the store would name it: a file's
+/// blob hash, or for a directory the hash of its tree listing.
+pub fn hash_path(path: &Path) -> io::Result<String> {
+    if !path.is_dir() {
+        return hash_file(path);
+    }
+    let mut entries = Vec::new();
+    for rel in walk(path)? {
+        let p = path.join(&rel);
+        entries.push(TreeEntry {
+            hash: hash_file(&p)?,
+            bytes: fs::metadata(&p)?.len(),
+            path: rel,
+        });
+    }
+    entries.sort_by(|a, b| a.path.cmp(&b.path));
+    let listing = serde_json::to_vec(&Tree { entries }).unwrap_or_default();
+    Ok(blake3::hash(&listing).to_hex().to_string())
+}
+
+/// Relative paths (with `/`) of all files below `root`, sorted.
+fn walk(root: &Path) -> io::Result<Vec<String>> {
+    let mut out = Vec::new();
+    let mut stack = vec![PathBuf::new()];
+    while let Some(rel) = stack.pop() {
+        for entry in fs::read_dir(root.join(&rel))? {
+            let entry = entry?;
+            let r = rel.join(entry.file_name());
+            if entry.file_type()?.is_dir() {
+                stack.push(r);
+            } else {
+                out.push(r.to_string_lossy().replace('\\', "/"));
+            }
+        }
+    }
+    out.sort();
+    Ok(out)
+}
+
+/// Names of all objects and run records, for `gc`.
+pub fn list_objects(store: &Store) -> Vec<(String, PathBuf, u64)> {
+    let mut out = Vec::new();
+    let Ok(dirs) = fs::read_dir(store.root.join("objects")) else {
+        return out;
+    };
+    for d in dirs.flatten() {
+        let prefix = d.file_name().to_string_lossy().into_owned();
+        let Ok(files) = fs::read_dir(d.path()) else {
+            continue;
+        };
+        for f in files.flatten() {
+            let len = f.metadata().map(|m| m.len()).unwrap_or(0);
+            out.push((
+                format!("{prefix}{}", f.file_name().to_string_lossy()),
+                f.path(),
+                len,
+            ));
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn put_verify_checkout_roundtrip_and_corruption() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(&dir.path().join("cache")).unwrap();
+        let src = dir.path().join("a.txt");
+        fs::write(&src, b"hello").unwrap();
+        let a = store.put(&src).unwrap();
+        assert_eq!(a.hash, blake3::hash(b"hello").to_hex().to_string());
+        assert_eq!(a.hash, hash_path(&src).unwrap());
+        assert!(store.verify(&a).is_ok());
+
+        let tree_src = dir.path().join("d");
+        fs::create_dir_all(tree_src.join("sub")).unwrap();
+        fs::write(tree_src.join("x"), b"1").unwrap();
+        fs::write(tree_src.join("sub/y"), b"2").unwrap();
+        let t = store.put(&tree_src).unwrap();
+        assert_eq!(t.kind, ArtifactKind::Dir);
+        assert_eq!(t.hash, hash_path(&tree_src).unwrap());
+        let out = dir.path().join("out");
+        store.checkout(&t, &out).unwrap();
+        assert_eq!(fs::read(out.join("sub/y")).unwrap(), b"2");
+
+        fs::write(store.object_path(&a.hash), b"hellO").unwrap();
+        let e = store.verify(&a).unwrap_err();
+        assert!(e.contains("corrupt"), "{e}");
+    }
+}

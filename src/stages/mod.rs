@@ -1,0 +1,206 @@
+//! Stage kinds: the [`Stage`] trait every kind implements, and the one
+//! registry ([`registry`]) that lists them.
+//!
+//! A stage is a thin adapter between artifacts (files in the cache) and the
+//! numerical core: it declares its params, inputs and outputs so the engine can
+//! validate a pipeline file before anything runs, and a version constant that
+//! is part of every cache key, bumped whenever the kind's results would change.
+
+pub mod command;
+
+use crate::pipeline::progress::Progress;
+use serde_yaml_ng::{Mapping, Value};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The type a param value must have; checked during validation.
+#[derive(Clone, Copy, Debug)]
+pub enum ParamType {
+    Bool,
+    Integer,
+    Number,
+    String,
+    /// A file or directory relative to the pipeline file; hashed by content
+    /// into the cache key.
+    Path,
+    /// A list of [`ParamType::Path`].
+    Paths,
+    Strings,
+    /// One of the listed strings.
+    Enum(&'static [&'static str]),
+    Mapping,
+    /// Free-form; the kind's [`Stage::check`] validates it.
+    Any,
+}
+
+impl ParamType {
+    pub fn describe(&self) -> String {
+        match self {
+            ParamType::Bool => "a boolean".into(),
+            ParamType::Integer => "an integer".into(),
+            ParamType::Number => "a number".into(),
+            ParamType::String => "a string".into(),
+            ParamType::Path => "a file path (relative to the pipeline file)".into(),
+            ParamType::Paths => "a list of file paths".into(),
+            ParamType::Strings => "a list of strings".into(),
+            ParamType::Enum(options) => format!("one of: {}", options.join(", ")),
+            ParamType::Mapping => "a mapping".into(),
+            ParamType::Any => "any value".into(),
+        }
+    }
+}
+
+/// One declared param of a stage kind.
+#[derive(Clone, Copy, Debug)]
+pub struct ParamSpec {
+    pub name: &'static str,
+    pub ty: ParamType,
+    pub required: bool,
+    pub doc: &'static str,
+}
+
+/// One declared input of a stage kind.
+#[derive(Clone, Copy, Debug)]
+pub struct InputSpec {
+    pub name: &'static str,
+    pub required: bool,
+    /// Accepts a list of artifacts (`stage[*].output`).
+    pub list: bool,
+    pub doc: &'static str,
+}
+
+/// A param problem found by a kind's own validation, located by its path
+/// below `params` (e.g. `["frequency", "step"]`).
+#[derive(Debug)]
+pub struct ParamProblem {
+    pub path: Vec<String>,
+    pub message: String,
+    pub help: Option<String>,
+}
+
+/// Why a stage run failed. The engine reports it with the stage name and
+/// caches nothing.
+#[derive(Debug, thiserror::Error)]
+pub enum StageError {
+    /// An input artifact cannot be used (wrong format, NaN data, ...).
+    #[error("input `{input}`: {message}")]
+    InvalidInput { input: String, message: String },
+    /// A param value is valid YAML but unusable for this data.
+    #[error("param `{param}`: {message}")]
+    InvalidParam { param: String, message: String },
+    /// File system trouble while reading inputs or writing outputs.
+    #[error("{context}: {source}")]
+    Io {
+        context: String,
+        #[source]
+        source: std::io::Error,
+    },
+    /// The computation itself failed (external command, solver, ...).
+    #[error("{0}")]
+    Failed(String),
+}
+
+impl StageError {
+    pub fn io(context: impl Into<String>, source: std::io::Error) -> Self {
+        StageError::Io {
+            context: context.into(),
+            source,
+        }
+    }
+}
+
+/// Everything a running stage may look at. Inputs are read-only artifact
+/// paths; outputs go to `scratch`, which the engine moves into the cache.
+pub struct StageContext<'a> {
+    /// Expanded stage name, e.g. `ident[method=pso,seed=2]`.
+    pub stage: &'a str,
+    pub params: &'a Mapping,
+    /// `params.seed` when given, else the pipeline's seed.
+    pub seed: u64,
+    /// Input artifacts by input name; a single input has one path, a list
+    /// input (`stage[*].output`) one per matched stage, in expansion order.
+    pub inputs: &'a BTreeMap<String, Vec<PathBuf>>,
+    /// Directory of the pipeline file; relative paths in params start here.
+    pub pipeline_dir: &'a Path,
+    /// Empty directory owned by this run of the stage.
+    pub scratch: &'a Path,
+    pub progress: &'a Progress,
+}
+
+impl StageContext<'_> {
+    /// Deserialize the params into the kind's typed parameter struct.
+    pub fn params_as<T: serde::de::DeserializeOwned>(&self) -> Result<T, StageError> {
+        serde_yaml_ng::from_value(Value::Mapping(self.params.clone()))
+            .map_err(|e| StageError::Failed(format!("params: {e}")))
+    }
+
+    /// The single artifact bound to `name`.
+    pub fn input(&self, name: &str) -> Result<&Path, StageError> {
+        match self.inputs.get(name).map(Vec::as_slice) {
+            Some([one]) => Ok(one),
+            _ => Err(StageError::InvalidInput {
+                input: name.into(),
+                message: "expected exactly one artifact".into(),
+            }),
+        }
+    }
+
+    /// A path param resolved against the pipeline directory.
+    pub fn path_param(&self, name: &str) -> Option<PathBuf> {
+        self.params
+            .get(name)
+            .and_then(Value::as_str)
+            .map(|p| self.pipeline_dir.join(p))
+    }
+}
+
+/// What a successful run produced.
+#[derive(Debug, Default)]
+pub struct StageOutputs {
+    /// Output name → file or directory (absolute, or relative to scratch).
+    pub files: Vec<(String, PathBuf)>,
+    /// Work counters shown in progress bars and manifests (e.g. `evaluations`).
+    pub counters: BTreeMap<String, u64>,
+}
+
+/// A stage kind. Implementations are stateless unit structs registered in
+/// [`registry`].
+pub trait Stage: Sync + Send {
+    /// The `kind:` name in pipeline files.
+    fn kind(&self) -> &'static str;
+    /// Algorithm version, part of every cache key: bump it whenever the same
+    /// params and inputs would give different output bytes.
+    fn version(&self) -> u32;
+    /// One line for `modalflow` help and error messages.
+    fn summary(&self) -> &'static str;
+    fn params(&self) -> &'static [ParamSpec];
+    /// Declared inputs; `None` accepts any input names (the `command` kind).
+    fn inputs(&self) -> Option<&'static [InputSpec]>;
+    /// Output names for these params.
+    fn outputs(&self, params: &Mapping) -> Vec<String>;
+    /// Kind-specific validation beyond types (ranges, consistency).
+    fn check(&self, _params: &Mapping) -> Result<(), ParamProblem> {
+        Ok(())
+    }
+    /// Whether the stage draws random numbers, so its seed enters the key.
+    fn uses_seed(&self) -> bool {
+        false
+    }
+    /// Paths (relative to the pipeline file) that the stage writes into the
+    /// workspace, DVC-style; another stage's `Paths` param naming one of them
+    /// depends on this stage.
+    fn workspace_outputs(&self, _params: &Mapping) -> Vec<String> {
+        Vec::new()
+    }
+    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError>;
+}
+
+/// Every stage kind, in the order `modalflow` lists them.
+pub fn registry() -> &'static [&'static dyn Stage] {
+    &[&command::Command]
+}
+
+/// Look up a kind by name.
+pub fn find(kind: &str) -> Option<&'static dyn Stage> {
+    registry().iter().copied().find(|s| s.kind() == kind)
+}
