@@ -93,8 +93,20 @@ pub fn materialize(store: &Store, dir: &Path, manifest: &Manifest) -> Result<(),
     }
     let json = serde_json::to_vec_pretty(manifest).unwrap_or_default();
     fs::write(staging.join("manifest.json"), json).map_err(io("write", &staging))?;
-    if dir.exists() {
-        fs::remove_dir_all(dir).map_err(io("remove", dir))?;
+    // Another run of the same pipeline may materialize the same stage at the
+    // same moment; whoever renames last wins, and a loser whose rename fails
+    // accepts the winner's directory when it holds the same key.
+    for _ in 0..3 {
+        if dir.exists() {
+            let _ = fs::remove_dir_all(dir);
+        }
+        if fs::rename(&staging, dir).is_ok() {
+            return Ok(());
+        }
+        if up_to_date(dir, manifest) {
+            let _ = fs::remove_dir_all(&staging);
+            return Ok(());
+        }
     }
     fs::rename(&staging, dir).map_err(io("rename", dir))
 }

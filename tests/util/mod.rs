@@ -1,0 +1,135 @@
+//! Helpers for CLI tests: a temp workspace with a pipeline file, and the
+//! `modalflow` binary run inside it with `--json` output deserialized.
+
+#![allow(dead_code)]
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+pub struct Workspace {
+    pub dir: tempfile::TempDir,
+}
+
+impl Workspace {
+    pub fn new() -> Workspace {
+        Workspace {
+            dir: tempfile::tempdir().expect("temp dir"),
+        }
+    }
+
+    pub fn path(&self) -> &Path {
+        self.dir.path()
+    }
+
+    pub fn write(&self, rel: &str, text: &str) -> PathBuf {
+        let p = self.path().join(rel);
+        if let Some(d) = p.parent() {
+            std::fs::create_dir_all(d).unwrap();
+        }
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+
+    pub fn read(&self, rel: &str) -> String {
+        std::fs::read_to_string(self.path().join(rel)).unwrap_or_else(|e| panic!("read {rel}: {e}"))
+    }
+
+    /// Run `modalflow ARGS` in the workspace.
+    pub fn cmd(&self, args: &[&str]) -> Output {
+        self.command(args).output().expect("run modalflow")
+    }
+
+    pub fn command(&self, args: &[&str]) -> Command {
+        let mut c = Command::new(env!("CARGO_BIN_EXE_modalflow"));
+        c.args(args).current_dir(self.path()).env_remove("MODALFLOW_CACHE");
+        c
+    }
+
+    /// `modalflow run p.yaml --json`, asserting the exit code.
+    pub fn run(&self, extra: &[&str], expect_code: i32) -> Report {
+        let mut args = vec!["run", "p.yaml", "--json", "--progress", "none"];
+        args.extend_from_slice(extra);
+        let out = self.cmd(&args);
+        assert_eq!(out.status.code(), Some(expect_code), "stdout: {}\nstderr: {}", text(&out.stdout), text(&out.stderr));
+        Report(serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("json: {e}: {}", text(&out.stdout))))
+    }
+
+    pub fn status(&self) -> Report {
+        let out = self.cmd(&["status", "p.yaml", "--json"]);
+        assert_eq!(out.status.code(), Some(0), "stderr: {}", text(&out.stderr));
+        Report(serde_json::from_slice(&out.stdout).unwrap())
+    }
+
+    /// Number of lines in the execution log that stages append to.
+    pub fn executions(&self, stage: &str) -> usize {
+        std::fs::read_to_string(self.path().join("executions.log"))
+            .unwrap_or_default()
+            .lines()
+            .filter(|l| *l == stage)
+            .count()
+    }
+
+    pub fn runs_in_cache(&self) -> usize {
+        std::fs::read_dir(self.path().join("cache/runs")).map(|d| d.count()).unwrap_or(0)
+    }
+}
+
+pub fn text(b: &[u8]) -> String {
+    String::from_utf8_lossy(b).into_owned()
+}
+
+/// A `run`/`status` JSON report.
+pub struct Report(pub Value);
+
+impl Report {
+    pub fn status_of(&self, stage: &str) -> String {
+        self.stage(stage)["status"].as_str().unwrap_or_default().to_string()
+    }
+
+    pub fn stage(&self, stage: &str) -> &Value {
+        self.0["stages"]
+            .as_array()
+            .and_then(|a| a.iter().find(|s| s["name"] == stage))
+            .unwrap_or_else(|| panic!("no stage {stage} in {}", self.0))
+    }
+
+    /// `(name, status)` for every stage, in report order.
+    pub fn statuses(&self) -> Vec<(String, String)> {
+        self.0["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| (s["name"].as_str().unwrap().to_string(), s["status"].as_str().unwrap().to_string()))
+            .collect()
+    }
+
+    pub fn all(&self, status: &str) -> bool {
+        self.statuses().iter().all(|(_, s)| s == status)
+    }
+}
+
+/// A diamond with a fan-out: gen -> up -> {left, right} -> join, plus an
+/// independent `solo`. Every command appends its stage name to
+/// executions.log (not an out), so tests can count real executions.
+pub const DIAMOND: &str = r#"name: diamond
+stages:
+  gen:
+    kind: command
+    params: {cmd: "echo gen >> executions.log; echo hello > a.txt", outs: [a.txt]}
+  up:
+    kind: command
+    params: {cmd: "echo up >> executions.log; tr a-z A-Z < a.txt > b.txt", deps: [a.txt], outs: [b.txt]}
+  left:
+    kind: command
+    params: {cmd: "echo left >> executions.log; cat b.txt b.txt > l.txt", deps: [b.txt], outs: [l.txt]}
+  right:
+    kind: command
+    params: {cmd: "echo right >> executions.log; rev b.txt > r.txt", deps: [b.txt], outs: [r.txt]}
+  join:
+    kind: command
+    params: {cmd: "echo join >> executions.log; cat l.txt r.txt > j.txt", deps: [l.txt, r.txt], outs: [j.txt]}
+  solo:
+    kind: command
+    params: {cmd: "echo solo >> executions.log; echo alone > s.txt", outs: [s.txt]}
+"#;
