@@ -19,7 +19,11 @@ fn pipeline() -> String {
             } else {
                 format!(", deps: [{}]", deps.join(", "))
             };
-            let cat = if deps.is_empty() { "echo seed".to_string() } else { format!("cat {}", deps.join(" ")) };
+            let cat = if deps.is_empty() {
+                "echo seed".to_string()
+            } else {
+                format!("cat {}", deps.join(" "))
+            };
             format!("  {name}:\n    kind: command\n    params: {{cmd: \"{cat} > {out}; echo {name} >> {out}\"{deps_yaml}, outs: [{out}]}}\n")
         };
         let src = format!("g{g}_src.txt");
@@ -50,7 +54,11 @@ fn time(dir: &Path, args: &[&str], reps: usize) -> Duration {
             .current_dir(dir)
             .output()
             .expect("run modalflow");
-        assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
         best = best.min(t.elapsed());
     }
     best
@@ -61,7 +69,10 @@ fn main() {
     std::fs::write(dir.path().join("p.yaml"), pipeline()).expect("write pipeline");
     let t = Instant::now();
     let cold = time(dir.path(), &["run", "p.yaml", "--progress", "none"], 1);
-    eprintln!("cold run (200 sh processes): {:.0} ms", cold.as_secs_f64() * 1e3);
+    eprintln!(
+        "cold run (200 sh processes): {:.0} ms",
+        cold.as_secs_f64() * 1e3
+    );
     let _ = t;
     let reps = 15;
     let floor = time(dir.path(), &["--version"], reps);
@@ -71,7 +82,16 @@ fn main() {
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     println!("engine overhead, 200-stage pipeline (best of {reps}):");
     println!("  {:<28} {:>8.1} ms", "startup (--version)", ms(floor));
-    for (name, d) in [("validate", validate), ("status", status), ("run (fully cached)", cached)] {
-        println!("  {:<28} {:>8.1} ms  ({:.1}x startup)", name, ms(d), ms(d) / ms(floor));
+    for (name, d) in [
+        ("validate", validate),
+        ("status", status),
+        ("run (fully cached)", cached),
+    ] {
+        println!(
+            "  {:<28} {:>8.1} ms  ({:.1}x startup)",
+            name,
+            ms(d),
+            ms(d) / ms(floor)
+        );
     }
 }

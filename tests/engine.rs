@@ -25,15 +25,26 @@ fn editing_params_reruns_exactly_the_stage_and_its_dependents() {
     let ws = Workspace::new();
     ws.write("p.yaml", DIAMOND);
     ws.run(&[], 0);
-    ws.write("p.yaml", &DIAMOND.replace("rev b.txt > r.txt", "rev b.txt | tr O 0 > r.txt"));
+    ws.write(
+        "p.yaml",
+        &DIAMOND.replace("rev b.txt > r.txt", "rev b.txt | tr O 0 > r.txt"),
+    );
     let status = ws.status();
     assert_eq!(status.status_of("right"), "will-run");
-    let reason = status.stage("right")["reason"].as_str().unwrap().to_string();
+    let reason = status.stage("right")["reason"]
+        .as_str()
+        .unwrap()
+        .to_string();
     assert!(reason.starts_with("param cmd changed"), "{reason}");
     assert_eq!(status.status_of("join"), "will-run");
     assert_eq!(status.stage("join")["reason"], "upstream right will run");
     let r = ws.run(&[], 0);
-    let ran: Vec<String> = r.statuses().into_iter().filter(|(_, s)| s == "ran").map(|(n, _)| n).collect();
+    let ran: Vec<String> = r
+        .statuses()
+        .into_iter()
+        .filter(|(_, s)| s == "ran")
+        .map(|(n, _)| n)
+        .collect();
     assert_eq!(ran, vec!["right", "join"]);
     assert_eq!(ws.read("j.txt"), "HELLO\nHELLO\n0LLEH\n");
     assert_eq!(ws.executions("left"), 1);
@@ -46,7 +57,10 @@ fn upstream_rerun_with_identical_output_leaves_downstream_cached() {
     ws.write("p.yaml", DIAMOND);
     ws.run(&[], 0);
     // Same bytes, different command: early cut-off keeps left/right/join cached.
-    ws.write("p.yaml", &DIAMOND.replace("echo hello > a.txt", "printf 'hello\\n' > a.txt"));
+    ws.write(
+        "p.yaml",
+        &DIAMOND.replace("echo hello > a.txt", "printf 'hello\\n' > a.txt"),
+    );
     let r = ws.run(&[], 0);
     assert_eq!(r.status_of("gen"), "ran");
     for s in ["up", "left", "right", "join", "solo"] {
@@ -64,8 +78,15 @@ fn deleting_results_restores_without_recomputing() {
     std::fs::remove_file(ws.path().join("j.txt")).unwrap();
     let r = ws.run(&[], 0);
     assert!(r.all("cached"));
-    assert_eq!(ws.read("results/diamond/join/j.txt"), "HELLO\nHELLO\nOLLEH\n");
-    assert_eq!(ws.read("j.txt"), "HELLO\nHELLO\nOLLEH\n", "workspace outs restored");
+    assert_eq!(
+        ws.read("results/diamond/join/j.txt"),
+        "HELLO\nHELLO\nOLLEH\n"
+    );
+    assert_eq!(
+        ws.read("j.txt"),
+        "HELLO\nHELLO\nOLLEH\n",
+        "workspace outs restored"
+    );
     assert_eq!(ws.read("results/diamond/join/manifest.json"), manifest);
     assert_eq!(ws.executions("join"), 1);
     let m: serde_json::Value = serde_json::from_str(&manifest).unwrap();
@@ -83,9 +104,14 @@ fn a_corrupted_object_is_detected_and_recomputed() {
     ws.write("p.yaml", DIAMOND);
     let r = ws.run(&[], 0);
     let key = r.stage("right")["key"].as_str().unwrap().to_string();
-    let rec: serde_json::Value = serde_json::from_str(&ws.read(&format!("cache/runs/{key}.json"))).unwrap();
+    let rec: serde_json::Value =
+        serde_json::from_str(&ws.read(&format!("cache/runs/{key}.json"))).unwrap();
     let hash = rec["outputs"]["r.txt"]["hash"].as_str().unwrap();
-    let obj = ws.path().join("cache/objects").join(&hash[..2]).join(&hash[2..]);
+    let obj = ws
+        .path()
+        .join("cache/objects")
+        .join(&hash[..2])
+        .join(&hash[2..]);
     std::fs::write(&obj, "tampered\n").unwrap();
     let out = ws.cmd(&["run", "p.yaml", "--json", "--progress", "lines"]);
     assert_eq!(out.status.code(), Some(0));
@@ -93,7 +119,11 @@ fn a_corrupted_object_is_detected_and_recomputed() {
     assert!(stderr.contains("corrupt"), "{stderr}");
     let report = util::Report(serde_json::from_slice(&out.stdout).unwrap());
     assert_eq!(report.status_of("right"), "ran");
-    assert_eq!(report.status_of("join"), "cached", "same bytes again: early cut-off");
+    assert_eq!(
+        report.status_of("join"),
+        "cached",
+        "same bytes again: early cut-off"
+    );
     assert_eq!(std::fs::read_to_string(&obj).unwrap(), "OLLEH\n");
 }
 
@@ -113,11 +143,17 @@ fn a_killed_run_leaves_a_cache_the_next_run_completes() {
         .unwrap();
     let t0 = Instant::now();
     while !ws.path().join("started").exists() {
-        assert!(t0.elapsed() < Duration::from_secs(30), "stage never started");
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "stage never started"
+        );
         std::thread::sleep(Duration::from_millis(20));
     }
     let pgid = format!("-{}", child.id());
-    let killed = std::process::Command::new("kill").args(["-KILL", "--", &pgid]).status().unwrap();
+    let killed = std::process::Command::new("kill")
+        .args(["-KILL", "--", &pgid])
+        .status()
+        .unwrap();
     assert!(killed.success());
     let _ = child.wait();
     ws.write("p.yaml", DIAMOND);
@@ -131,7 +167,10 @@ fn a_killed_run_leaves_a_cache_the_next_run_completes() {
 #[test]
 fn two_concurrent_runs_share_one_cache() {
     let ws = Workspace::new();
-    let slowish = DIAMOND.replace("echo left >> executions.log;", "echo left >> executions.log; sleep 0.3;");
+    let slowish = DIAMOND.replace(
+        "echo left >> executions.log;",
+        "echo left >> executions.log; sleep 0.3;",
+    );
     ws.write("p.yaml", &slowish);
     let spawn = || {
         ws.command(&["run", "p.yaml", "--json", "--progress", "none"])
@@ -145,13 +184,21 @@ fn two_concurrent_runs_share_one_cache() {
     let ra: serde_json::Value = serde_json::from_slice(&a.stdout).unwrap();
     let rb: serde_json::Value = serde_json::from_slice(&b.stdout).unwrap();
     let keys = |r: &serde_json::Value| -> Vec<String> {
-        r["stages"].as_array().unwrap().iter().map(|s| s["key"].as_str().unwrap().to_string()).collect()
+        r["stages"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|s| s["key"].as_str().unwrap().to_string())
+            .collect()
     };
     assert_eq!(keys(&ra), keys(&rb));
     for s in ["gen", "up", "left", "right", "join", "solo"] {
         assert_eq!(ws.executions(s), 1, "{s} computed once");
     }
-    assert_eq!(ws.read("results/diamond/join/j.txt"), "HELLO\nHELLO\nOLLEH\n");
+    assert_eq!(
+        ws.read("results/diamond/join/j.txt"),
+        "HELLO\nHELLO\nOLLEH\n"
+    );
 }
 
 #[test]
@@ -163,11 +210,25 @@ fn a_failing_stage_caches_nothing_and_keep_going_finishes_other_branches() {
     let r = ws.run(&["--jobs", "1"], 1);
     assert_eq!(r.status_of("right"), "failed");
     let err = r.stage("right")["error"].as_str().unwrap();
-    assert!(err.contains("exited with status 3") && err.contains("oops"), "{err}");
+    assert!(
+        err.contains("exited with status 3") && err.contains("oops"),
+        "{err}"
+    );
     assert_eq!(r.status_of("join"), "skipped");
-    assert_eq!(r.status_of("solo"), "skipped", "a failure stops new work without --keep-going");
-    assert!(r.stage("solo")["reason"].as_str().unwrap().contains("right failed"));
-    assert_eq!(ws.runs_in_cache(), runs_before + 3, "gen, up, left cached; right not");
+    assert_eq!(
+        r.status_of("solo"),
+        "skipped",
+        "a failure stops new work without --keep-going"
+    );
+    assert!(r.stage("solo")["reason"]
+        .as_str()
+        .unwrap()
+        .contains("right failed"));
+    assert_eq!(
+        ws.runs_in_cache(),
+        runs_before + 3,
+        "gen, up, left cached; right not"
+    );
     let keep = ws.run(&["--keep-going", "--jobs", "1"], 1);
     assert_eq!(keep.status_of("solo"), "ran");
     assert_eq!(keep.status_of("left"), "cached");
@@ -211,14 +272,26 @@ stages:
     let names: Vec<String> = r.statuses().into_iter().map(|(n, _)| n).collect();
     assert_eq!(
         names,
-        ["sweep[method=pso,seed=1]", "sweep[method=pso,seed=2]", "sweep[method=ga,seed=1]", "sweep[method=ga,seed=2]", "pick"]
+        [
+            "sweep[method=pso,seed=1]",
+            "sweep[method=pso,seed=2]",
+            "sweep[method=ga,seed=1]",
+            "sweep[method=ga,seed=2]",
+            "pick"
+        ]
     );
     assert_eq!(ws.read("picked.txt"), "ga-2-11\n");
     let dag = ws.cmd(&["dag", "p.yaml", "--format", "mermaid"]);
     let dag = util::text(&dag.stdout);
-    assert!(dag.starts_with("flowchart LR") && dag.contains("n3 --> n4"), "{dag}");
+    assert!(
+        dag.starts_with("flowchart LR") && dag.contains("n3 --> n4"),
+        "{dag}"
+    );
     let dot = util::text(&ws.cmd(&["dag", "p.yaml", "--format", "dot"]).stdout);
-    assert!(dot.contains("\"sweep[method=ga,seed=2]\" -> \"pick\""), "{dot}");
+    assert!(
+        dot.contains("\"sweep[method=ga,seed=2]\" -> \"pick\""),
+        "{dot}"
+    );
 }
 
 #[test]
@@ -233,7 +306,10 @@ fn gc_drops_unreferenced_objects_only() {
     assert_eq!(g["removed_objects"], 1, "{g}");
     assert_eq!(g["removed_records"], 1, "{g}");
     assert!(g["removed_bytes"].as_u64().unwrap() > 0);
-    assert!(ws.run(&[], 0).all("cached"), "gc kept everything the last run needs");
+    assert!(
+        ws.run(&[], 0).all("cached"),
+        "gc kept everything the last run needs"
+    );
 }
 
 #[test]
@@ -246,5 +322,8 @@ fn show_prints_the_manifest() {
     assert_eq!(m["stage"], "join");
     std::fs::remove_dir_all(ws.path().join("results")).unwrap();
     let out = ws.cmd(&["show", "p.yaml", "join"]);
-    assert!(util::text(&out.stdout).contains("key      "), "falls back to the cache");
+    assert!(
+        util::text(&out.stdout).contains("key      "),
+        "falls back to the cache"
+    );
 }

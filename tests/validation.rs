@@ -18,29 +18,45 @@ fn rejects(yaml: &str, needles: &[&str]) {
         assert!(stderr.contains(n), "missing {n:?} in:\n{stderr}");
     }
     assert!(stderr.starts_with("modalflow: "), "{stderr}");
-    assert!(!ws.path().join("cache/runs").exists(), "nothing may be cached");
+    assert!(
+        !ws.path().join("cache/runs").exists(),
+        "nothing may be cached"
+    );
     // validate agrees.
     let v = ws.cmd(&["validate", "p.yaml"]);
     assert_eq!(v.status.code(), Some(2));
 }
 
-const OK_STAGE: &str = "  a:\n    kind: command\n    params: {cmd: 'echo a > a.txt', outs: [a.txt]}\n";
+const OK_STAGE: &str =
+    "  a:\n    kind: command\n    params: {cmd: 'echo a > a.txt', outs: [a.txt]}\n";
 
 #[test]
 fn malformed_yaml() {
-    rejects("name: x\nstages:\n  a: [unclosed\n", &["p.yaml:", "invalid pipeline file"]);
+    rejects(
+        "name: x\nstages:\n  a: [unclosed\n",
+        &["p.yaml:", "invalid pipeline file"],
+    );
 }
 
 #[test]
 fn unknown_top_level_key() {
-    rejects(&format!("name: x\nsteps: 1\nstages:\n{OK_STAGE}"), &["unknown field `steps`", "p.yaml:2:1"]);
+    rejects(
+        &format!("name: x\nsteps: 1\nstages:\n{OK_STAGE}"),
+        &["unknown field `steps`", "p.yaml:2:1"],
+    );
 }
 
 #[test]
 fn unknown_kind_lists_known_ones() {
     rejects(
         "name: x\nstages:\n  a:\n    kind: comand\n",
-        &["unknown stage kind `comand` in stage `a`", "p.yaml:4:11", "did you mean `command`?", "known kinds: command", "4 |     kind: comand"],
+        &[
+            "unknown stage kind `comand` in stage `a`",
+            "p.yaml:4:11",
+            "did you mean `command`?",
+            "known kinds: command",
+            "4 |     kind: comand",
+        ],
     );
 }
 
@@ -48,13 +64,21 @@ fn unknown_kind_lists_known_ones() {
 fn unknown_param_lists_allowed_ones() {
     rejects(
         "name: x\nstages:\n  a:\n    kind: command\n    params: {cmd: 'true', out: [a.txt]}\n",
-        &["unknown param `out` for stage `a`", "p.yaml:5:27", "did you mean `outs`?", "accepts: cmd, deps, outs"],
+        &[
+            "unknown param `out` for stage `a`",
+            "p.yaml:5:27",
+            "did you mean `outs`?",
+            "accepts: cmd, deps, outs",
+        ],
     );
 }
 
 #[test]
 fn missing_required_param() {
-    rejects("name: x\nstages:\n  a:\n    kind: command\n", &["stage `a` (kind `command`) needs param `cmd`", "p.yaml:3:3"]);
+    rejects(
+        "name: x\nstages:\n  a:\n    kind: command\n",
+        &["stage `a` (kind `command`) needs param `cmd`", "p.yaml:3:3"],
+    );
 }
 
 #[test]
@@ -127,7 +151,10 @@ fn missing_file_param() {
 
 #[test]
 fn duplicate_stage_names() {
-    rejects(&format!("name: x\nstages:\n{OK_STAGE}{OK_STAGE}"), &["duplicate"]);
+    rejects(
+        &format!("name: x\nstages:\n{OK_STAGE}{OK_STAGE}"),
+        &["duplicate"],
+    );
 }
 
 #[test]

@@ -1,6 +1,7 @@
 //! Exit codes, documented in the README; scripts rely on them.
 
 use modalflow::pipeline::plan::PlanError;
+use modalflow::pipeline::run::RunError;
 
 /// Everything succeeded (or, for `status`, the question was answered).
 pub const SUCCESS: u8 = 0;
@@ -12,12 +13,10 @@ pub const INVALID: u8 = 2;
 pub const ERROR: u8 = 3;
 
 pub fn for_error(e: &anyhow::Error) -> u8 {
-    if e.downcast_ref::<PlanError>().is_some() {
-        INVALID
-    } else if e
-        .downcast_ref::<modalflow::pipeline::run::RunError>()
-        .is_some_and(|r| matches!(r, modalflow::pipeline::run::RunError::UnknownForce { .. }))
-    {
+    let bad_force = e
+        .downcast_ref::<RunError>()
+        .is_some_and(|r| matches!(r, RunError::UnknownForce { .. }));
+    if e.downcast_ref::<PlanError>().is_some() || bad_force {
         INVALID
     } else {
         ERROR

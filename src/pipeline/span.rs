@@ -81,10 +81,13 @@ impl Builder {
                     *pending_key = Some(key.clone());
                     let mut p = self.path.clone();
                     p.push(key);
-                    if self.index.keys.contains_key(&p) {
-                        self.index.duplicates.push((p, loc));
-                    } else {
-                        self.index.keys.insert(p, loc);
+                    match self.index.keys.entry(p) {
+                        std::collections::hash_map::Entry::Occupied(e) => {
+                            self.index.duplicates.push((e.key().clone(), loc))
+                        }
+                        std::collections::hash_map::Entry::Vacant(e) => {
+                            e.insert(loc);
+                        }
                     }
                     true
                 }
@@ -122,16 +125,8 @@ impl MarkedEventReceiver for Builder {
             column: mark.col() + 1,
         };
         match ev {
-            Event::Scalar(ref text, ..) => {
-                if !self.begin_node(loc, Some(text)) {
-                    self.end_value();
-                }
-            }
-            Event::Alias(_) => {
-                if !self.begin_node(loc, None) {
-                    self.end_value();
-                }
-            }
+            Event::Scalar(ref text, ..) if !self.begin_node(loc, Some(text)) => self.end_value(),
+            Event::Alias(_) if !self.begin_node(loc, None) => self.end_value(),
             Event::MappingStart(..) => {
                 self.begin_node(loc, None);
                 self.stack.push(Frame::Map { pending_key: None });

@@ -42,7 +42,9 @@ impl Workspace {
 
     pub fn command(&self, args: &[&str]) -> Command {
         let mut c = Command::new(env!("CARGO_BIN_EXE_modalflow"));
-        c.args(args).current_dir(self.path()).env_remove("MODALFLOW_CACHE");
+        c.args(args)
+            .current_dir(self.path())
+            .env_remove("MODALFLOW_CACHE");
         c
     }
 
@@ -51,8 +53,17 @@ impl Workspace {
         let mut args = vec!["run", "p.yaml", "--json", "--progress", "none"];
         args.extend_from_slice(extra);
         let out = self.cmd(&args);
-        assert_eq!(out.status.code(), Some(expect_code), "stdout: {}\nstderr: {}", text(&out.stdout), text(&out.stderr));
-        Report(serde_json::from_slice(&out.stdout).unwrap_or_else(|e| panic!("json: {e}: {}", text(&out.stdout))))
+        assert_eq!(
+            out.status.code(),
+            Some(expect_code),
+            "stdout: {}\nstderr: {}",
+            text(&out.stdout),
+            text(&out.stderr)
+        );
+        Report(
+            serde_json::from_slice(&out.stdout)
+                .unwrap_or_else(|e| panic!("json: {e}: {}", text(&out.stdout))),
+        )
     }
 
     pub fn status(&self) -> Report {
@@ -71,7 +82,9 @@ impl Workspace {
     }
 
     pub fn runs_in_cache(&self) -> usize {
-        std::fs::read_dir(self.path().join("cache/runs")).map(|d| d.count()).unwrap_or(0)
+        std::fs::read_dir(self.path().join("cache/runs"))
+            .map(|d| d.count())
+            .unwrap_or(0)
     }
 }
 
@@ -84,7 +97,10 @@ pub struct Report(pub Value);
 
 impl Report {
     pub fn status_of(&self, stage: &str) -> String {
-        self.stage(stage)["status"].as_str().unwrap_or_default().to_string()
+        self.stage(stage)["status"]
+            .as_str()
+            .unwrap_or_default()
+            .to_string()
     }
 
     pub fn stage(&self, stage: &str) -> &Value {
@@ -100,7 +116,12 @@ impl Report {
             .as_array()
             .unwrap()
             .iter()
-            .map(|s| (s["name"].as_str().unwrap().to_string(), s["status"].as_str().unwrap().to_string()))
+            .map(|s| {
+                (
+                    s["name"].as_str().unwrap().to_string(),
+                    s["status"].as_str().unwrap().to_string(),
+                )
+            })
             .collect()
     }
 

@@ -57,11 +57,7 @@ pub fn table(report: &RunReport) -> String {
         } else {
             s.reason.as_str()
         };
-        out.push_str(
-            &format!("{status:<9} {:<width$}  {reason}\n", s.name)
-                .trim_end()
-                .to_string(),
-        );
+        out.push_str(format!("{status:<9} {:<width$}  {reason}", s.name).trim_end());
         out.push('\n');
     }
     out
