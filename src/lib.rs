@@ -5,7 +5,9 @@
 //! file; the numerical core (frequency-response data in [`frf`], modal models
 //! in [`modal`]) knows nothing of pipelines.
 
+pub mod dynamics;
 pub mod frf;
+pub mod io;
 pub mod modal;
 pub mod pipeline;
 pub mod stages;

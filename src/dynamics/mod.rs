@@ -1,0 +1,4 @@
+//! Structural dynamics: models, modal solution, FRF synthesis and
+//! measurement simulation.
+
+pub mod measurement;

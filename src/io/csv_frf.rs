@@ -1,0 +1,433 @@
+//! The CSV FRF table (`frf.csv`, format in the [`io`](crate::io) module docs):
+//! one row per position and frequency line, `re:`/`im:`/`coh:` columns per
+//! channel, optional `position`/`position_label` columns and a
+//! `# quantity: …` metadata line.
+
+use crate::frf::{Dof, FrfChannel, FrfSet, Position};
+use crate::io::csv_table::{csv_err, fmt_f64, from_csv_error, metadata, quantity_name, real_cell};
+use crate::io::dof_text::{format_channel, parse_channel};
+use crate::io::error::{IoError, Location, Place};
+use num_complex::Complex64;
+
+type Channel = (String, (Dof, Dof), usize, usize, Option<usize>);
+
+struct Columns {
+    frequency: usize,
+    position: Option<usize>,
+    label: Option<usize>,
+    /// (channel, its DOFs, re column, im column, coherence column)
+    channels: Vec<Channel>,
+}
+
+fn columns(headers: &csv::StringRecord, source: &str, line: usize) -> Result<Columns, IoError> {
+    let find = |name: &str| headers.iter().position(|h| h == name);
+    let frequency = find("frequency_hz").ok_or_else(|| {
+        csv_err(
+            source,
+            line,
+            "no `frequency_hz` column; name the frequency column so",
+        )
+    })?;
+    let mut channels: Vec<Channel> = Vec::new();
+    for (i, h) in headers.iter().enumerate() {
+        if matches!(h, "frequency_hz" | "position" | "position_label") {
+            continue;
+        }
+        let Some((kind, ch)) = h.split_once(':') else {
+            return Err(csv_err(
+                source,
+                line,
+                format!("unknown column {h:?}; expected frequency_hz, position, position_label, re:/im:/coh:<response>/<reference>"),
+            ));
+        };
+        let (r, f) = parse_channel(ch).ok_or_else(|| {
+            csv_err(
+                source,
+                line,
+                format!("column {h:?}: channel must read like 101+X/1-Z"),
+            )
+        })?;
+        let name = format_channel(r, f);
+        let partner = |k: &str| find(&format!("{k}:{ch}"));
+        match kind {
+            "re" => {
+                let im = partner("im").ok_or_else(|| {
+                    csv_err(
+                        source,
+                        line,
+                        format!("column {h:?} has no `im:{ch}` partner"),
+                    )
+                })?;
+                if channels.iter().any(|c| c.0 == name) {
+                    return Err(csv_err(
+                        source,
+                        line,
+                        format!("channel {name} appears twice"),
+                    ));
+                }
+                channels.push((name, (r, f), i, im, partner("coh")));
+            }
+            "im" | "coh" => {
+                if partner("re").is_none() {
+                    return Err(csv_err(
+                        source,
+                        line,
+                        format!("column {h:?} has no `re:{ch}` partner"),
+                    ));
+                }
+            }
+            _ => {
+                return Err(csv_err(
+                    source,
+                    line,
+                    format!("column {h:?}: prefix must be re, im or coh"),
+                ))
+            }
+        }
+    }
+    Ok(Columns {
+        frequency,
+        position: find("position"),
+        label: find("position_label"),
+        channels,
+    })
+}
+
+/// One position's rows: frequency, FRF cells and coherence cells per channel.
+struct Rows {
+    position: Position,
+    first_line: usize,
+    lines: Vec<usize>,
+    freqs: Vec<f64>,
+    cells: Vec<Vec<Option<Complex64>>>,
+    coh: Vec<Vec<Option<f64>>>,
+}
+
+/// Reads a CSV FRF table; `source` names it in errors.
+pub fn read_frf_csv(bytes: &[u8], source: &str) -> Result<Vec<FrfSet>, IoError> {
+    let quantity = metadata(bytes, source)?;
+    let mut rdr = csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .from_reader(bytes);
+    let headers = rdr
+        .headers()
+        .map_err(|e| from_csv_error(source, &e))?
+        .clone();
+    let header_line = rdr.position().line().max(1) as usize;
+    let cols = columns(&headers, source, header_line)?;
+    let mut groups: Vec<Rows> = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| from_csv_error(source, &e))?;
+        let line = rec.position().map(|p| p.line() as usize).unwrap_or(0);
+        let cell = |i: usize| rec.get(i).unwrap_or("");
+        let index = match cols.position {
+            Some(i) => cell(i).parse::<u32>().map_err(|_| {
+                IoError::not_numeric(
+                    source,
+                    Place::Line(line),
+                    "position (0-based index)",
+                    cell(i).as_bytes(),
+                )
+            })?,
+            None => 0,
+        };
+        let label = cols.label.map(|i| cell(i).to_string()).unwrap_or_default();
+        let g = match groups.iter().position(|g| g.position.index == index) {
+            Some(g) => g,
+            None => {
+                groups.push(Rows {
+                    position: Position {
+                        index,
+                        label: label.clone(),
+                    },
+                    first_line: line,
+                    lines: Vec::new(),
+                    freqs: Vec::new(),
+                    cells: vec![Vec::new(); cols.channels.len()],
+                    coh: vec![Vec::new(); cols.channels.len()],
+                });
+                groups.len() - 1
+            }
+        };
+        let g = &mut groups[g];
+        if g.position.label != label {
+            return Err(csv_err(
+                source,
+                line,
+                format!(
+                    "position {index} is labelled {label:?} here but {:?} above",
+                    g.position.label
+                ),
+            ));
+        }
+        let f = real_cell(source, line, "frequency_hz", cell(cols.frequency))?;
+        if let Some(&prev) = g.freqs.last() {
+            if f <= prev {
+                return Err(csv_err(
+                    source,
+                    line,
+                    format!("frequency {f} Hz does not increase (previous row of position {index}: {prev} Hz)"),
+                ));
+            }
+        }
+        g.freqs.push(f);
+        g.lines.push(line);
+        for (k, (name, _, re, im, coh)) in cols.channels.iter().enumerate() {
+            let (re, im) = (cell(*re), cell(*im));
+            let v = match (re.is_empty(), im.is_empty()) {
+                (true, true) => None,
+                (false, false) => Some(Complex64::new(
+                    real_cell(source, line, &format!("re:{name}"), re)?,
+                    real_cell(source, line, &format!("im:{name}"), im)?,
+                )),
+                _ => {
+                    return Err(csv_err(
+                        source,
+                        line,
+                        format!("channel {name}: re and im must both be given"),
+                    ))
+                }
+            };
+            g.cells[k].push(v);
+            let c = match coh.map(cell).filter(|c| !c.is_empty()) {
+                Some(c) => Some(real_cell(source, line, &format!("coh:{name}"), c)?),
+                None => None,
+            };
+            g.coh[k].push(c);
+        }
+    }
+    let mut sets = Vec::new();
+    for g in groups {
+        let mut channels = Vec::new();
+        for (k, (name, (response, reference), ..)) in cols.channels.iter().enumerate() {
+            let Some(values) = complete(&g.cells[k], &g, source, name)? else {
+                continue;
+            };
+            let coherence = complete(&g.coh[k], &g, source, &format!("coherence of {name}"))?;
+            let (response, reference) = (*response, *reference);
+            channels.push(FrfChannel {
+                response,
+                reference,
+                values,
+                coherence,
+            });
+        }
+        if channels.is_empty() {
+            return Err(IoError::NoFrf {
+                at: Location::new(source, Place::Line(g.first_line)),
+                detail: format!("position {} has no filled re:/im: cells", g.position.index),
+            });
+        }
+        sets.push(FrfSet {
+            position: g.position,
+            quantity,
+            frequencies_hz: g.freqs,
+            channels,
+        });
+    }
+    if sets.is_empty() {
+        return Err(IoError::NoFrf {
+            at: Location::new(source, Place::File),
+            detail: "the table has no data rows".into(),
+        });
+    }
+    Ok(sets)
+}
+
+/// All cells given → the values; all empty → `None`; a mix is an error.
+fn complete<T: Copy>(
+    cells: &[Option<T>],
+    g: &Rows,
+    source: &str,
+    name: &str,
+) -> Result<Option<Vec<T>>, IoError> {
+    if cells.iter().all(Option::is_none) {
+        return Ok(None);
+    }
+    match cells.iter().position(Option::is_none) {
+        Some(i) => Err(csv_err(
+            source,
+            g.lines[i],
+            format!(
+                "{name} is empty here but given in other rows of position {}",
+                g.position.index
+            ),
+        )),
+        None => Ok(Some(cells.iter().flatten().copied().collect())),
+    }
+}
+
+/// Writes FRF sets as a CSV table. All sets must have one quantity.
+pub fn write_frf_csv(sets: &[FrfSet]) -> Result<Vec<u8>, IoError> {
+    let quantity = sets.first().map(|s| s.quantity).unwrap_or_default();
+    if sets.iter().any(|s| s.quantity != quantity) {
+        return Err(IoError::Unwritable {
+            what:
+                "FRF sets of different quantities into one CSV table; write one file per quantity"
+                    .into(),
+        });
+    }
+    let with_position = sets.len() > 1 || sets.iter().any(|s| s.position.index != 0);
+    let with_label = sets.iter().any(|s| !s.position.label.is_empty());
+    let mut names: Vec<(String, bool)> = Vec::new();
+    for s in sets {
+        for c in &s.channels {
+            let n = format_channel(c.response, c.reference);
+            match names.iter_mut().find(|(m, _)| *m == n) {
+                Some(e) => e.1 |= c.coherence.is_some(),
+                None => names.push((n, c.coherence.is_some())),
+            }
+        }
+    }
+    let mut header: Vec<String> = Vec::new();
+    if with_position {
+        header.push("position".into());
+    }
+    if with_label {
+        header.push("position_label".into());
+    }
+    header.push("frequency_hz".into());
+    for (n, coh) in &names {
+        header.push(format!("re:{n}"));
+        header.push(format!("im:{n}"));
+        if *coh {
+            header.push(format!("coh:{n}"));
+        }
+    }
+    let mut out = format!("# quantity: {}\n", quantity_name(quantity)).into_bytes();
+    let mut w = csv::Writer::from_writer(&mut out);
+    let unwritable = |e: csv::Error| IoError::Unwritable {
+        what: format!("CSV: {e}"),
+    };
+    w.write_record(&header).map_err(unwritable)?;
+    for s in sets {
+        for (i, f) in s.frequencies_hz.iter().enumerate() {
+            let mut row: Vec<String> = Vec::with_capacity(header.len());
+            if with_position {
+                row.push(s.position.index.to_string());
+            }
+            if with_label {
+                row.push(s.position.label.clone());
+            }
+            row.push(fmt_f64(*f));
+            for (n, has_coh) in &names {
+                let ch = s
+                    .channels
+                    .iter()
+                    .find(|c| format_channel(c.response, c.reference) == *n);
+                let v = ch.and_then(|c| c.values.get(i));
+                row.push(v.map(|v| fmt_f64(v.re)).unwrap_or_default());
+                row.push(v.map(|v| fmt_f64(v.im)).unwrap_or_default());
+                if *has_coh {
+                    let c = ch.and_then(|c| c.coherence.as_ref()).and_then(|c| c.get(i));
+                    row.push(c.map(|c| fmt_f64(*c)).unwrap_or_default());
+                }
+            }
+            w.write_record(&row).map_err(unwritable)?;
+        }
+    }
+    w.flush().map_err(|e| IoError::Unwritable {
+        what: format!("CSV: {e}"),
+    })?;
+    drop(w);
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::frf::FrfQuantity;
+
+    fn set(index: u32, label: &str, dofs: &[(u32, i8)], coherence: bool) -> FrfSet {
+        let f: Vec<f64> = (0..5).map(|i| 0.1 + i as f64 / 3.0).collect();
+        FrfSet {
+            position: Position {
+                index,
+                label: label.into(),
+            },
+            quantity: FrfQuantity::Mobility,
+            channels: dofs
+                .iter()
+                .map(|&(n, d)| FrfChannel {
+                    response: Dof::new(n, d),
+                    reference: Dof::new(1, -3),
+                    values: f
+                        .iter()
+                        .map(|x| Complex64::new(x.sin() * 1e-9, -x.exp() * 1e7))
+                        .collect(),
+                    coherence: coherence.then(|| f.iter().map(|x| 1.0 - x / 10.0).collect()),
+                })
+                .collect(),
+            frequencies_hz: f,
+        }
+    }
+
+    #[test]
+    fn round_trip_is_bitwise_with_positions_and_gaps() {
+        let sets = vec![
+            set(0, "wpt=0.25, \"front\"", &[(101, 1), (102, -6)], true),
+            set(4, "", &[(102, -6), (7, 0)], false),
+        ];
+        let text = write_frf_csv(&sets).unwrap();
+        let s = String::from_utf8(text.clone()).unwrap();
+        assert!(
+            s.starts_with(
+                "# quantity: mobility\nposition,position_label,frequency_hz,re:101+X/1-Z,"
+            ),
+            "{s}"
+        );
+        let back = read_frf_csv(&text, "t.csv").unwrap();
+        assert_eq!(back, sets);
+        let bits = |s: &[FrfSet]| -> Vec<u64> {
+            s.iter()
+                .flat_map(|s| {
+                    s.channels
+                        .iter()
+                        .flat_map(|c| c.values.iter().map(|v| v.im.to_bits()))
+                })
+                .collect()
+        };
+        assert_eq!(bits(&back), bits(&sets));
+    }
+
+    #[test]
+    fn reads_a_hand_written_table() {
+        let text =
+            "# exported by hand\nim:5+Z/5+Z,frequency_hz,re:5+Z/5+Z\n0.5,10,1e-6\n-0.25,20,2e-6\n";
+        let sets = read_frf_csv(text.as_bytes(), "hand.csv").unwrap();
+        assert_eq!(sets.len(), 1);
+        assert_eq!(sets[0].quantity, FrfQuantity::Receptance);
+        assert_eq!(sets[0].frequencies_hz, vec![10.0, 20.0]);
+        assert_eq!(sets[0].channels[0].values[1], Complex64::new(2e-6, -0.25));
+        assert_eq!(sets[0].channels[0].response, Dof::new(5, 3));
+    }
+
+    fn err(text: &str) -> IoError {
+        read_frf_csv(text.as_bytes(), "bad.csv").unwrap_err()
+    }
+
+    #[test]
+    fn errors_name_line_and_problem() {
+        let e = err("frequency_hz,re:1+X/1+X\n1,2\n");
+        assert!(e.to_string().contains("no `im:1+X/1+X` partner"), "{e}");
+        let e = err("# quantity: receptance\nfrequency_hz,re:1+X/1+X,im:1+X/1+X\n1,2,3\n2,x,3\n");
+        assert_eq!(e.location().map(|l| l.place), Some(Place::Line(4)), "{e}");
+        let e = err("frequency_hz,re:1+X/1+X,im:1+X/1+X\n2,2,3\n1,2,3\n");
+        assert!(e.to_string().contains("does not increase"), "{e}");
+        let e = err("frequency_hz,re:1+X/1+X,im:1+X/1+X\n1,2,3\n2,,\n");
+        assert!(e.to_string().contains("empty here"), "{e}");
+        assert!(matches!(
+            err("frequency_hz,re:1+X/1+X,im:1+X/1+X\n1,NaN,3\n"),
+            IoError::NonFinite { .. }
+        ));
+        assert!(matches!(
+            err("frequency_hz,re:1+X/1+X,im:1+X/1+X\n"),
+            IoError::NoFrf { .. }
+        ));
+        let e = err("freq,re:1+X/1+X,im:1+X/1+X\n1,2,3\n");
+        assert!(e.to_string().contains("frequency_hz"), "{e}");
+        let e = err("frequency_hz,re:1+X/1+X,im:1+X/1+X\n1,2\n");
+        assert!(e.to_string().contains("bad.csv, line 2"), "{e}");
+    }
+}

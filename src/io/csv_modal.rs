@@ -1,0 +1,354 @@
+//! The CSV modal tables `modes.csv` and `mode_shapes.csv` (format in the
+//! [`io`](crate::io) module docs) to and from [`ModalModel`]s.
+
+use crate::frf::{Dof, Position};
+use crate::io::csv_table::{csv_err, fmt_f64, from_csv_error, int_cell, real_cell, Table};
+use crate::io::dof_text::parse_direction;
+use crate::io::error::IoError;
+use crate::modal::{ModalModel, Mode};
+use num_complex::Complex64;
+
+/// The two tables of a modal model export.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ModalCsv {
+    pub modes: Vec<u8>,
+    pub mode_shapes: Vec<u8>,
+}
+
+/// Reads `modes.csv` and `mode_shapes.csv` into one model per position.
+pub fn read_modal_csv(
+    modes_csv: &[u8],
+    modes_source: &str,
+    shapes_csv: &[u8],
+    shapes_source: &str,
+) -> Result<Vec<ModalModel>, IoError> {
+    let src = modes_source;
+    let known = [
+        "position",
+        "position_label",
+        "mode",
+        "frequency_hz",
+        "damping_ratio",
+    ];
+    let (t, mut rdr) = Table::open(modes_csv, src, &known, &known[2..])?;
+    let (c_pos, c_label) = (t.col("position"), t.col("position_label"));
+    let (c_mode, c_f, c_z) = (
+        t.col("mode").unwrap_or(0),
+        t.col("frequency_hz").unwrap_or(0),
+        t.col("damping_ratio").unwrap_or(0),
+    );
+    // Per model: the mode numbers next to the modes, sorted at the end.
+    let mut models: Vec<(ModalModel, Vec<u32>)> = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| from_csv_error(src, &e))?;
+        let line = rec.position().map(|p| p.line() as usize).unwrap_or(0);
+        let cell = |i: usize| rec.get(i).unwrap_or("");
+        let index = match c_pos {
+            Some(i) => int_cell::<u32>(src, line, "position", cell(i))?,
+            None => 0,
+        };
+        let label = c_label.map(|i| cell(i).to_string()).unwrap_or_default();
+        let number = int_cell::<u32>(src, line, "mode", cell(c_mode))?;
+        let mode = Mode {
+            frequency_hz: real_cell(src, line, "frequency_hz", cell(c_f))?,
+            damping_ratio: real_cell(src, line, "damping_ratio", cell(c_z))?,
+            shape: Vec::new(),
+        };
+        let m = match models.iter().position(|(m, _)| m.position.index == index) {
+            Some(m) => m,
+            None => {
+                let position = Position {
+                    index,
+                    label: label.clone(),
+                };
+                models.push((
+                    ModalModel {
+                        position,
+                        dofs: Vec::new(),
+                        modes: Vec::new(),
+                    },
+                    Vec::new(),
+                ));
+                models.len() - 1
+            }
+        };
+        let (model, numbers) = &mut models[m];
+        if model.position.label != label {
+            return Err(csv_err(
+                src,
+                line,
+                format!("position {index} has two labels"),
+            ));
+        }
+        if numbers.contains(&number) {
+            return Err(csv_err(
+                src,
+                line,
+                format!("mode {number} of position {index} appears twice"),
+            ));
+        }
+        numbers.push(number);
+        model.modes.push(mode);
+    }
+    read_shapes(&mut models, shapes_csv, shapes_source)?;
+    Ok(models
+        .into_iter()
+        .map(|(mut m, numbers)| {
+            let mut order: Vec<usize> = (0..m.modes.len()).collect();
+            order.sort_by_key(|&i| numbers[i]);
+            m.modes = order.iter().map(|&i| m.modes[i].clone()).collect();
+            m
+        })
+        .collect())
+}
+
+fn read_shapes(
+    models: &mut [(ModalModel, Vec<u32>)],
+    bytes: &[u8],
+    src: &str,
+) -> Result<(), IoError> {
+    let known = ["position", "mode", "node", "direction", "real", "imag"];
+    let (t, mut rdr) = Table::open(bytes, src, &known, &["mode", "node", "direction", "real"])?;
+    let c = |n: &str| t.col(n).unwrap_or(0);
+    let (c_pos, c_imag) = (t.col("position"), t.col("imag"));
+    // Per model: (mode slot, DOF slot) → value and the line where each DOF first appears.
+    let mut values: Vec<Vec<Vec<Option<Complex64>>>> = models
+        .iter()
+        .map(|(m, _)| vec![Vec::new(); m.modes.len()])
+        .collect();
+    let mut first_lines: Vec<Vec<usize>> = vec![Vec::new(); models.len()];
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| from_csv_error(src, &e))?;
+        let line = rec.position().map(|p| p.line() as usize).unwrap_or(0);
+        let cell = |i: usize| rec.get(i).unwrap_or("");
+        let index = match c_pos {
+            Some(i) => int_cell::<u32>(src, line, "position", cell(i))?,
+            None => 0,
+        };
+        let number = int_cell::<u32>(src, line, "mode", cell(c("mode")))?;
+        let node = int_cell::<u32>(src, line, "node", cell(c("node")))?;
+        let direction = parse_direction(cell(c("direction"))).ok_or_else(|| {
+            csv_err(
+                src,
+                line,
+                format!(
+                    "direction {:?}: use +X … -RZ, S or a code -6 to 6",
+                    cell(c("direction"))
+                ),
+            )
+        })?;
+        let re = real_cell(src, line, "real", cell(c("real")))?;
+        let im = match c_imag.map(cell).filter(|s| !s.is_empty()) {
+            Some(s) => real_cell(src, line, "imag", s)?,
+            None => 0.0,
+        };
+        let m = models
+            .iter()
+            .position(|(m, _)| m.position.index == index)
+            .ok_or_else(|| {
+                csv_err(
+                    src,
+                    line,
+                    format!("position {index} is not in the modes table"),
+                )
+            })?;
+        let (model, numbers) = &mut models[m];
+        let k = numbers.iter().position(|&n| n == number).ok_or_else(|| {
+            csv_err(
+                src,
+                line,
+                format!("mode {number} of position {index} is not in the modes table"),
+            )
+        })?;
+        let dof = Dof::new(node, direction);
+        let d = match model.dofs.iter().position(|x| *x == dof) {
+            Some(d) => d,
+            None => {
+                model.dofs.push(dof);
+                first_lines[m].push(line);
+                model.dofs.len() - 1
+            }
+        };
+        let slot = &mut values[m][k];
+        if slot.len() <= d {
+            slot.resize(d + 1, None);
+        }
+        if slot[d].is_some() {
+            return Err(csv_err(
+                src,
+                line,
+                format!("mode {number} of position {index} lists DOF {dof} twice"),
+            ));
+        }
+        slot[d] = Some(Complex64::new(re, im));
+    }
+    for (m, (model, numbers)) in models.iter_mut().enumerate() {
+        for (k, mode) in model.modes.iter_mut().enumerate() {
+            let row = &values[m][k];
+            let mut shape = Vec::with_capacity(model.dofs.len());
+            for (d, dof) in model.dofs.iter().enumerate() {
+                let v = row.get(d).copied().flatten().ok_or_else(|| {
+                    csv_err(
+                        src,
+                        first_lines[m][d],
+                        format!(
+                            "DOF {dof} (first listed here) has no row for mode {} of position {}; \
+                             every mode needs the same DOFs",
+                            numbers[k], model.position.index
+                        ),
+                    )
+                })?;
+                shape.push(v);
+            }
+            mode.shape = shape;
+        }
+    }
+    Ok(())
+}
+
+/// Writes modal models as `modes.csv` and `mode_shapes.csv`.
+pub fn write_modal_csv(models: &[ModalModel]) -> Result<ModalCsv, IoError> {
+    let with_position = models.len() > 1 || models.iter().any(|m| m.position.index != 0);
+    let with_label = models.iter().any(|m| !m.position.label.is_empty());
+    let err = |e: csv::Error| IoError::Unwritable {
+        what: format!("CSV: {e}"),
+    };
+    let mut modes = csv::Writer::from_writer(Vec::new());
+    let mut shapes = csv::Writer::from_writer(Vec::new());
+    let mut h1: Vec<&str> = Vec::new();
+    let mut h2: Vec<&str> = Vec::new();
+    if with_position {
+        h1.push("position");
+        h2.push("position");
+    }
+    if with_label {
+        h1.push("position_label");
+    }
+    h1.extend(["mode", "frequency_hz", "damping_ratio"]);
+    h2.extend(["mode", "node", "direction", "real", "imag"]);
+    modes.write_record(&h1).map_err(err)?;
+    shapes.write_record(&h2).map_err(err)?;
+    for m in models {
+        for (k, mode) in m.modes.iter().enumerate() {
+            let mut row: Vec<String> = Vec::new();
+            if with_position {
+                row.push(m.position.index.to_string());
+            }
+            if with_label {
+                row.push(m.position.label.clone());
+            }
+            row.extend([
+                (k + 1).to_string(),
+                fmt_f64(mode.frequency_hz),
+                fmt_f64(mode.damping_ratio),
+            ]);
+            modes.write_record(&row).map_err(err)?;
+            for (dof, v) in m.dofs.iter().zip(&mode.shape) {
+                let mut row: Vec<String> = Vec::new();
+                if with_position {
+                    row.push(m.position.index.to_string());
+                }
+                row.extend([
+                    (k + 1).to_string(),
+                    dof.node.to_string(),
+                    dof.direction_label(),
+                    fmt_f64(v.re),
+                    fmt_f64(v.im),
+                ]);
+                shapes.write_record(&row).map_err(err)?;
+            }
+        }
+    }
+    let into = |w: csv::Writer<Vec<u8>>| {
+        w.into_inner().map_err(|e| IoError::Unwritable {
+            what: format!("CSV: {}", e.error()),
+        })
+    };
+    Ok(ModalCsv {
+        modes: into(modes)?,
+        mode_shapes: into(shapes)?,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(index: u32, label: &str) -> ModalModel {
+        let dofs = vec![Dof::new(1, 1), Dof::new(2, -3), Dof::new(9, 0)];
+        let modes = (0..3)
+            .map(|k| Mode {
+                frequency_hz: 10.0 / 3.0 * (k + 1) as f64,
+                damping_ratio: 0.01 * (k + 1) as f64,
+                shape: (0..3)
+                    .map(|i| Complex64::new(0.1 * i as f64 - k as f64, 1e-20 * i as f64))
+                    .collect(),
+            })
+            .collect();
+        ModalModel {
+            position: Position {
+                index,
+                label: label.into(),
+            },
+            dofs,
+            modes,
+        }
+    }
+
+    #[test]
+    fn round_trip_with_and_without_positions() {
+        for models in [vec![model(0, "")], vec![model(0, "a"), model(3, "b,c")]] {
+            let csv = write_modal_csv(&models).unwrap();
+            let back =
+                read_modal_csv(&csv.modes, "modes.csv", &csv.mode_shapes, "shapes.csv").unwrap();
+            assert_eq!(back, models);
+        }
+        let single = write_modal_csv(&[model(0, "")]).unwrap();
+        assert!(single
+            .modes
+            .starts_with(b"mode,frequency_hz,damping_ratio\n"));
+        assert!(single
+            .mode_shapes
+            .starts_with(b"mode,node,direction,real,imag\n1,1,+X,"));
+    }
+
+    #[test]
+    fn modes_sort_by_number_and_codes_are_accepted() {
+        let modes = b"mode,frequency_hz,damping_ratio\n2,20,0.02\n1,10,0.01\n";
+        let shapes = b"mode,node,direction,real\n1,5,3,0.5\n2,5,+Z,-0.5\n";
+        let m = read_modal_csv(modes, "m.csv", shapes, "s.csv").unwrap();
+        assert_eq!(m[0].modes[0].frequency_hz, 10.0);
+        assert_eq!(m[0].dofs, vec![Dof::new(5, 3)]);
+        assert_eq!(m[0].modes[1].shape, vec![Complex64::new(-0.5, 0.0)]);
+    }
+
+    #[test]
+    fn incomplete_shapes_are_errors() {
+        let modes = b"mode,frequency_hz,damping_ratio\n1,10,0.01\n2,20,0.02\n";
+        let shapes = b"mode,node,direction,real,imag\n1,5,+Z,0.5,0\n2,6,+Z,0.5,0\n";
+        let e = read_modal_csv(modes, "m.csv", shapes, "s.csv").unwrap_err();
+        assert!(
+            e.to_string()
+                .starts_with("s.csv, line 3: DOF 6+Z (first listed here) has no row for mode 1"),
+            "{e}"
+        );
+        let shapes = b"mode,node,direction,real,imag\n3,5,+Z,0.5,0\n";
+        let e = read_modal_csv(modes, "m.csv", shapes, "s.csv").unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("mode 3 of position 0 is not in the modes table"),
+            "{e}"
+        );
+        let dup = b"mode,frequency_hz,damping_ratio\n1,10,0.01\n1,20,0.02\n";
+        let e = read_modal_csv(dup, "m.csv", b"mode,node,direction,real\n", "s.csv").unwrap_err();
+        assert!(e.to_string().contains("m.csv, line 3"), "{e}");
+        let e = read_modal_csv(
+            modes,
+            "m.csv",
+            b"mode,node,direction,real\n1,5,+Q,1\n",
+            "s.csv",
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("direction \"+Q\""), "{e}");
+    }
+}

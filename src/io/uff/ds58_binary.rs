@@ -1,0 +1,221 @@
+//! The binary variant 58b: the header fields on the dataset-number line and
+//! the raw record 12 block.
+//!
+//! The dataset line is `I6,1A1,I6,I6,I12,I12,I6,I6,I12,I12`, e.g.
+//! `    58b     1     2          11        5696     0     0           0           0`:
+//! `b`, byte order (1 little-endian, 2 big-endian), floating-point format
+//! (2 = IEEE 754; 1 DEC and 3 IBM are rejected), number of ASCII lines that
+//! follow (11: records 1–11), number of data bytes, four unused fields. The
+//! data block starts right after the line feed of record 11 and holds the
+//! same values as ASCII record 12 in the same order, 4-byte floats for single
+//! and 8-byte floats for double precision (uneven abscissae in the ordinate's
+//! precision, as pyuff and the test-software exports do). Writers end the
+//! block with `    -1` directly or after a stray CR/LF; both read.
+
+use super::ds58::{ByteOrder, Precision};
+use super::text::{Cursor, Line};
+use crate::io::error::{IoError, Location, Place};
+
+/// Fields of a `58b` dataset line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct BinaryHeader {
+    pub byte_order: ByteOrder,
+    /// Declared size of the data block; 0 when the writer left it blank.
+    pub n_bytes: usize,
+    pub place: Place,
+}
+
+/// Parses the fields after `b` on a dataset line.
+pub(crate) fn parse_binary_header(
+    src: &str,
+    line: &Line<'_>,
+    after_b: &[u8],
+) -> Result<BinaryHeader, IoError> {
+    let toks: Vec<&[u8]> = after_b
+        .split(|b| b.is_ascii_whitespace())
+        .filter(|t| !t.is_empty())
+        .collect();
+    let field = |i: usize, name: &str| -> Result<i64, IoError> {
+        match toks.get(i) {
+            None => Ok(0),
+            Some(t) => std::str::from_utf8(t)
+                .ok()
+                .and_then(|s| s.parse::<i64>().ok())
+                .ok_or_else(|| IoError::not_numeric(src, line.place(), name, t)),
+        }
+    };
+    let byte_order = match field(0, "58b byte order")? {
+        1 => ByteOrder::Little,
+        2 => ByteOrder::Big,
+        v => {
+            return Err(IoError::invalid(
+                src,
+                line.place(),
+                "58b byte order",
+                v,
+                "expected 1 (little-endian) or 2 (big-endian)",
+            ))
+        }
+    };
+    let fp = field(1, "58b floating-point format")?;
+    if fp != 2 && fp != 0 {
+        return Err(IoError::invalid(
+            src,
+            line.place(),
+            "58b floating-point format",
+            fp,
+            "only 2 (IEEE 754) is supported; re-export with IEEE floats",
+        ));
+    }
+    let lines = field(2, "58b number of ASCII lines")?;
+    if lines != 11 {
+        return Err(IoError::invalid(
+            src,
+            line.place(),
+            "58b number of ASCII lines",
+            lines,
+            "dataset 58b has 11 header lines (records 1-11)",
+        ));
+    }
+    let n_bytes = field(3, "58b number of bytes")?;
+    let n_bytes = usize::try_from(n_bytes).map_err(|_| {
+        IoError::invalid(
+            src,
+            line.place(),
+            "58b number of bytes",
+            n_bytes,
+            "must be ≥ 0",
+        )
+    })?;
+    Ok(BinaryHeader {
+        byte_order,
+        n_bytes,
+        place: line.place(),
+    })
+}
+
+/// Reads the binary record 12 (`n_values` numbers), leaving the cursor after
+/// the declared block.
+pub(crate) fn read_data(
+    cur: &mut Cursor<'_>,
+    h: &BinaryHeader,
+    n_values: usize,
+    precision: Precision,
+) -> Result<Vec<f64>, IoError> {
+    let src = cur.source;
+    let size = match precision {
+        Precision::Single => 4,
+        Precision::Double => 8,
+    };
+    let start = cur.offset();
+    let needed = n_values.checked_mul(size).ok_or_else(|| {
+        IoError::invalid(
+            src,
+            h.place,
+            "number of points",
+            n_values,
+            "the byte count overflows",
+        )
+    })?;
+    let declared = if h.n_bytes == 0 { needed } else { h.n_bytes };
+    if declared < needed {
+        return Err(IoError::record_length(
+            src,
+            h.place,
+            format!(
+                "58b header declares {declared} data bytes but record 7 needs {needed} \
+                 ({n_values} values of {size} bytes)"
+            ),
+        ));
+    }
+    let block = cur.take_bytes(declared).ok_or_else(|| {
+        IoError::truncated(
+            src,
+            Place::Byte(start),
+            format!(
+                "58b data block of {declared} bytes starting here, only {} bytes remain",
+                cur.remaining()
+            ),
+        )
+    })?;
+    let data = &block[..needed];
+    let mut out = Vec::with_capacity(n_values);
+    match (precision, h.byte_order) {
+        (Precision::Double, ByteOrder::Little) => {
+            out.extend(data.chunks_exact(8).map(|c| f64::from_le_bytes(arr8(c))))
+        }
+        (Precision::Double, ByteOrder::Big) => {
+            out.extend(data.chunks_exact(8).map(|c| f64::from_be_bytes(arr8(c))))
+        }
+        (Precision::Single, ByteOrder::Little) => out.extend(
+            data.chunks_exact(4)
+                .map(|c| f64::from(f32::from_le_bytes(arr4(c)))),
+        ),
+        (Precision::Single, ByteOrder::Big) => out.extend(
+            data.chunks_exact(4)
+                .map(|c| f64::from(f32::from_be_bytes(arr4(c)))),
+        ),
+    }
+    if let Some(i) = out.iter().position(|v| !v.is_finite()) {
+        return Err(IoError::NonFinite {
+            at: Location::new(src, Place::Byte(start + i * size)),
+            field: format!("dataset 58b record 12 value {}", i + 1),
+            value: out[i],
+        });
+    }
+    Ok(out)
+}
+
+fn arr8(c: &[u8]) -> [u8; 8] {
+    let mut a = [0u8; 8];
+    a.copy_from_slice(c);
+    a
+}
+
+fn arr4(c: &[u8]) -> [u8; 4] {
+    let mut a = [0u8; 4];
+    a.copy_from_slice(c);
+    a
+}
+
+/// Appends the `    58b …` dataset line.
+pub(crate) fn push_binary_header(out: &mut Vec<u8>, order: ByteOrder, n_bytes: usize) {
+    let bo = match order {
+        ByteOrder::Little => 1,
+        ByteOrder::Big => 2,
+    };
+    out.extend_from_slice(
+        format!(
+            "{:>6}b{:>6}{:>6}{:>12}{:>12}{:>6}{:>6}{:>12}{:>12}\n",
+            58, bo, 2, 11, n_bytes, 0, 0, 0, 0
+        )
+        .as_bytes(),
+    );
+}
+
+/// Appends the binary record 12.
+pub(crate) fn push_data(out: &mut Vec<u8>, values: &[f64], order: ByteOrder, precision: Precision) {
+    match (precision, order) {
+        (Precision::Double, ByteOrder::Little) => {
+            out.reserve(values.len() * 8);
+            values
+                .iter()
+                .for_each(|v| out.extend_from_slice(&v.to_le_bytes()));
+        }
+        (Precision::Double, ByteOrder::Big) => {
+            values
+                .iter()
+                .for_each(|v| out.extend_from_slice(&v.to_be_bytes()));
+        }
+        (Precision::Single, ByteOrder::Little) => {
+            values
+                .iter()
+                .for_each(|v| out.extend_from_slice(&(*v as f32).to_le_bytes()));
+        }
+        (Precision::Single, ByteOrder::Big) => {
+            values
+                .iter()
+                .for_each(|v| out.extend_from_slice(&(*v as f32).to_be_bytes()));
+        }
+    }
+}

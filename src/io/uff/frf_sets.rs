@@ -1,0 +1,334 @@
+//! Import of datasets 58 as [`FrfSet`]s.
+//!
+//! FRFs (function type 4) become [`FrfChannel`]s; coherences
+//! (type 6) with the same response, reference and position attach as
+//! [`FrfChannel::coherence`]. Positions come from the load case id (record 6
+//! field 4) and, when ID line 4 reads `position=<label>`, the label. All FRFs
+//! of one position must share one frequency axis (equal within 1e-9 of the
+//! axis span); the FRF quantity comes from the ordinate's specific data type
+//! (record 9: 8 displacement → receptance, 11 velocity → mobility,
+//! 12 acceleration → accelerance, anything else → receptance). Values are
+//! taken as written: units are not converted.
+//! The reverse direction and the `frf` artifact are in
+//! [`artifact`](super::artifact).
+
+use super::artifact::{unescape_label, LABEL_KEY};
+use super::ds58::{Entity58, FunctionType, Ordinate, Uff58};
+use super::{UffDataset, UffFile, UffWarning};
+use crate::frf::{Dof, FrfChannel, FrfQuantity, FrfSet, Position};
+use crate::io::error::{IoError, Location, Place};
+use std::collections::HashMap;
+
+/// How datasets 58 are grouped into positions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct FrfImportOptions {
+    /// One position per load case id (and label); `false` puts every FRF in
+    /// position 0 (for tools that number load cases per measurement run).
+    pub split_by_load_case: bool,
+}
+
+impl Default for FrfImportOptions {
+    fn default() -> Self {
+        FrfImportOptions {
+            split_by_load_case: true,
+        }
+    }
+}
+
+/// FRF sets read from a file, with what was left out.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrfImport {
+    pub sets: Vec<FrfSet>,
+    pub warnings: Vec<UffWarning>,
+}
+
+/// Builds FRF sets from the datasets 58 of `file` (`source` names it in errors).
+pub fn frf_sets_from_uff(
+    file: &UffFile,
+    source: &str,
+    options: &FrfImportOptions,
+) -> Result<FrfImport, IoError> {
+    let mut b = Builder::default();
+    let mut warnings = Vec::new();
+    let mut unused: Vec<(i32, usize)> = Vec::new();
+    let mut coherences = Vec::new();
+    for block in &file.blocks {
+        let UffDataset::Function(d) = &block.dataset else {
+            continue;
+        };
+        let at = Location::new(source, block.at);
+        match d.function {
+            FunctionType::Frf => b.add_frf(d, at, options)?,
+            FunctionType::Coherence => coherences.push((d.as_ref(), at)),
+            other => match unused.iter_mut().find(|(t, _)| *t == other.code()) {
+                Some((_, n)) => *n += 1,
+                None => unused.push((other.code(), 1)),
+            },
+        }
+    }
+    if b.sets.is_empty() {
+        let mut found: Vec<String> = unused
+            .iter()
+            .map(|(t, n)| format!("{n} of type {t}"))
+            .collect();
+        if !coherences.is_empty() {
+            found.push(format!("{} of type 6 (coherence)", coherences.len()));
+        }
+        return Err(IoError::NoFrf {
+            at: Location::new(source, Place::File),
+            detail: if found.is_empty() {
+                "the file has no dataset 58 of function type 4".to_string()
+            } else {
+                format!(
+                    "datasets 58 found: {}; FRFs have function type 4",
+                    found.join(", ")
+                )
+            },
+        });
+    }
+    for (d, at) in coherences {
+        b.attach_coherence(d, at, options, &mut warnings)?;
+    }
+    for (function_type, count) in unused {
+        warnings.push(UffWarning::UnusedFunctions {
+            function_type,
+            count,
+        });
+    }
+    Ok(FrfImport {
+        sets: b.sets.into_iter().map(|(s, _)| s).collect(),
+        warnings,
+    })
+}
+
+fn dof(e: &Entity58, what: &str, at: &Location) -> Result<Dof, IoError> {
+    let bad = |field: &str, v: i64, exp: &str| IoError::InvalidField {
+        at: at.clone(),
+        field: format!("{what} {field} (record 6)"),
+        value: v.to_string(),
+        expected: exp.to_string(),
+    };
+    let node =
+        u32::try_from(e.node).map_err(|_| bad("node", e.node, "a node number 0 to 4294967295"))?;
+    let direction = i8::try_from(e.direction)
+        .ok()
+        .filter(|d| (-6..=6).contains(d))
+        .ok_or_else(|| bad("direction", e.direction, "a direction code -6 to 6"))?;
+    Ok(Dof::new(node, direction))
+}
+
+fn position_of(d: &Uff58, at: &Location, options: &FrfImportOptions) -> Result<Position, IoError> {
+    if !options.split_by_load_case {
+        return Ok(Position::default());
+    }
+    let index = u32::try_from(d.load_case).map_err(|_| IoError::InvalidField {
+        at: at.clone(),
+        field: "load case id (record 6 field 4)".into(),
+        value: d.load_case.to_string(),
+        expected: "0 to 4294967295 (it numbers the position); or import with \
+                   split_by_load_case = false"
+            .into(),
+    })?;
+    let label = d.id_lines[3]
+        .strip_prefix(LABEL_KEY)
+        .map(unescape_label)
+        .unwrap_or_default();
+    Ok(Position { index, label })
+}
+
+fn quantity_of(d: &Uff58) -> FrfQuantity {
+    match d.ordinate_axis.data_type {
+        11 => FrfQuantity::Mobility,
+        12 => FrfQuantity::Accelerance,
+        _ => FrfQuantity::Receptance,
+    }
+}
+
+pub(crate) fn channel_name(r: Dof, f: Dof) -> String {
+    format!("{r}/{f}")
+}
+
+/// Sets under construction, with an index (set, response, reference) →
+/// channel so large files convert in linear time.
+#[derive(Default)]
+struct Builder {
+    sets: Vec<(FrfSet, Place)>,
+    channels: HashMap<(usize, Dof, Dof), usize>,
+}
+
+impl Builder {
+    fn add_frf(
+        &mut self,
+        d: &Uff58,
+        at: Location,
+        options: &FrfImportOptions,
+    ) -> Result<(), IoError> {
+        let response = dof(&d.response, "response", &at)?;
+        let reference = dof(&d.reference, "reference", &at)?;
+        let position = position_of(d, &at, options)?;
+        let values = match &d.ordinate {
+            Ordinate::Complex(v) => v.clone(),
+            Ordinate::Real(v) => v.iter().map(|&x| x.into()).collect(),
+        };
+        let freqs = d.abscissa_values();
+        let name = channel_name(response, reference);
+        let idx = match self.sets.iter().position(|(s, _)| s.position == position) {
+            Some(i) => i,
+            None => {
+                check_increasing(&freqs, &at, &name)?;
+                self.sets.push((
+                    FrfSet {
+                        position: position.clone(),
+                        quantity: quantity_of(d),
+                        frequencies_hz: freqs.clone(),
+                        channels: Vec::new(),
+                    },
+                    at.place,
+                ));
+                self.sets.len() - 1
+            }
+        };
+        let (set, first) = &mut self.sets[idx];
+        same_axis(
+            &set.frequencies_hz,
+            &freqs,
+            &at,
+            &name,
+            position.index,
+            *first,
+        )?;
+        if quantity_of(d) != set.quantity {
+            return Err(IoError::InvalidField {
+                at,
+                field: format!("FRF {name} ordinate specific data type (record 9)"),
+                value: format!("{:?}", quantity_of(d)),
+                expected: format!(
+                    "{:?} like the first FRF of position {}",
+                    set.quantity, position.index
+                ),
+            });
+        }
+        if self.channels.contains_key(&(idx, response, reference)) {
+            return Err(IoError::DuplicateChannel {
+                at,
+                channel: name,
+                position: position.index,
+            });
+        }
+        self.channels
+            .insert((idx, response, reference), set.channels.len());
+        set.channels.push(FrfChannel {
+            response,
+            reference,
+            values,
+            coherence: None,
+        });
+        Ok(())
+    }
+
+    fn attach_coherence(
+        &mut self,
+        d: &Uff58,
+        at: Location,
+        options: &FrfImportOptions,
+        warnings: &mut Vec<UffWarning>,
+    ) -> Result<(), IoError> {
+        let response = dof(&d.response, "response", &at)?;
+        let reference = dof(&d.reference, "reference", &at)?;
+        let position = position_of(d, &at, options)?;
+        let name = channel_name(response, reference);
+        let target = self
+            .sets
+            .iter()
+            .position(|(s, _)| s.position == position)
+            .and_then(|i| Some((i, *self.channels.get(&(i, response, reference))?)))
+            .map(|(i, k)| {
+                let (s, first) = &mut self.sets[i];
+                (&mut s.channels[k], &s.frequencies_hz, *first)
+            });
+        let Some((channel, freqs, first)) = target else {
+            warnings.push(UffWarning::UnmatchedCoherence {
+                channel: name,
+                position: position.index,
+            });
+            return Ok(());
+        };
+        same_axis(
+            freqs,
+            &d.abscissa_values(),
+            &at,
+            &format!("coherence {name}"),
+            position.index,
+            first,
+        )?;
+        let values = match &d.ordinate {
+            Ordinate::Real(v) => v.clone(),
+            Ordinate::Complex(v) if v.iter().all(|c| c.im == 0.0) => {
+                v.iter().map(|c| c.re).collect()
+            }
+            Ordinate::Complex(_) => {
+                return Err(IoError::InvalidField {
+                    at,
+                    field: format!("coherence {name} ordinate"),
+                    value: "complex".into(),
+                    expected: "real values (coherence is real, 0 to 1)".into(),
+                })
+            }
+        };
+        channel.coherence = Some(values);
+        Ok(())
+    }
+}
+
+fn check_increasing(f: &[f64], at: &Location, name: &str) -> Result<(), IoError> {
+    match f.windows(2).position(|w| w[1] <= w[0]) {
+        None => Ok(()),
+        Some(i) => Err(IoError::InvalidField {
+            at: at.clone(),
+            field: format!("frequency axis of FRF {name}"),
+            value: format!("line {} = {} Hz after {} Hz", i + 2, f[i + 1], f[i]),
+            expected: "strictly increasing frequencies".into(),
+        }),
+    }
+}
+
+fn same_axis(
+    axis: &[f64],
+    other: &[f64],
+    at: &Location,
+    name: &str,
+    position: u32,
+    first: Place,
+) -> Result<(), IoError> {
+    let mismatch = |detail: String| IoError::AxisMismatch {
+        at: at.clone(),
+        channel: name.to_string(),
+        position,
+        detail: format!("{detail}; first FRF at {first}"),
+    };
+    if axis.len() != other.len() {
+        return Err(mismatch(format!(
+            "{} lines instead of {}",
+            other.len(),
+            axis.len()
+        )));
+    }
+    let span = match (axis.first(), axis.last()) {
+        (Some(a), Some(b)) => (b - a).abs().max(a.abs()).max(b.abs()),
+        _ => 0.0,
+    };
+    let tol = 1e-9 * span;
+    match axis
+        .iter()
+        .zip(other)
+        .position(|(a, b)| (a - b).abs() > tol)
+    {
+        None => Ok(()),
+        Some(i) => Err(mismatch(format!(
+            "line {} is {} Hz instead of {} Hz",
+            i + 1,
+            other[i],
+            axis[i]
+        ))),
+    }
+}
