@@ -445,7 +445,7 @@ fn type_matches(ty: ParamType, v: &Value) -> bool {
         ParamType::Integer => v.is_i64() || v.is_u64(),
         ParamType::Number => v.is_number(),
         ParamType::String => v.is_string(),
-        ParamType::Path => v.as_str().is_some_and(|s| !s.trim().is_empty()),
+        ParamType::Path | ParamType::Glob => v.as_str().is_some_and(|s| !s.trim().is_empty()),
         ParamType::Paths | ParamType::Strings => strings(v),
         ParamType::Enum(opts) => v.as_str().is_some_and(|s| opts.contains(&s)),
         ParamType::Mapping => v.is_mapping(),
@@ -665,6 +665,20 @@ fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
             let Some(v) = node.params.get(ps.name) else {
                 continue;
             };
+            if let (ParamType::Glob, Value::String(pattern)) = (ps.ty, v) {
+                match stages::expand_glob(dir, pattern) {
+                    Ok(found) => files.extend(found.into_iter().map(|(rel, _)| FileParam {
+                        param: ps.name.to_string(),
+                        path: rel,
+                        producer: None,
+                    })),
+                    Err(message) => {
+                        let loc = cx.spans.value(&["stages", &node.base, "params", ps.name]);
+                        cx.at(loc, format!("param `{}` of stage `{}`: {message}", ps.name, node.name), Some("paths are relative to the pipeline file's directory; check the pattern".into()));
+                    }
+                }
+                continue;
+            }
             let paths: Vec<(String, &str)> = match (ps.ty, v) {
                 (ParamType::Path, Value::String(s)) => vec![(ps.name.to_string(), s.as_str())],
                 (ParamType::Paths, Value::Sequence(items)) => items

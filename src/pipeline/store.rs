@@ -108,9 +108,10 @@ impl Store {
             let p = root.join(sub);
             fs::create_dir_all(&p).map_err(err("create", &p))?;
         }
-        Ok(Store {
-            root: root.to_path_buf(),
-        })
+        // Absolute, so scratch and object paths handed to stages (and to
+        // commands running in another directory) stay valid.
+        let root = fs::canonicalize(root).map_err(err("open", root))?;
+        Ok(Store { root })
     }
 
     pub fn root(&self) -> &Path {

@@ -7,6 +7,7 @@
 //! is part of every cache key, bumped whenever the kind's results would change.
 
 pub mod command;
+pub mod import;
 
 use crate::pipeline::progress::Progress;
 use serde_yaml_ng::{Mapping, Value};
@@ -25,6 +26,9 @@ pub enum ParamType {
     Path,
     /// A list of [`ParamType::Path`].
     Paths,
+    /// A path or glob pattern (`data/*.uff`) relative to the pipeline file;
+    /// every matching file is hashed into the key. Must match at least one.
+    Glob,
     Strings,
     /// One of the listed strings.
     Enum(&'static [&'static str]),
@@ -42,6 +46,7 @@ impl ParamType {
             ParamType::String => "a string".into(),
             ParamType::Path => "a file path (relative to the pipeline file)".into(),
             ParamType::Paths => "a list of file paths".into(),
+            ParamType::Glob => "a file path or glob pattern (relative to the pipeline file)".into(),
             ParamType::Strings => "a list of strings".into(),
             ParamType::Enum(options) => format!("one of: {}", options.join(", ")),
             ParamType::Mapping => "a mapping".into(),
@@ -152,6 +157,48 @@ impl StageContext<'_> {
             .and_then(Value::as_str)
             .map(|p| self.pipeline_dir.join(p))
     }
+
+    /// The files a [`ParamType::Glob`] param matches, sorted, with their
+    /// paths relative to the pipeline directory (the same list the key hashed).
+    pub fn glob_param(&self, name: &str) -> Result<Vec<(String, PathBuf)>, StageError> {
+        let pattern = self
+            .params
+            .get(name)
+            .and_then(Value::as_str)
+            .unwrap_or_default();
+        expand_glob(self.pipeline_dir, pattern).map_err(|message| StageError::InvalidParam {
+            param: name.to_string(),
+            message,
+        })
+    }
+}
+
+/// Files matching `pattern` below `dir`, as `(relative path, absolute path)`,
+/// sorted by relative path. A pattern without wildcards names one file.
+pub fn expand_glob(dir: &Path, pattern: &str) -> Result<Vec<(String, PathBuf)>, String> {
+    // The directory is literal text, only the pattern may hold wildcards.
+    let text = format!(
+        "{}/{pattern}",
+        glob::Pattern::escape(&dir.to_string_lossy())
+    );
+    let paths = glob::glob(&text).map_err(|e| format!("invalid glob pattern `{pattern}`: {e}"))?;
+    let mut out: Vec<(String, PathBuf)> = paths
+        .filter_map(Result::ok)
+        .filter(|p| p.is_file())
+        .map(|p| {
+            let rel = p
+                .strip_prefix(dir)
+                .unwrap_or(&p)
+                .to_string_lossy()
+                .replace('\\', "/");
+            (rel, p)
+        })
+        .collect();
+    out.sort();
+    if out.is_empty() {
+        return Err(format!("`{pattern}` matches no file in {}", dir.display()));
+    }
+    Ok(out)
 }
 
 /// What a successful run produced.
@@ -197,7 +244,7 @@ pub trait Stage: Sync + Send {
 
 /// Every stage kind, in the order `modalflow` lists them.
 pub fn registry() -> &'static [&'static dyn Stage] {
-    &[&command::Command]
+    &[&command::Command, &import::Import]
 }
 
 /// Look up a kind by name.

@@ -1,0 +1,292 @@
+//! The `import` kind: measured FRFs from the files test software writes
+//! (UFF 58/58b, CSV) into the `frf` artifact that `synthesize` also
+//! produces, so downstream stages accept either.
+//!
+//! Positions (model configurations) come from the files: with one file, one
+//! position per UFF load case (as the `frf` artifact itself encodes them);
+//! with several files (a glob), one position per file in sorted order,
+//! labelled by the file name — the usual layout of one measurement run per
+//! axis position. Measured coherences (UFF function type 6) are kept with
+//! their FRFs.
+
+use super::{
+    InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs,
+};
+use crate::frf::{FrfSet, Position};
+use crate::io::{self, DofPattern, FrfImportOptions, Selection};
+use serde::Deserialize;
+use serde_yaml_ng::Mapping;
+use std::path::Path;
+
+pub struct Import;
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "path",
+        ty: ParamType::Glob,
+        required: true,
+        doc: "measurement file or glob (`data/run*.uff`), relative to the pipeline file",
+    },
+    ParamSpec {
+        name: "format",
+        ty: ParamType::Enum(&["uff", "csv"]),
+        required: false,
+        doc: "file format; default by extension (.csv is csv, anything else uff)",
+    },
+    ParamSpec {
+        name: "select",
+        ty: ParamType::Mapping,
+        required: false,
+        doc: "channels to keep: {responses: [101+X, 7Z, '*+Z'], references: [1-Z], function: frf}",
+    },
+    ParamSpec {
+        name: "band",
+        ty: ParamType::Any,
+        required: false,
+        doc: "frequency band [low, high] in Hz (inclusive)",
+    },
+    ParamSpec {
+        name: "positions",
+        ty: ParamType::Enum(&["auto", "load_case", "file", "single"]),
+        required: false,
+        doc: "how positions are formed: per UFF load case, per file, or one; auto = per file for several files, else per load case",
+    },
+];
+
+#[derive(Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+struct Select {
+    #[serde(default)]
+    responses: Vec<String>,
+    #[serde(default)]
+    references: Vec<String>,
+    #[serde(default)]
+    function: Option<String>,
+}
+
+#[derive(Deserialize)]
+struct Params {
+    #[serde(default)]
+    format: Option<String>,
+    #[serde(default)]
+    select: Option<Select>,
+    #[serde(default)]
+    band: Option<(f64, f64)>,
+    #[serde(default)]
+    positions: Option<String>,
+}
+
+fn problem(path: &[&str], message: String, help: &str) -> ParamProblem {
+    ParamProblem {
+        path: path.iter().map(|s| s.to_string()).collect(),
+        message,
+        help: Some(help.to_string()),
+    }
+}
+
+fn selection(p: &Params) -> Result<Selection, ParamProblem> {
+    let mut sel = Selection {
+        band_hz: p.band,
+        ..Selection::default()
+    };
+    if let Some((lo, hi)) = p.band {
+        if !(lo >= 0.0 && lo < hi) {
+            return Err(problem(
+                &["band"],
+                format!("band [{lo}, {hi}] is empty or negative"),
+                "give [low, high] in Hz with 0 <= low < high",
+            ));
+        }
+    }
+    if let Some(s) = &p.select {
+        let parse = |list: &[String], field: &str| -> Result<Vec<DofPattern>, ParamProblem> {
+            list.iter()
+                .enumerate()
+                .map(|(i, t)| {
+                    DofPattern::parse(t).map_err(|e| problem(&["select", field, &i.to_string()], e.to_string(), "patterns: 101+X (exact), 101X (either sign), 101 (any direction), *+Z, *"))
+                })
+                .collect()
+        };
+        sel.responses = parse(&s.responses, "responses")?;
+        sel.references = parse(&s.references, "references")?;
+        if let Some(f) = &s.function {
+            if !f.eq_ignore_ascii_case("frf") {
+                return Err(problem(
+                    &["select", "function"],
+                    format!("function type `{f}` cannot form an FRF artifact"),
+                    "only `frf` (UFF type 4) is imported; coherences come along with their FRFs",
+                ));
+            }
+        }
+    }
+    Ok(sel)
+}
+
+fn parse_params(params: &Mapping) -> Result<Params, ParamProblem> {
+    serde_yaml_ng::from_value(serde_yaml_ng::Value::Mapping(params.clone())).map_err(|e| {
+        problem(
+            &[],
+            format!("invalid import params: {e}"),
+            "`select` takes responses, references, function; `band` is [low, high]",
+        )
+    })
+}
+
+impl Stage for Import {
+    fn kind(&self) -> &'static str {
+        "import"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn summary(&self) -> &'static str {
+        "read measured FRFs (UFF 58/58b or CSV) into an frf artifact"
+    }
+
+    fn params(&self) -> &'static [ParamSpec] {
+        PARAMS
+    }
+
+    fn inputs(&self) -> Option<&'static [InputSpec]> {
+        Some(&[])
+    }
+
+    fn outputs(&self, _params: &Mapping) -> Vec<String> {
+        vec!["frf".into(), "summary".into()]
+    }
+
+    fn check(&self, params: &Mapping) -> Result<(), ParamProblem> {
+        selection(&parse_params(params)?).map(|_| ())
+    }
+
+    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let params = parse_params(ctx.params).map_err(|p| StageError::Failed(p.message))?;
+        let sel = selection(&params).map_err(|p| StageError::Failed(p.message))?;
+        let files = ctx.glob_param("path")?;
+        let mode = params.positions.as_deref().unwrap_or("auto");
+        let per_file = mode == "file" || (mode == "auto" && files.len() > 1);
+        ctx.progress.set_length(files.len() as u64);
+        let mut sets: Vec<FrfSet> = Vec::new();
+        let mut warnings = Vec::new();
+        for (k, (rel, path)) in files.iter().enumerate() {
+            let format = params.format.clone().unwrap_or_else(|| by_extension(path));
+            let mut file_sets = read_one(path, rel, &format, mode != "single", &mut warnings)?;
+            if per_file {
+                for s in &mut file_sets {
+                    s.position = Position {
+                        index: k as u32,
+                        label: file_label(rel),
+                    };
+                }
+            }
+            sets.extend(file_sets);
+            ctx.progress.inc(1);
+        }
+        let sets = merge_positions(sets)?;
+        let sets = io::select_frf_sets(&sets, &sel).map_err(|e| StageError::InvalidParam {
+            param: "select".into(),
+            message: e.to_string(),
+        })?;
+        let out = ctx.scratch.join("frf.uff");
+        std::fs::write(&out, io::write_frf_artifact(&sets))
+            .map_err(|e| StageError::io("write frf.uff", e))?;
+        let summary = serde_json::json!({
+            "files": files.iter().map(|(r, _)| r).collect::<Vec<_>>(),
+            "positions": sets.iter().map(|s| serde_json::json!({
+                "index": s.position.index,
+                "label": s.position.label,
+                "channels": s.channels.len(),
+                "lines": s.frequencies_hz.len(),
+                "band_hz": [s.frequencies_hz.first(), s.frequencies_hz.last()],
+                "coherence": s.channels.iter().any(|c| c.coherence.is_some()),
+            })).collect::<Vec<_>>(),
+            "warnings": warnings,
+        });
+        let summary_path = ctx.scratch.join("import.json");
+        let text = serde_json::to_vec_pretty(&summary).unwrap_or_default();
+        std::fs::write(&summary_path, text).map_err(|e| StageError::io("write import.json", e))?;
+        let channels: usize = sets.iter().map(|s| s.channels.len()).sum();
+        Ok(StageOutputs {
+            files: vec![("frf".into(), out), ("summary".into(), summary_path)],
+            counters: [
+                ("channels".to_string(), channels as u64),
+                ("positions".to_string(), sets.len() as u64),
+            ]
+            .into(),
+        })
+    }
+}
+
+fn by_extension(path: &Path) -> String {
+    match path.extension().and_then(|e| e.to_str()) {
+        Some(e) if e.eq_ignore_ascii_case("csv") => "csv".into(),
+        _ => "uff".into(),
+    }
+}
+
+fn file_label(rel: &str) -> String {
+    Path::new(rel)
+        .file_stem()
+        .map_or_else(|| rel.to_string(), |s| s.to_string_lossy().into_owned())
+}
+
+fn read_one(
+    path: &Path,
+    rel: &str,
+    format: &str,
+    split: bool,
+    warnings: &mut Vec<String>,
+) -> Result<Vec<FrfSet>, StageError> {
+    let bytes = std::fs::read(path).map_err(|e| StageError::io(format!("cannot read {rel}"), e))?;
+    let invalid = |e: io::IoError| StageError::InvalidInput {
+        input: rel.to_string(),
+        message: e.to_string(),
+    };
+    if format == "csv" {
+        return io::read_frf_csv(&bytes, rel).map_err(invalid);
+    }
+    let file = io::read_uff(&bytes, rel).map_err(invalid)?;
+    warnings.extend(file.warnings.iter().map(|w| format!("{rel}: {w}")));
+    let imported = io::frf_sets_from_uff(
+        &file,
+        rel,
+        &FrfImportOptions {
+            split_by_load_case: split,
+        },
+    )
+    .map_err(invalid)?;
+    warnings.extend(imported.warnings.iter().map(|w| format!("{rel}: {w}")));
+    Ok(imported.sets)
+}
+
+/// One set per position, ordered by position index. Sets of one position
+/// (from several files or load cases) must share frequency axis and quantity.
+fn merge_positions(mut sets: Vec<FrfSet>) -> Result<Vec<FrfSet>, StageError> {
+    sets.sort_by_key(|s| s.position.index);
+    let mut out: Vec<FrfSet> = Vec::new();
+    for s in sets {
+        match out.last_mut() {
+            Some(last) if last.position.index == s.position.index => {
+                if last.frequencies_hz != s.frequencies_hz || last.quantity != s.quantity {
+                    return Err(StageError::Failed(format!(
+                        "position {} ({}) gets FRFs with different frequency axes or quantities; import them as separate positions (`positions: file`) or restrict `band`",
+                        s.position.index, s.position.label
+                    )));
+                }
+                for c in s.channels {
+                    if last.channel(c.response, c.reference).is_some() {
+                        return Err(StageError::Failed(format!(
+                            "position {}: channel {}/{} appears twice; select one with `select`",
+                            s.position.index, c.response, c.reference
+                        )));
+                    }
+                    last.channels.push(c);
+                }
+            }
+            _ => out.push(s),
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,158 @@
+//! The `import` stage through the CLI: UFF and CSV measurements become the
+//! `frf` artifact; selections, bands, globs and bad files.
+
+mod util;
+
+use modalflow::io::read_frf_artifact;
+use util::Workspace;
+
+const FIXTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/uff");
+
+fn copy_fixture(ws: &Workspace, name: &str) {
+    std::fs::copy(format!("{FIXTURES}/{name}"), ws.path().join(name)).unwrap();
+}
+
+fn artifact(ws: &Workspace, stage: &str) -> Vec<modalflow::frf::FrfSet> {
+    let bytes = std::fs::read(ws.path().join(format!("results/imp/{stage}/frf.uff"))).unwrap();
+    read_frf_artifact(&bytes, "frf.uff").unwrap()
+}
+
+#[test]
+fn imports_uff_into_the_frf_artifact_with_selection_and_band() {
+    let ws = Workspace::new();
+    copy_fixture(&ws, "frf_58b_le.uff");
+    ws.write(
+        "p.yaml",
+        "name: imp\nstages:\n  all:\n    kind: import\n    params: {path: frf_58b_le.uff}\n  cut:\n    kind: import\n    params: {path: frf_58b_le.uff, band: [22, 25], select: {responses: ['*'], references: ['*']}}\n",
+    );
+    ws.run(&[], 0);
+    let all = artifact(&ws, "all");
+    assert_eq!(all.len(), 1);
+    assert_eq!(all[0].channels.len(), 2);
+    assert_eq!(all[0].frequencies_hz.len(), 40);
+    let cut = artifact(&ws, "cut");
+    assert!(cut[0]
+        .frequencies_hz
+        .iter()
+        .all(|&f| (22.0..=25.0).contains(&f)));
+    assert_eq!(
+        cut[0].frequencies_hz.len(),
+        13,
+        "0.25 Hz lines from 22 to 25 inclusive"
+    );
+    // The band keeps values bit for bit.
+    let off = all[0]
+        .frequencies_hz
+        .iter()
+        .position(|&f| f == 22.0)
+        .unwrap();
+    assert_eq!(
+        cut[0].channels[0].values[..],
+        all[0].channels[0].values[off..off + 13]
+    );
+}
+
+#[test]
+fn a_glob_of_files_gives_one_position_per_file_and_keeps_coherence() {
+    let ws = Workspace::new();
+    copy_fixture(&ws, "frf_ascii_4e20.uff");
+    copy_fixture(&ws, "frf_ascii_6e13.uff");
+    ws.write(
+        "p.yaml",
+        "name: imp\nstages:\n  runs:\n    kind: import\n    params: {path: 'frf_ascii_*.uff'}\n",
+    );
+    let r = ws.run(&[], 0);
+    assert_eq!(r.stage("runs")["counters"]["positions"], 2);
+    let sets = artifact(&ws, "runs");
+    let labels: Vec<&str> = sets.iter().map(|s| s.position.label.as_str()).collect();
+    assert_eq!(labels, ["frf_ascii_4e20", "frf_ascii_6e13"]);
+    assert!(sets[0].channels[0].coherence.is_some());
+    // Adding a third matching file changes the key: the stage reruns.
+    copy_fixture(&ws, "frf_crlf.uff");
+    std::fs::rename(
+        ws.path().join("frf_crlf.uff"),
+        ws.path().join("frf_ascii_crlf.uff"),
+    )
+    .unwrap();
+    let status = ws.status();
+    assert_eq!(status.status_of("runs"), "will-run");
+    assert!(status.stage("runs")["reason"]
+        .as_str()
+        .unwrap()
+        .contains("file frf_ascii_crlf.uff added"));
+}
+
+#[test]
+fn csv_measurements_import_like_uff() {
+    let ws = Workspace::new();
+    ws.write(
+        "m.csv",
+        "# quantity: accelerance\nfrequency_hz,re:101+X/1-Z,im:101+X/1-Z\n10,1.5,-0.25\n10.5,1.25,-0.5\n",
+    );
+    ws.write(
+        "p.yaml",
+        "name: imp\nstages:\n  m:\n    kind: import\n    params: {path: m.csv}\n",
+    );
+    ws.run(&[], 0);
+    let sets = artifact(&ws, "m");
+    assert_eq!(sets[0].quantity, modalflow::frf::FrfQuantity::Accelerance);
+    assert_eq!(
+        sets[0].channels[0].values[1],
+        num_complex::Complex64::new(1.25, -0.5)
+    );
+}
+
+#[test]
+fn bad_measurements_fail_the_stage_with_file_and_line() {
+    let ws = Workspace::new();
+    ws.write(
+        "m.csv",
+        "frequency_hz,re:101+X/1-Z,im:101+X/1-Z\n10,1.5,-0.25\n10.5,nan,-0.5\n",
+    );
+    ws.write(
+        "p.yaml",
+        "name: imp\nstages:\n  m:\n    kind: import\n    params: {path: m.csv}\n",
+    );
+    let r = ws.run(&[], 1);
+    let err = r.stage("m")["error"].as_str().unwrap();
+    assert!(err.contains("m.csv") && err.contains("line 3"), "{err}");
+    assert_eq!(ws.runs_in_cache(), 0);
+}
+
+#[test]
+fn import_params_are_validated_before_running() {
+    let ws = Workspace::new();
+    copy_fixture(&ws, "frf_58b_le.uff");
+    let cases = [
+        ("{path: 'nothing*.uff'}", "matches no file"),
+        (
+            "{path: frf_58b_le.uff, band: [30, 10]}",
+            "band [30, 10] is empty",
+        ),
+        (
+            "{path: frf_58b_le.uff, select: {responses: ['x1']}}",
+            "DOF pattern",
+        ),
+        (
+            "{path: frf_58b_le.uff, select: {function: psd}}",
+            "cannot form an FRF artifact",
+        ),
+        (
+            "{path: frf_58b_le.uff, format: hdf5}",
+            "must be one of: uff, csv",
+        ),
+    ];
+    for (params, needle) in cases {
+        ws.write(
+            "p.yaml",
+            &format!("name: imp\nstages:\n  m:\n    kind: import\n    params: {params}\n"),
+        );
+        let out = ws.cmd(&["validate", "p.yaml"]);
+        let stderr = util::text(&out.stderr);
+        assert_eq!(out.status.code(), Some(2), "{params}: {stderr}");
+        assert!(
+            stderr.contains(needle) && stderr.contains("p.yaml:5:"),
+            "{params}: {stderr}"
+        );
+    }
+}
