@@ -156,3 +156,34 @@ fn import_params_are_validated_before_running() {
         );
     }
 }
+
+#[test]
+fn export_writes_what_other_tools_read() {
+    let ws = Workspace::new();
+    copy_fixture(&ws, "frf_58b_le.uff");
+    ws.write(
+        "p.yaml",
+        "name: imp\nstages:\n  m:\n    kind: import\n    params: {path: frf_58b_le.uff}\n  ascii:\n    kind: export\n    inputs: {frf: m.frf}\n  table:\n    kind: export\n    inputs: {frf: m.frf}\n    params: {format: csv}\n",
+    );
+    ws.run(&[], 0);
+    let original = artifact(&ws, "m");
+    let text = std::fs::read(ws.path().join("results/imp/ascii/export/frf.uff")).unwrap();
+    let file = modalflow::io::read_uff(&text, "frf.uff").unwrap();
+    let back = modalflow::io::frf_sets_from_uff(&file, "frf.uff", &Default::default())
+        .unwrap()
+        .sets;
+    assert_eq!(back[0].channels.len(), original[0].channels.len());
+    for (a, b) in back[0].channels[0]
+        .values
+        .iter()
+        .zip(&original[0].channels[0].values)
+    {
+        assert!(
+            (a - b).norm() <= 1e-12 * b.norm(),
+            "standard ASCII keeps 13 digits: {a} vs {b}"
+        );
+    }
+    let csv = std::fs::read(ws.path().join("results/imp/table/export/frf.csv")).unwrap();
+    let from_csv = modalflow::io::read_frf_csv(&csv, "frf.csv").unwrap();
+    assert_eq!(from_csv[0].channels, original[0].channels, "CSV is exact");
+}

@@ -6,7 +6,9 @@
 //! validate a pipeline file before anything runs, and a version constant that
 //! is part of every cache key, bumped whenever the kind's results would change.
 
+pub mod artifacts;
 pub mod command;
+pub mod export;
 pub mod import;
 
 use crate::pipeline::progress::Progress;
@@ -244,7 +246,7 @@ pub trait Stage: Sync + Send {
 
 /// Every stage kind, in the order `modalflow` lists them.
 pub fn registry() -> &'static [&'static dyn Stage] {
-    &[&command::Command, &import::Import]
+    &[&command::Command, &import::Import, &export::Export]
 }
 
 /// Look up a kind by name.

@@ -1,0 +1,120 @@
+//! The `export` kind: FRFs and modal models in the formats other tools read
+//! — UFF 58 (ASCII with the standard fixed-width layout, or 58b), UFF 55,
+//! or CSV — so results open in test and FE software.
+
+use super::artifacts::{read_frf, read_modes};
+use super::{InputSpec, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs};
+use crate::io::{self, ByteOrder, NumberText, Storage, Uff58Format};
+use serde_yaml_ng::{Mapping, Value};
+
+pub struct Export;
+
+const FORMATS: &[&str] = &["uff", "uff-binary", "csv"];
+
+const PARAMS: &[ParamSpec] = &[ParamSpec {
+    name: "format",
+    ty: ParamType::Enum(FORMATS),
+    required: false,
+    doc: "uff (ASCII 58 + 55, standard column widths), uff-binary (58b little-endian + ASCII 55), or csv; default uff",
+}];
+
+const INPUTS: &[InputSpec] = &[
+    InputSpec {
+        name: "frf",
+        required: false,
+        list: false,
+        doc: "an frf artifact (from import or synthesize) to write as FRFs",
+    },
+    InputSpec {
+        name: "modes",
+        required: false,
+        list: false,
+        doc: "a modes artifact to write as a modal model",
+    },
+];
+
+impl Stage for Export {
+    fn kind(&self) -> &'static str {
+        "export"
+    }
+
+    fn version(&self) -> u32 {
+        1
+    }
+
+    fn summary(&self) -> &'static str {
+        "write FRFs and modes as UFF 58/58b/55 or CSV for other tools"
+    }
+
+    fn params(&self) -> &'static [ParamSpec] {
+        PARAMS
+    }
+
+    fn inputs(&self) -> Option<&'static [InputSpec]> {
+        Some(INPUTS)
+    }
+
+    fn outputs(&self, _params: &Mapping) -> Vec<String> {
+        vec!["files".into()]
+    }
+
+    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let format = ctx
+            .params
+            .get("format")
+            .and_then(Value::as_str)
+            .unwrap_or("uff");
+        if !ctx.inputs.contains_key("frf") && !ctx.inputs.contains_key("modes") {
+            return Err(StageError::Failed(
+                "nothing to export: bind an `frf` and/or a `modes` input".into(),
+            ));
+        }
+        let dir = ctx.scratch.join("export");
+        std::fs::create_dir_all(&dir)
+            .map_err(|e| StageError::io("cannot create export directory", e))?;
+        let write = |name: &str, bytes: &[u8]| {
+            std::fs::write(dir.join(name), bytes)
+                .map_err(|e| StageError::io(format!("cannot write {name}"), e))
+        };
+        let failed = |e: io::IoError| StageError::Failed(e.to_string());
+        if ctx.inputs.contains_key("frf") {
+            let sets = read_frf(ctx.input("frf")?, "frf")?;
+            match format {
+                "csv" => write("frf.csv", &io::write_frf_csv(&sets).map_err(failed)?)?,
+                _ => {
+                    let storage = if format == "uff" {
+                        Storage::Ascii
+                    } else {
+                        Storage::Binary(ByteOrder::Little)
+                    };
+                    let fmt = Uff58Format {
+                        storage,
+                        digits: NumberText::Standard,
+                    };
+                    write(
+                        "frf.uff",
+                        &io::write_uff58(&io::uff58_from_frf_sets(&sets), &fmt),
+                    )?;
+                }
+            }
+        }
+        if ctx.inputs.contains_key("modes") {
+            let models = read_modes(ctx.input("modes")?, "modes")?;
+            match format {
+                "csv" => {
+                    let csv = io::write_modal_csv(&models).map_err(failed)?;
+                    write("modes.csv", &csv.modes)?;
+                    write("mode_shapes.csv", &csv.mode_shapes)?;
+                }
+                _ => {
+                    let ds = io::uff55_from_modal_models(&models).map_err(failed)?;
+                    write("modes.uff", &io::write_uff55(&ds, NumberText::Standard))?;
+                }
+            }
+        }
+        Ok(StageOutputs {
+            files: vec![("files".into(), dir)],
+            counters: Default::default(),
+        })
+    }
+}
