@@ -8,6 +8,7 @@
 pub mod dynamics;
 pub mod frf;
 pub mod io;
+pub mod metrics;
 pub mod modal;
 pub mod pipeline;
 pub mod stages;
