@@ -216,12 +216,12 @@ pub fn hungarian(cost: &[Vec<f64>]) -> Vec<Option<usize>> {
         }
     }
     let mut out = vec![None; rows];
-    for j in 1..=m {
-        if p[j] != 0 {
+    for (j, &row) in p.iter().enumerate().skip(1) {
+        if row != 0 {
             let (r, col) = if transposed {
-                (j - 1, p[j] - 1)
+                (j - 1, row - 1)
             } else {
-                (p[j] - 1, j - 1)
+                (row - 1, j - 1)
             };
             out[r] = Some(col);
         }
