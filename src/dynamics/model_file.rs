@@ -1,0 +1,301 @@
+//! The model-file schema (YAML, parsed from `&str` with serde,
+//! `deny_unknown_fields` everywhere): parameters, bodies, joints, axes,
+//! sensors and excitations exactly as a user writes them. Checking names and
+//! values is the job of [`crate::dynamics::model`]; this file only says what
+//! may be written.
+
+use super::error::DynamicsError;
+use super::templates::Template;
+use serde::Deserialize;
+use std::collections::BTreeMap;
+
+/// Top level of a model file.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelFile {
+    /// Identifiable stiffness and damping parameters (name, truth, bounds).
+    pub parameters: Vec<ParameterSpec>,
+    pub bodies: Vec<BodySpec>,
+    #[serde(default)]
+    pub joints: Vec<JointSpec>,
+    #[serde(default)]
+    pub axes: Vec<AxisSpec>,
+    #[serde(default)]
+    pub sensors: Vec<PointDofSpec>,
+    #[serde(default)]
+    pub excitations: Vec<PointDofSpec>,
+}
+
+impl ModelFile {
+    /// Files the model reads besides itself (super-element matrices), as
+    /// written, relative to the model file. Pipelines hash them by content.
+    pub fn external_files(&self) -> Vec<String> {
+        self.bodies
+            .iter()
+            .filter_map(|b| b.superelement.as_ref())
+            .flat_map(|s| [s.mass.clone(), s.stiffness.clone()])
+            .collect()
+    }
+}
+
+/// How an optimizer or sampler should treat a parameter's range.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Scale {
+    /// Sample/optimize log10(value); bounds must be positive.
+    Log,
+    Linear,
+}
+
+/// Physical meaning of a parameter.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ParameterKind {
+    /// Spring stiffness, N/m (translation) or N·m/rad (rotation).
+    Stiffness,
+    /// Viscous coefficient b (N·s/m) or hysteretic coefficient d (N/m),
+    /// depending on the damper that uses it.
+    Damping,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParameterSpec {
+    pub name: String,
+    /// The true (reference) value, used for synthesis.
+    pub value: f64,
+    pub lower: f64,
+    pub upper: f64,
+    pub scale: Scale,
+    pub kind: ParameterKind,
+}
+
+/// One body: exactly one of `rigid`, `beam`, `superelement`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    pub name: String,
+    pub rigid: Option<RigidSpec>,
+    pub beam: Option<BeamSpec>,
+    pub superelement: Option<SuperelementSpec>,
+}
+
+/// A rigid body with 6 DOF at its centre of gravity.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RigidSpec {
+    /// kg.
+    pub mass: f64,
+    /// Inertia tensor about the centre of gravity, kg·m², 3×3 rows in global axes.
+    pub inertia: [[f64; 3]; 3],
+    /// Centre of gravity, m, global coordinates (at axis position 0).
+    pub cg: [f64; 3],
+    /// Named points, global coordinates in m.
+    #[serde(default)]
+    pub points: BTreeMap<String, [f64; 3]>,
+    /// Active DOFs (default all six); the others are held rigidly, e.g.
+    /// `dofs: [x]` for a lumped mass moving along x only.
+    pub dofs: Option<Vec<Direction>>,
+}
+
+/// Straight 3D beam of equal 12-DOF Euler-Bernoulli elements.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BeamSpec {
+    /// First and last node, m.
+    pub start: [f64; 3],
+    pub end: [f64; 3],
+    /// Number of elements (nodes = elements + 1, numbered 0..=elements).
+    pub elements: usize,
+    /// A vector in the local x-y plane fixing the section's y axis.
+    pub orientation: [f64; 3],
+    pub section: SectionSpec,
+    /// Named points: a node plus an optional rigid offset (m).
+    #[serde(default)]
+    pub points: BTreeMap<String, NodePointSpec>,
+    /// Optional Craig-Bampton reduction (eq. 3.1–3.4).
+    pub reduction: Option<ReductionSpec>,
+    /// Material (hysteretic) loss factor η of the body: D_body = η K_body
+    /// (eq. 2.51, structural damping); default 0. Steel ~0.001–0.002, cast
+    /// iron ~0.002–0.005.
+    #[serde(default)]
+    pub loss_factor: f64,
+}
+
+/// Beam cross-section and material, SI units.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+#[allow(non_snake_case)]
+pub struct SectionSpec {
+    /// Area, m².
+    pub A: f64,
+    /// Second moment about local y (bending in the local x-z plane), m⁴.
+    pub Iy: f64,
+    /// Second moment about local z (bending in the local x-y plane), m⁴.
+    pub Iz: f64,
+    /// Torsion constant, m⁴.
+    pub J: f64,
+    /// Young's modulus, Pa.
+    pub E: f64,
+    /// Shear modulus, Pa.
+    pub G: f64,
+    /// Density, kg/m³.
+    pub rho: f64,
+}
+
+/// A point of a flexible body: a node and a rigid offset from it.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NodePointSpec {
+    pub node: u64,
+    #[serde(default)]
+    pub offset: [f64; 3],
+}
+
+/// Craig-Bampton settings: boundary DOFs are all nodes used by joints,
+/// sensors and excitations; `modes` fixed-interface modes are kept.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ReductionSpec {
+    pub modes: usize,
+}
+
+/// An FE body exported from other software: Matrix Market mass and
+/// stiffness matrices plus a node map.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SuperelementSpec {
+    /// Paths relative to the model file.
+    pub mass: String,
+    pub stiffness: String,
+    pub nodes: Vec<SuperNodeSpec>,
+    #[serde(default)]
+    pub points: BTreeMap<String, NodePointSpec>,
+    pub reduction: Option<ReductionSpec>,
+    /// Material (hysteretic) loss factor η of the body: D_body = η K_body
+    /// (eq. 2.51, structural damping); default 0. Steel ~0.001–0.002, cast
+    /// iron ~0.002–0.005.
+    #[serde(default)]
+    pub loss_factor: f64,
+}
+
+/// One node of a super-element: 0-based matrix rows of its DOFs, either
+/// 6 (x, y, z, rx, ry, rz) or 3 translational.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SuperNodeSpec {
+    pub id: u64,
+    pub dofs: Vec<usize>,
+    /// Node position, m.
+    pub position: [f64; 3],
+}
+
+/// One end of a joint: a named point of a body, or `ground`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointEndSpec {
+    pub body: String,
+    /// Required unless `body` is `ground`.
+    pub point: Option<String>,
+}
+
+/// Local direction of a scalar connection in the joint frame.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Direction {
+    X,
+    Y,
+    Z,
+    Rx,
+    Ry,
+    Rz,
+}
+
+impl Direction {
+    pub fn index(self) -> usize {
+        self as usize
+    }
+}
+
+/// Damper law: viscous (eq. 2.50, matrix B) or hysteretic (eq. 2.51, matrix D).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum DampingModel {
+    #[default]
+    Viscous,
+    Hysteretic,
+}
+
+/// One explicit scalar connection.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConnectionSpec {
+    pub dir: Direction,
+    /// Stiffness parameter name (optional: damper only).
+    pub stiffness: Option<String>,
+    /// Damping parameter name (optional: spring only).
+    pub damper: Option<String>,
+    pub damping: Option<DampingModel>,
+}
+
+/// A joint: a set of scalar spring-damper connections between two points.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JointSpec {
+    pub name: String,
+    pub a: JointEndSpec,
+    /// Second end; absent means ground.
+    pub b: Option<JointEndSpec>,
+    /// Rows are the joint frame's local x, y, z axes in global coordinates
+    /// (orthonormal, right-handed). Default: global axes.
+    pub frame: Option<[[f64; 3]; 3]>,
+    /// A component pattern of table 3.1; needs `parameters`.
+    pub template: Option<Template>,
+    /// Parameter-name prefix for a template: `<prefix>.k_<dir>`, `<prefix>.c_<dir>`.
+    pub parameters: Option<String>,
+    /// Damper law for a template's dampers (default viscous).
+    pub damping: Option<DampingModel>,
+    /// Screw lead in m/rev for the `ball_screw_nut` template.
+    pub lead: Option<f64>,
+    /// Explicit connections (instead of, or in addition to, a template).
+    #[serde(default)]
+    pub connections: Vec<ConnectionSpec>,
+}
+
+/// A linear axis: moving `body` along `direction` makes one configuration
+/// per listed position; the `b` ends of the `sliding` joints follow.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AxisSpec {
+    pub name: String,
+    pub body: String,
+    pub direction: [f64; 3],
+    /// Positions in m along `direction`.
+    pub positions: Vec<f64>,
+    #[serde(default)]
+    pub sliding: Vec<String>,
+}
+
+/// A sensor or excitation: a point of a body, a UFF node number and a UFF
+/// direction code (±1..±3 translations, ±4..±6 rotations, global axes).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointDofSpec {
+    pub name: String,
+    pub body: String,
+    pub point: String,
+    pub node: u32,
+    pub direction: i8,
+}
+
+/// Parse a model file from text; `file` names it in error messages.
+pub fn parse(text: &str, file: &str) -> Result<ModelFile, DynamicsError> {
+    serde_yaml_ng::from_str(text).map_err(|e| DynamicsError::Syntax {
+        file: file.to_string(),
+        location: match e.location() {
+            Some(l) => format!("line {} column {}", l.line(), l.column()),
+            None => "at top level".to_string(),
+        },
+        message: e.to_string(),
+    })
+}

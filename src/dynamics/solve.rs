@@ -1,0 +1,201 @@
+//! One model evaluation: assemble the joint terms at given parameter values
+//! onto the prepared body matrices, solve K φ = λ M φ (eq. 2.30, shift-invert
+//! Cholesky reduction, [`crate::dynamics::eigen`]), mass-normalized
+//! shapes (eq. 2.35), modal damping
+//! (section 2.3.1/2.3.2) and shapes at the sensors. Cheap, `&self`,
+//! sequential inside (`Par::Seq`), so callers parallelise batches with rayon
+//! and results are bit-identical for any thread count.
+#![allow(non_snake_case)]
+
+use super::assembly::PreparedModel;
+use super::eigen::shift_invert;
+use super::error::DynamicsError;
+use super::modal_damping::{damping_ratios, modal_diagonal};
+use crate::modal::{ModalModel, Mode};
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, Par};
+use num_complex::Complex64;
+
+/// Modes of one evaluation, ascending frequency.
+#[derive(Debug, Clone)]
+pub struct ModalSolution {
+    /// Configuration index.
+    pub config: usize,
+    /// ω_r², rad²/s² (rigid-body modes clamped to 0).
+    pub eigenvalues: Vec<f64>,
+    /// Mass-normalized shapes at all DOFs (n × modes), Φᵀ M Φ = I.
+    pub Phi: Mat<f64>,
+    /// Shapes at the sensor DOFs (sensors × modes).
+    pub sensor_shapes: Mat<f64>,
+    /// Shapes at the excitation DOFs (excitations × modes).
+    pub excitation_shapes: Mat<f64>,
+    /// Viscous modal damping ratios ζ_r.
+    pub zeta: Vec<f64>,
+    /// Hysteretic loss factors η_r.
+    pub eta: Vec<f64>,
+}
+
+impl ModalSolution {
+    /// f_r = ω_r / 2π, Hz.
+    pub fn frequencies_hz(&self) -> Vec<f64> {
+        self.eigenvalues
+            .iter()
+            .map(|l| l.sqrt() / (2.0 * std::f64::consts::PI))
+            .collect()
+    }
+
+    /// Equivalent viscous ratio ζ_r + η_r/2.
+    pub fn damping_ratios(&self) -> Vec<f64> {
+        self.zeta
+            .iter()
+            .zip(&self.eta)
+            .map(|(z, e)| z + 0.5 * e)
+            .collect()
+    }
+}
+
+/// Which modes to keep.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum ModeSelection {
+    /// The lowest n modes.
+    Lowest(usize),
+    /// All modes with f_r ≤ this frequency, Hz.
+    Below(f64),
+}
+
+/// A B with `Par::Seq` (the `*` operator would use faer's global parallelism).
+pub(crate) fn product(A: &Mat<f64>, B: &Mat<f64>) -> Mat<f64> {
+    let mut C = Mat::zeros(A.nrows(), B.ncols());
+    matmul(
+        C.as_mut(),
+        Accum::Replace,
+        A.as_ref(),
+        B.as_ref(),
+        1.0,
+        Par::Seq,
+    );
+    C
+}
+
+impl PreparedModel {
+    /// The stiffness matrix K = K₀ + Σ k_i g_i g_iᵀ of a configuration at
+    /// `values` (rank-one springs, see [`crate::dynamics::assembly`]).
+    pub fn stiffness(&self, config: usize, values: &[f64]) -> Result<Mat<f64>, DynamicsError> {
+        self.check_values(values)?;
+        let mut K = self.K0.clone();
+        self.config(config)?.stiffness.add_to(&mut K, values);
+        Ok(K)
+    }
+
+    /// K + σ M at `values`, the matrix the shift-invert solver factors.
+    pub fn shifted_stiffness(
+        &self,
+        config: usize,
+        values: &[f64],
+    ) -> Result<Mat<f64>, DynamicsError> {
+        self.check_values(values)?;
+        let mut K = self.shifted_body_stiffness().clone();
+        self.config(config)?.stiffness.add_to(&mut K, values);
+        Ok(K)
+    }
+
+    /// Lowest `n_modes` modes of configuration `config` at `values`.
+    pub fn evaluate(
+        &self,
+        config: usize,
+        values: &[f64],
+        n_modes: usize,
+    ) -> Result<ModalSolution, DynamicsError> {
+        self.evaluate_modes(config, values, ModeSelection::Lowest(n_modes))
+    }
+
+    /// Modes of configuration `config` at `values`, selected by `selection`.
+    pub fn evaluate_modes(
+        &self,
+        config: usize,
+        values: &[f64],
+        selection: ModeSelection,
+    ) -> Result<ModalSolution, DynamicsError> {
+        let K_sigma = self.shifted_stiffness(config, values)?;
+        let c = self.config(config)?;
+        let n = self.n_dofs();
+        let wanted = match selection {
+            ModeSelection::Lowest(m) => m.min(n),
+            ModeSelection::Below(_) => n,
+        };
+        let (mut lambda, mut Phi) =
+            shift_invert(&K_sigma, &self.M_chol, self.shift(), wanted, |p| {
+                self.dof_labels.get(p).cloned().unwrap_or_default()
+            })?;
+        if let ModeSelection::Below(f) = selection {
+            let w2 = (2.0 * std::f64::consts::PI * f).powi(2);
+            let m = lambda.iter().take_while(|&&l| l <= w2).count();
+            lambda.truncate(m);
+            Phi = Phi.subcols(0, m).to_owned();
+        }
+        let b = modal_diagonal(&c.viscous, values, &Phi);
+        let mut d = modal_diagonal(&c.hysteretic, values, &Phi);
+        if let Some(D0) = &self.D0 {
+            // Material damping: diag(Φᵀ D₀ Φ) added to the joints' d_r.
+            let W = product(D0, &Phi);
+            for (r, dr) in d.iter_mut().enumerate() {
+                *dr += (0..n).map(|i| Phi[(i, r)] * W[(i, r)]).sum::<f64>();
+            }
+        }
+        let (zeta, eta) = damping_ratios(&lambda, &b, &d);
+        Ok(ModalSolution {
+            config,
+            sensor_shapes: product(&c.S, &Phi),
+            excitation_shapes: product(&c.E, &Phi),
+            eigenvalues: lambda,
+            Phi,
+            zeta,
+            eta,
+        })
+    }
+
+    /// The modes as a [`ModalModel`] at the sensor DOFs.
+    pub fn modal_model(&self, sol: &ModalSolution) -> Result<ModalModel, DynamicsError> {
+        let c = self.config(sol.config)?;
+        let f = sol.frequencies_hz();
+        let damping = sol.damping_ratios();
+        Ok(ModalModel {
+            position: c.position.clone(),
+            dofs: self.sensors.iter().map(|s| s.1).collect(),
+            modes: (0..f.len())
+                .map(|r| Mode {
+                    frequency_hz: f[r],
+                    damping_ratio: damping[r],
+                    shape: (0..sol.sensor_shapes.nrows())
+                        .map(|i| Complex64::new(sol.sensor_shapes[(i, r)], 0.0))
+                        .collect(),
+                })
+                .collect(),
+        })
+    }
+
+    /// [`PreparedModel::evaluate_modes`] for every configuration, in order.
+    pub fn evaluate_all(
+        &self,
+        values: &[f64],
+        selection: ModeSelection,
+    ) -> Result<Vec<ModalSolution>, DynamicsError> {
+        (0..self.configurations.len())
+            .map(|c| self.evaluate_modes(c, values, selection))
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn assert_send_sync<T: Send + Sync>() {}
+
+    /// GSA and optimizers share one prepared model across rayon workers.
+    #[test]
+    fn prepared_model_is_thread_safe() {
+        assert_send_sync::<PreparedModel>();
+        assert_send_sync::<ModalSolution>();
+    }
+}
