@@ -711,6 +711,21 @@ fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
                 });
             }
         }
+        if cx.diags.is_empty() {
+            match node.kind.file_dependencies(&node.params, dir) {
+                Ok(extra) => files.extend(extra.into_iter().map(|path| FileParam {
+                    param: "(referenced)".into(),
+                    path: normalize(&path),
+                    producer: None,
+                })),
+                Err(p) => {
+                    let mut path = vec!["stages", node.base.as_str(), "params"];
+                    path.extend(p.path.iter().map(String::as_str));
+                    let loc = cx.spans.nearest(&path);
+                    cx.at(loc, format!("stage `{}`: {}", node.name, p.message), p.help);
+                }
+            }
+        }
         node.files = files;
     }
 }

@@ -10,6 +10,8 @@ pub mod artifacts;
 pub mod command;
 pub mod export;
 pub mod import;
+pub mod synthesize;
+pub mod synthesize_params;
 
 use crate::pipeline::progress::Progress;
 use serde_yaml_ng::{Mapping, Value};
@@ -231,6 +233,18 @@ pub trait Stage: Sync + Send {
     fn check(&self, _params: &Mapping) -> Result<(), ParamProblem> {
         Ok(())
     }
+    /// Look into the files the params name (relative to `dir`, the pipeline
+    /// directory) during validation: report a bad file as a problem before
+    /// anything runs, and return further files they reference (paths
+    /// relative to `dir`, e.g. a model's Matrix Market matrices), which are
+    /// hashed into the key like the params' own files.
+    fn file_dependencies(
+        &self,
+        _params: &Mapping,
+        _dir: &Path,
+    ) -> Result<Vec<String>, ParamProblem> {
+        Ok(Vec::new())
+    }
     /// Whether the stage draws random numbers, so its seed enters the key.
     fn uses_seed(&self) -> bool {
         false
@@ -246,7 +260,12 @@ pub trait Stage: Sync + Send {
 
 /// Every stage kind, in the order `modalflow` lists them.
 pub fn registry() -> &'static [&'static dyn Stage] {
-    &[&command::Command, &import::Import, &export::Export]
+    &[
+        &synthesize::Synthesize,
+        &import::Import,
+        &export::Export,
+        &command::Command,
+    ]
 }
 
 /// Look up a kind by name.

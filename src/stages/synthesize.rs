@@ -1,0 +1,474 @@
+//! The `synthesize` kind: reference data with a known truth. Solves a model
+//! file at given parameter values for every axis position and writes what a
+//! measurement would give — FRFs at the sensors (modal superposition, eq.
+//! 2.42/2.45, optionally spoiled by noise or a simulated impact test) — plus
+//! the truth: modes, parameter values and the resolved model.
+//!
+//! Outputs: `frf` (UFF 58b, one data set per position), `modes` (modes.csv
+//! and mode_shapes.csv of the modes inside the frequency band), `model`
+//! (model.json: the model file's text, referenced files and the values used,
+//! so downstream stages can rebuild it), `truth` (parameters.csv).
+
+use super::artifacts;
+use super::synthesize_params::{self as sp, Modes, Params, Values};
+use super::{
+    InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs,
+};
+use crate::dynamics::measurement::{self, GaussianStream};
+use crate::dynamics::model_file::{self, ParameterKind, Scale};
+use crate::dynamics::solve::ModeSelection;
+use crate::dynamics::superelement::directory_resolver;
+use crate::dynamics::{Model, PreparedModel};
+use crate::frf::{Dof, FrfSet};
+use crate::modal::{ModalModel, Mode};
+use num_complex::Complex64;
+use rayon::prelude::*;
+use serde_yaml_ng::{Mapping, Value};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+pub struct Synthesize;
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec { name: "model", ty: ParamType::Path, required: true, doc: "model file (YAML), relative to the pipeline file" },
+    ParamSpec { name: "values", ty: ParamType::Any, required: false, doc: "`truth` (default), {name: value} overrides, or {perturb: {relative, seed}}" },
+    ParamSpec { name: "positions", ty: ParamType::Any, required: false, doc: "axis positions to synthesize, by index or label; default all" },
+    ParamSpec { name: "sensors", ty: ParamType::Strings, required: false, doc: "subset of the model's sensors by name; default all" },
+    ParamSpec { name: "excitations", ty: ParamType::Strings, required: false, doc: "subset of the model's excitations by name; default all" },
+    ParamSpec { name: "frequency", ty: ParamType::Mapping, required: true, doc: "frequency grid {min, max, step} in Hz" },
+    ParamSpec { name: "noise", ty: ParamType::Mapping, required: false, doc: "{relative: r}: complex Gaussian noise, r times each FRF's RMS" },
+    ParamSpec { name: "impact_test", ty: ParamType::Mapping, required: false, doc: "simulated hammer test (H1/H2, coherence): sample_rate_hz, block_size, averages, force_noise, response_noise, exponential_window_end, estimator, …" },
+    ParamSpec { name: "modes", ty: ParamType::Any, required: false, doc: "modes in the superposition: a count or {below: Hz}; default all below 2·max frequency" },
+    ParamSpec { name: "quantity", ty: ParamType::Enum(&["receptance", "mobility", "accelerance"]), required: false, doc: "FRF quantity; default receptance" },
+    ParamSpec { name: "seed", ty: ParamType::Integer, required: false, doc: "noise seed; default the pipeline's seed" },
+];
+
+fn problem(path: &[&str], message: String, help: &str) -> ParamProblem {
+    ParamProblem {
+        path: path.iter().map(|s| s.to_string()).collect(),
+        message,
+        help: Some(help.into()),
+    }
+}
+
+/// Load and validate the model file named by `params.model` below `dir`.
+fn load_model(dir: &Path, rel: &str) -> Result<(Model, String), String> {
+    let path = dir.join(rel);
+    let text =
+        std::fs::read_to_string(&path).map_err(|e| format!("cannot read model file {rel}: {e}"))?;
+    let base = path.parent().unwrap_or(dir).to_path_buf();
+    let resolver = directory_resolver(&base);
+    let model = Model::from_yaml(&text, rel, &resolver).map_err(|e| e.to_string())?;
+    Ok((model, text))
+}
+
+/// Parameter values to use, in model order.
+fn values(model: &Model, spec: Option<&Values>) -> Result<Vec<f64>, String> {
+    let mut v = model.true_values();
+    match spec {
+        None | Some(Values::Named(_)) => {}
+        Some(Values::Overrides(map)) => {
+            for (name, &x) in map {
+                let i = model.parameter_index(name).ok_or_else(|| {
+                    let names: Vec<&str> =
+                        model.parameters.iter().map(|p| p.name.as_str()).collect();
+                    format!(
+                        "values: the model has no parameter `{name}` (parameters: {})",
+                        names.join(", ")
+                    )
+                })?;
+                let p = &model.parameters[i];
+                if !(x.is_finite() && p.lower <= x && x <= p.upper) {
+                    return Err(format!(
+                        "values: `{name}` = {x} is outside its bounds [{}, {}]",
+                        p.lower, p.upper
+                    ));
+                }
+                v[i] = x;
+            }
+        }
+        Some(Values::Perturb { perturb }) => {
+            // One Gaussian stream per parameter index: adding a parameter
+            // leaves the others' perturbations unchanged.
+            for (i, p) in model.parameters.iter().enumerate() {
+                let g = GaussianStream::new(perturb.seed, i as u64).standard();
+                v[i] = (p.value * (perturb.relative * g).exp()).clamp(p.lower, p.upper);
+            }
+        }
+    }
+    Ok(v)
+}
+
+/// Configuration indices selected by `positions` (indices or labels).
+fn positions(prepared: &PreparedModel, sel: Option<&[Value]>) -> Result<Vec<usize>, String> {
+    let Some(sel) = sel else {
+        return Ok((0..prepared.configurations.len()).collect());
+    };
+    let labels: Vec<&str> = prepared
+        .configurations
+        .iter()
+        .map(|c| c.position.label.as_str())
+        .collect();
+    sel.iter()
+        .map(|v| {
+            let hit = match v {
+                Value::Number(n) => n.as_u64().map(|i| i as usize).filter(|&i| i < labels.len()),
+                Value::String(s) => labels.iter().position(|l| l == s),
+                _ => None,
+            };
+            hit.ok_or_else(|| {
+                format!(
+                    "positions: no position {v:?} (positions: {})",
+                    labels.join(", ")
+                )
+            })
+        })
+        .collect()
+}
+
+fn subset(all: &[(String, Dof)], names: Option<&[String]>, what: &str) -> Result<Vec<Dof>, String> {
+    let Some(names) = names else {
+        return Ok(all.iter().map(|s| s.1).collect());
+    };
+    names
+        .iter()
+        .map(|n| {
+            all.iter().find(|s| &s.0 == n).map(|s| s.1).ok_or_else(|| {
+                let known: Vec<&str> = all.iter().map(|s| s.0.as_str()).collect();
+                format!(
+                    "{what}: the model has no {what} named `{n}` ({})",
+                    known.join(", ")
+                )
+            })
+        })
+        .collect()
+}
+
+impl Stage for Synthesize {
+    fn kind(&self) -> &'static str {
+        "synthesize"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "solve a model file and write reference FRFs (with noise or a simulated impact test), modes and the truth"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        PARAMS
+    }
+    fn inputs(&self) -> Option<&'static [InputSpec]> {
+        Some(&[])
+    }
+    fn outputs(&self, _params: &Mapping) -> Vec<String> {
+        ["frf", "modes", "model", "truth"]
+            .map(String::from)
+            .to_vec()
+    }
+    fn uses_seed(&self) -> bool {
+        true
+    }
+    fn check(&self, params: &Mapping) -> Result<(), ParamProblem> {
+        sp::parse(params).map(|_| ())
+    }
+
+    fn file_dependencies(&self, params: &Mapping, dir: &Path) -> Result<Vec<String>, ParamProblem> {
+        let p = sp::parse(params)?;
+        let (model, text) = load_model(dir, &p.model).map_err(|m| {
+            problem(
+                &["model"],
+                m,
+                "fix the model file; see pipelines/models/ for examples",
+            )
+        })?;
+        values(&model, p.values.as_ref()).map_err(|m| {
+            problem(
+                &["values"],
+                m,
+                "use the model's parameter names and stay within bounds",
+            )
+        })?;
+        let prepared_free = |names: Option<&[String]>, what| -> Result<(), ParamProblem> {
+            if let Some(names) = names {
+                let spec = model_file::parse(&text, &p.model)
+                    .map_err(|e| problem(&["model"], e.to_string(), ""))?;
+                let list = if what == "sensor" {
+                    spec.sensors
+                } else {
+                    spec.excitations
+                };
+                for n in names {
+                    if !list.iter().any(|s| &s.name == n) {
+                        let known: Vec<&str> = list.iter().map(|s| s.name.as_str()).collect();
+                        return Err(problem(
+                            &[&format!("{what}s")],
+                            format!("the model has no {what} `{n}` ({})", known.join(", ")),
+                            "use a name from the model file",
+                        ));
+                    }
+                }
+            }
+            Ok(())
+        };
+        prepared_free(p.sensors.as_deref(), "sensor")?;
+        prepared_free(p.excitations.as_deref(), "excitation")?;
+        let spec = model_file::parse(&text, &p.model)
+            .map_err(|e| problem(&["model"], e.to_string(), ""))?;
+        let model_dir = Path::new(&p.model).parent().unwrap_or(Path::new(""));
+        Ok(spec
+            .external_files()
+            .iter()
+            .map(|f| model_dir.join(f).to_string_lossy().into_owned())
+            .collect())
+    }
+
+    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let p = sp::parse(ctx.params).map_err(|e| StageError::Failed(e.message))?;
+        let invalid = |param: &str, message: String| StageError::InvalidParam {
+            param: param.into(),
+            message,
+        };
+        let (model, text) =
+            load_model(ctx.pipeline_dir, &p.model).map_err(|m| invalid("model", m))?;
+        let x = values(&model, p.values.as_ref()).map_err(|m| invalid("values", m))?;
+        ctx.progress.set_message("preparing model (reductions)");
+        let prepared = PreparedModel::new(&model).map_err(|e| invalid("model", e.to_string()))?;
+        let configs =
+            positions(&prepared, p.positions.as_deref()).map_err(|m| invalid("positions", m))?;
+        let sensors = subset(&prepared.sensors, p.sensors.as_deref(), "sensor")
+            .map_err(|m| invalid("sensors", m))?;
+        let excitations = subset(
+            &prepared.excitations,
+            p.excitations.as_deref(),
+            "excitation",
+        )
+        .map_err(|m| invalid("excitations", m))?;
+        let grid = p.frequency;
+        let quantity = sp::quantity(&p);
+        let selection = match p.modes {
+            Some(Modes::Count(n)) => ModeSelection::Lowest(n),
+            Some(Modes::Below { below }) => ModeSelection::Below(below),
+            None => ModeSelection::Below(2.0 * grid.max),
+        };
+        let seed = p.seed.unwrap_or(ctx.seed);
+        ctx.progress.set_length(configs.len() as u64);
+        ctx.progress.set_message("solving positions");
+        let per_position: Vec<Result<(FrfSet, ModalModel), StageError>> = configs
+            .par_iter()
+            .map(|&c| {
+                let r = synthesize_position(
+                    &prepared,
+                    c,
+                    &x,
+                    selection,
+                    &sensors,
+                    &excitations,
+                    &p,
+                    quantity,
+                    seed,
+                );
+                ctx.progress.inc(1);
+                r
+            })
+            .collect();
+        let mut sets = Vec::new();
+        let mut truth = Vec::new();
+        for r in per_position {
+            let (set, modes) = r?;
+            sets.push(set);
+            truth.push(modes);
+        }
+        let n_modes: usize = truth.iter().map(|m| m.modes.len()).sum();
+        artifacts::write_frf(&ctx.scratch.join(artifacts::FRF_FILE), &sets)?;
+        artifacts::write_modes(&ctx.scratch.join(artifacts::MODES_DIR), &truth)?;
+        write_model_json(ctx, &model, &text, &p.model, &x, &prepared)?;
+        write_truth_csv(ctx, &model, &x)?;
+        Ok(StageOutputs {
+            files: vec![
+                ("frf".into(), artifacts::FRF_FILE.into()),
+                ("modes".into(), artifacts::MODES_DIR.into()),
+                ("model".into(), "model.json".into()),
+                ("truth".into(), "parameters.csv".into()),
+            ],
+            counters: [
+                ("positions".to_string(), configs.len() as u64),
+                ("modes".to_string(), n_modes as u64),
+                ("dofs".to_string(), prepared.n_dofs() as u64),
+            ]
+            .into(),
+        })
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn synthesize_position(
+    prepared: &PreparedModel,
+    config: usize,
+    x: &[f64],
+    selection: ModeSelection,
+    sensors: &[Dof],
+    excitations: &[Dof],
+    p: &Params,
+    quantity: crate::frf::FrfQuantity,
+    seed: u64,
+) -> Result<(FrfSet, ModalModel), StageError> {
+    let failed = |e: &dyn std::fmt::Display| StageError::Failed(format!("position {config}: {e}"));
+    let sol = prepared
+        .evaluate_modes(config, x, selection)
+        .map_err(|e| failed(&e))?;
+    let grid = p.frequency;
+    // Per-position noise stream: positions are independent measurements.
+    let pos_seed = seed ^ (config as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+    let set = if let Some(imp) = &p.impact_test {
+        let params = imp.resolve(&grid, quantity);
+        let dof_model = modal_model_at(prepared, &sol, sensors, excitations);
+        let mut set: Option<FrfSet> = None;
+        for (k, &exc) in excitations.iter().enumerate() {
+            let s = measurement::simulate_impact_test(
+                &dof_model,
+                exc,
+                sensors,
+                &params,
+                pos_seed.wrapping_add(k as u64),
+            )
+            .map_err(|e| failed(&e))?;
+            match &mut set {
+                None => set = Some(s),
+                Some(all) => all.channels.extend(s.channels),
+            }
+        }
+        let mut set = set.ok_or_else(|| failed(&"the model has no excitation"))?;
+        set.position = prepared.configurations[config].position.clone();
+        set
+    } else {
+        let mut set = prepared
+            .frf_superposition(&sol, quantity, &grid.lines())
+            .map_err(|e| failed(&e))?;
+        set.channels
+            .retain(|c| sensors.contains(&c.response) && excitations.contains(&c.reference));
+        match &p.noise {
+            Some(n) if n.relative > 0.0 => {
+                measurement::add_relative_noise(&set, n.relative, pos_seed)
+                    .map_err(|e| failed(&e))?
+            }
+            _ => set,
+        }
+    };
+    let mut modes = prepared.modal_model(&sol).map_err(|e| failed(&e))?;
+    let keep: Vec<usize> = modes
+        .dofs
+        .iter()
+        .enumerate()
+        .filter(|(_, d)| sensors.contains(d))
+        .map(|(i, _)| i)
+        .collect();
+    modes.dofs = keep.iter().map(|&i| modes.dofs[i]).collect();
+    modes
+        .modes
+        .retain(|m| m.frequency_hz >= grid.min && m.frequency_hz <= grid.max);
+    for m in &mut modes.modes {
+        m.shape = keep.iter().map(|&i| m.shape[i]).collect();
+    }
+    Ok((set, modes))
+}
+
+/// Mass-normalized modes at the sensor and excitation DOFs, as the impact
+/// simulation needs both ends of every FRF.
+fn modal_model_at(
+    prepared: &PreparedModel,
+    sol: &crate::dynamics::solve::ModalSolution,
+    sensors: &[Dof],
+    excitations: &[Dof],
+) -> ModalModel {
+    let mut rows: Vec<(Dof, Vec<f64>)> = Vec::new();
+    let n = sol.eigenvalues.len();
+    for (i, (_, d)) in prepared.sensors.iter().enumerate() {
+        if sensors.contains(d) && !rows.iter().any(|r| r.0 == *d) {
+            rows.push((*d, (0..n).map(|r| sol.sensor_shapes[(i, r)]).collect()));
+        }
+    }
+    for (i, (_, d)) in prepared.excitations.iter().enumerate() {
+        if excitations.contains(d) && !rows.iter().any(|r| r.0 == *d) {
+            rows.push((*d, (0..n).map(|r| sol.excitation_shapes[(i, r)]).collect()));
+        }
+    }
+    let f = sol.frequencies_hz();
+    let z = sol.damping_ratios();
+    ModalModel {
+        position: prepared.configurations[sol.config].position.clone(),
+        dofs: rows.iter().map(|r| r.0).collect(),
+        modes: (0..n)
+            .map(|r| Mode {
+                frequency_hz: f[r],
+                damping_ratio: z[r],
+                shape: rows
+                    .iter()
+                    .map(|row| Complex64::new(row.1[r], 0.0))
+                    .collect(),
+            })
+            .collect(),
+    }
+}
+
+fn scale_text(s: Scale) -> &'static str {
+    match s {
+        Scale::Log => "log",
+        Scale::Linear => "linear",
+    }
+}
+
+fn kind_text(k: ParameterKind) -> &'static str {
+    match k {
+        ParameterKind::Stiffness => "stiffness",
+        ParameterKind::Damping => "damping",
+    }
+}
+
+fn write_model_json(
+    ctx: &StageContext,
+    model: &Model,
+    text: &str,
+    rel: &str,
+    x: &[f64],
+    prepared: &PreparedModel,
+) -> Result<(), StageError> {
+    let spec = model_file::parse(text, rel).map_err(|e| StageError::Failed(e.to_string()))?;
+    let model_dir = ctx.pipeline_dir.join(rel);
+    let model_dir = model_dir.parent().unwrap_or(ctx.pipeline_dir);
+    let mut external = BTreeMap::new();
+    for f in spec.external_files() {
+        let content = std::fs::read_to_string(model_dir.join(&f))
+            .map_err(|e| StageError::io(format!("cannot read {f}"), e))?;
+        external.insert(f, content);
+    }
+    let json = serde_json::json!({
+        "file": Path::new(rel).file_name().map(|n| n.to_string_lossy().into_owned()),
+        "yaml": text,
+        "external": external,
+        "parameters": model.parameters.iter().zip(x).map(|(p, v)| serde_json::json!({
+            "name": p.name, "value": v, "lower": p.lower, "upper": p.upper,
+            "scale": scale_text(p.scale), "kind": kind_text(p.kind),
+        })).collect::<Vec<_>>(),
+        "positions": prepared.configurations.iter().map(|c| serde_json::json!({"index": c.position.index, "label": c.position.label})).collect::<Vec<_>>(),
+        "dofs": prepared.n_dofs(),
+    });
+    let bytes = serde_json::to_vec_pretty(&json).unwrap_or_default();
+    std::fs::write(ctx.scratch.join("model.json"), bytes)
+        .map_err(|e| StageError::io("cannot write model.json", e))
+}
+
+fn write_truth_csv(ctx: &StageContext, model: &Model, x: &[f64]) -> Result<(), StageError> {
+    let mut out = String::from("parameter,value,lower,upper,scale,kind\n");
+    for (p, v) in model.parameters.iter().zip(x) {
+        out.push_str(&format!(
+            "{},{v:?},{:?},{:?},{},{}\n",
+            p.name,
+            p.lower,
+            p.upper,
+            scale_text(p.scale),
+            kind_text(p.kind)
+        ));
+    }
+    std::fs::write(ctx.scratch.join("parameters.csv"), out)
+        .map_err(|e| StageError::io("cannot write parameters.csv", e))
+}
