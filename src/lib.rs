@@ -11,4 +11,5 @@ pub mod io;
 pub mod metrics;
 pub mod modal;
 pub mod pipeline;
+pub mod report;
 pub mod stages;

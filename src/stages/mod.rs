@@ -8,6 +8,7 @@
 
 pub mod artifacts;
 pub mod command;
+pub mod evaluate;
 pub mod export;
 pub mod import;
 pub mod synthesize;
@@ -263,6 +264,7 @@ pub fn registry() -> &'static [&'static dyn Stage] {
     &[
         &synthesize::Synthesize,
         &import::Import,
+        &evaluate::Evaluate,
         &export::Export,
         &command::Command,
     ]

@@ -1,0 +1,3 @@
+//! Reports: self-contained HTML and Markdown pages with SVG charts.
+
+pub mod svg;

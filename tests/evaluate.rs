@@ -1,0 +1,100 @@
+//! The `evaluate` stage: criteria between synthesized references and
+//! candidates with known answers (identical → MAC = FRAC = CSF = 1, NFD = 0;
+//! a perturbed model → errors that match its perturbation).
+
+mod util;
+
+use util::Workspace;
+
+const MODELS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/models");
+
+const PIPELINE: &str = r#"name: ev
+stages:
+  truth:
+    kind: synthesize
+    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 0.5}}
+  disturbed:
+    kind: synthesize
+    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 0.5}, values: {k12.k_x: 1.8e6}}
+  same:
+    kind: evaluate
+    inputs: {reference: truth.modes, candidate: truth.modes, reference_frf: truth.frf, candidate_frf: truth.frf, truth: truth.truth, estimate: truth.truth}
+  off:
+    kind: evaluate
+    inputs: {reference: truth.modes, candidate: disturbed.modes, reference_frf: truth.frf, candidate_frf: disturbed.frf, truth: truth.truth, estimate: disturbed.truth}
+"#;
+
+fn metrics(ws: &Workspace, stage: &str) -> serde_json::Value {
+    serde_json::from_str(&ws.read(&format!("results/ev/{stage}/metrics.json"))).unwrap()
+}
+
+#[test]
+fn identical_models_score_perfectly_and_a_disturbed_one_does_not() {
+    let ws = Workspace::new();
+    std::fs::copy(
+        format!("{MODELS}/three_mass.yaml"),
+        ws.path().join("three_mass.yaml"),
+    )
+    .unwrap();
+    ws.write("p.yaml", PIPELINE);
+    ws.run(&[], 0);
+    let same = metrics(&ws, "same");
+    assert_eq!(same["modes"]["paired"], 3);
+    assert!((same["modes"]["mean_mac"].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    assert_eq!(same["modes"]["mean_nfd"], 0.0);
+    assert!((same["frf"]["mean_frac"].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    assert!((same["frf"]["mean_csf"].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    assert_eq!(same["parameters"]["max_abs_relative_error"], 0.0);
+
+    let off = metrics(&ws, "off");
+    assert_eq!(
+        off["modes"]["paired"], 3,
+        "a 20 % stiffer spring keeps modes pairable"
+    );
+    let nfd = off["modes"]["mean_nfd"].as_f64().unwrap();
+    assert!(nfd > 1e-3 && nfd < 0.1, "{nfd}");
+    assert!(off["frf"]["mean_frac"].as_f64().unwrap() < 0.99);
+    // Exactly one parameter differs, by 1.8e6 / 1.5e6 - 1 = 20 %.
+    let errors = ws.read("results/ev/off/tables/parameter_errors.csv");
+    let row = errors.lines().find(|l| l.starts_with("k12.k_x,")).unwrap();
+    let rel: f64 = row.split(',').nth(3).unwrap().parse().unwrap();
+    assert!((rel - 0.2).abs() < 1e-12, "{row}");
+    assert!(
+        (off["parameters"]["max_abs_relative_error"]
+            .as_f64()
+            .unwrap()
+            - 0.2)
+            .abs()
+            < 1e-12
+    );
+    let pairs = ws.read("results/ev/off/tables/pairs.csv");
+    assert_eq!(pairs.lines().count(), 4);
+    let svg = ws.read("results/ev/off/plots/mac_0.svg");
+    assert!(svg.starts_with("<svg") && svg.contains("MAC, position 0"));
+    assert!(ws
+        .read("results/ev/off/plots/frf_0.svg")
+        .contains("<polyline"));
+}
+
+#[test]
+fn evaluate_needs_something_to_compare() {
+    let ws = Workspace::new();
+    std::fs::copy(
+        format!("{MODELS}/three_mass.yaml"),
+        ws.path().join("three_mass.yaml"),
+    )
+    .unwrap();
+    ws.write("p.yaml", "name: ev\nstages:\n  truth:\n    kind: synthesize\n    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 1}}\n  e:\n    kind: evaluate\n    inputs: {reference: truth.modes}\n");
+    let r = ws.run(&[], 1);
+    assert!(r.stage("e")["error"]
+        .as_str()
+        .unwrap()
+        .contains("nothing to compare"));
+    ws.write(
+        "p.yaml",
+        "name: ev\nstages:\n  e:\n    kind: evaluate\n    params: {window: -1}\n",
+    );
+    let out = ws.cmd(&["validate", "p.yaml"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(util::text(&out.stderr).contains("window -1 must be > 0"));
+}
