@@ -284,11 +284,26 @@ impl Engine<'_> {
             inputs.insert(b.name.clone(), paths);
         }
         self.restore_workspace_deps(node, done)?;
+        let sources: BTreeMap<String, Vec<String>> = node
+            .inputs
+            .iter()
+            .map(|b| {
+                (
+                    b.name.clone(),
+                    b.sources
+                        .iter()
+                        .map(|(s, o)| format!("{}.{o}", self.plan.nodes[*s].name))
+                        .collect(),
+                )
+            })
+            .collect();
         let ctx = StageContext {
             stage: &node.name,
             params: &node.params,
             seed: node.seed,
             inputs: &inputs,
+            sources: &sources,
+            pipeline: &self.plan.name,
             pipeline_dir: &self.plan.dir,
             scratch,
             progress,

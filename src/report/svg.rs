@@ -307,6 +307,99 @@ pub fn heatmap(
     s
 }
 
+/// Grouped vertical bars: one group per label, one bar per series.
+pub fn bars(
+    title: &str,
+    y_label: &str,
+    labels: &[String],
+    series: &[(String, Vec<f64>)],
+) -> String {
+    let group = 14.0 * series.len().max(1) as f64 + 10.0;
+    let (l, t, b) = (70.0, 36.0, 110.0);
+    let (pw, ph) = ((group * labels.len() as f64).max(200.0), 260.0);
+    let (w, h) = (l + pw + 170.0, t + ph + b);
+    let vmax = series
+        .iter()
+        .flat_map(|s| s.1.iter().copied())
+        .filter(|v| v.is_finite())
+        .fold(0.0, f64::max);
+    let (_, top) = nice_range(0.0, if vmax > 0.0 { vmax } else { 1.0 });
+    let sy = |v: f64| t + ph - v / top * ph;
+    let mut s = header(w, h);
+    let _ = write!(
+        s,
+        r#"<text x="{}" y="22" font-size="14" text-anchor="middle" font-weight="bold">{}</text>"#,
+        w / 2.0,
+        esc(title)
+    );
+    for v in ticks(0.0, top) {
+        let y = sy(v);
+        let _ = write!(
+            s,
+            r##"<line x1="{l}" y1="{y:.1}" x2="{}" y2="{y:.1}" stroke="#ddd"/><text x="{}" y="{:.1}" font-size="11" text-anchor="end">{}</text>"##,
+            l + pw,
+            l - 5.0,
+            y + 4.0,
+            fmt_tick(v)
+        );
+    }
+    for (g, label) in labels.iter().enumerate() {
+        let x0 = l + group * g as f64 + 5.0;
+        for (k, (_, values)) in series.iter().enumerate() {
+            let v = values.get(g).copied().unwrap_or(f64::NAN);
+            if v.is_finite() && v > 0.0 {
+                let y = sy(v.min(top));
+                let _ = write!(
+                    s,
+                    r#"<rect x="{:.1}" y="{y:.1}" width="12" height="{:.1}" fill="{}"><title>{}: {}</title></rect>"#,
+                    x0 + 14.0 * k as f64,
+                    t + ph - y,
+                    PALETTE[k % PALETTE.len()],
+                    esc(label),
+                    fmt_tick(v)
+                );
+            }
+        }
+        let xc = x0 + group / 2.0 - 5.0;
+        let _ = write!(
+            s,
+            r#"<text x="{xc:.1}" y="{}" font-size="10" text-anchor="end" transform="rotate(-60 {xc:.1} {})">{}</text>"#,
+            t + ph + 12.0,
+            t + ph + 12.0,
+            esc(label)
+        );
+    }
+    for (k, (name, _)) in series.iter().enumerate() {
+        let y = t + 10.0 + 16.0 * k as f64;
+        let _ = write!(
+            s,
+            r#"<rect x="{}" y="{}" width="10" height="10" fill="{}"/><text x="{}" y="{}" font-size="11">{}</text>"#,
+            l + pw + 15.0,
+            y - 9.0,
+            PALETTE[k % PALETTE.len()],
+            l + pw + 30.0,
+            y,
+            esc(name)
+        );
+    }
+    let _ = write!(
+        s,
+        r##"<line x1="{l}" y1="{}" x2="{}" y2="{}" stroke="#444"/>"##,
+        t + ph,
+        l + pw,
+        t + ph
+    );
+    let _ = write!(
+        s,
+        r#"<text x="16" y="{}" font-size="12" text-anchor="middle" transform="rotate(-90 16 {})">{}</text>"#,
+        t + ph / 2.0,
+        t + ph / 2.0,
+        esc(y_label)
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
 fn header(w: f64, h: f64) -> String {
     format!(
         r#"<svg xmlns="http://www.w3.org/2000/svg" width="{w}" height="{h}" viewBox="0 0 {w} {h}" font-family="Helvetica, Arial, sans-serif"><rect width="100%" height="100%" fill="white"/>"#
@@ -451,6 +544,22 @@ mod tests {
         well_formed(&svg);
         assert_eq!(svg.matches("<title>").count(), 6);
         assert!(svg.contains("#08306b"), "the maximum is dark blue");
+    }
+
+    #[test]
+    fn bars_draw_one_rect_per_positive_value() {
+        let labels = vec!["k1".to_string(), "k2".to_string()];
+        let svg = bars(
+            "errors",
+            "%",
+            &labels,
+            &[
+                ("pso".into(), vec![3.0, 0.0]),
+                ("ga".into(), vec![1.0, f64::NAN]),
+            ],
+        );
+        well_formed(&svg);
+        assert_eq!(svg.matches("<title>").count(), 2);
     }
 
     #[test]

@@ -11,6 +11,7 @@ pub mod command;
 pub mod evaluate;
 pub mod export;
 pub mod import;
+pub mod report;
 pub mod synthesize;
 pub mod synthesize_params;
 
@@ -130,6 +131,11 @@ pub struct StageContext<'a> {
     /// Input artifacts by input name; a single input has one path, a list
     /// input (`stage[*].output`) one per matched stage, in expansion order.
     pub inputs: &'a BTreeMap<String, Vec<PathBuf>>,
+    /// Where each input came from, parallel to `inputs`: `stage.output`
+    /// references with expanded stage names (labels for reports).
+    pub sources: &'a BTreeMap<String, Vec<String>>,
+    /// The pipeline's name.
+    pub pipeline: &'a str,
     /// Directory of the pipeline file; relative paths in params start here.
     pub pipeline_dir: &'a Path,
     /// Empty directory owned by this run of the stage.
@@ -266,6 +272,7 @@ pub fn registry() -> &'static [&'static dyn Stage] {
         &import::Import,
         &evaluate::Evaluate,
         &export::Export,
+        &report::Report,
         &command::Command,
     ]
 }

@@ -1,0 +1,316 @@
+//! The `report` kind: one page per study — a self-contained HTML report
+//! (inline SVG) and its Markdown twin — from the artifacts of other stages:
+//! `evaluate` metrics (accuracy table), identification costs (evaluations,
+//! seconds), convergence histories, parameter errors, and any SVG figures
+//! (FRF overlays, MAC matrices, stabilization diagrams, Sobol heatmaps).
+
+use super::{InputSpec, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs};
+use crate::report::document::Document;
+use crate::report::svg::{bars, Plot, Series, PALETTE};
+use serde_json::Value as Json;
+use serde_yaml_ng::{Mapping, Value};
+use std::path::{Path, PathBuf};
+
+pub struct Report;
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "title",
+        ty: ParamType::String,
+        required: false,
+        doc: "page title (default: the pipeline name)",
+    },
+    ParamSpec {
+        name: "description",
+        ty: ParamType::String,
+        required: false,
+        doc: "a paragraph under the title",
+    },
+];
+
+const INPUTS: &[InputSpec] = &[
+    InputSpec {
+        name: "metrics",
+        required: false,
+        list: true,
+        doc: "evaluate metrics (one row each in the accuracy table)",
+    },
+    InputSpec {
+        name: "tables",
+        required: false,
+        list: true,
+        doc: "evaluate tables (parameter errors become a bar chart)",
+    },
+    InputSpec {
+        name: "costs",
+        required: false,
+        list: true,
+        doc: "identification cost.json files (evaluations, seconds)",
+    },
+    InputSpec {
+        name: "histories",
+        required: false,
+        list: true,
+        doc: "history.csv files (evaluation,best_objective): convergence curves",
+    },
+    InputSpec {
+        name: "figures",
+        required: false,
+        list: true,
+        doc: "SVG files or directories of SVG files to include",
+    },
+];
+
+impl Stage for Report {
+    fn kind(&self) -> &'static str {
+        "report"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "an HTML report (self-contained) and a Markdown twin from metrics, costs, histories and figures"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        PARAMS
+    }
+    fn inputs(&self) -> Option<&'static [InputSpec]> {
+        Some(INPUTS)
+    }
+    fn outputs(&self, _params: &Mapping) -> Vec<String> {
+        vec!["report".into()]
+    }
+
+    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let title = ctx
+            .params
+            .get("title")
+            .and_then(Value::as_str)
+            .map_or_else(|| format!("{} report", ctx.pipeline), str::to_string);
+        let mut doc = Document::new(title);
+        if let Some(d) = ctx.params.get("description").and_then(Value::as_str) {
+            doc.paragraph(d);
+        }
+        let bound = |name: &str| -> Vec<(String, PathBuf)> {
+            let labels = ctx.sources.get(name).cloned().unwrap_or_default();
+            let paths = ctx.inputs.get(name).cloned().unwrap_or_default();
+            labels
+                .into_iter()
+                .map(|l| l.rsplit_once('.').map_or(l.clone(), |(s, _)| s.to_string()))
+                .zip(paths)
+                .collect()
+        };
+        accuracy(&mut doc, &bound("metrics"))?;
+        costs(&mut doc, &bound("costs"))?;
+        convergence(&mut doc, &bound("histories"))?;
+        parameter_errors(&mut doc, &bound("tables"))?;
+        figures(&mut doc, &bound("figures"))?;
+        let dir = ctx.scratch.join("report");
+        let fig_dir = dir.join("figures");
+        std::fs::create_dir_all(&fig_dir)
+            .map_err(|e| StageError::io("cannot create report directory", e))?;
+        let write = |p: PathBuf, text: &str| {
+            std::fs::write(&p, text)
+                .map_err(|e| StageError::io(format!("cannot write {}", p.display()), e))
+        };
+        for (file, svg) in doc.figures() {
+            write(fig_dir.join(file), svg)?;
+        }
+        write(dir.join("index.html"), &doc.to_html())?;
+        write(dir.join("report.md"), &doc.to_markdown("figures"))?;
+        Ok(StageOutputs {
+            files: vec![("report".into(), dir)],
+            counters: [("figures".to_string(), doc.figures().count() as u64)].into(),
+        })
+    }
+}
+
+fn read_json(path: &Path, input: &str) -> Result<Json, StageError> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| StageError::io(format!("cannot read input `{input}`"), e))?;
+    serde_json::from_slice(&bytes).map_err(|e| StageError::InvalidInput {
+        input: input.into(),
+        message: format!("not JSON: {e}"),
+    })
+}
+
+fn pct(v: &Json) -> String {
+    v.as_f64()
+        .filter(|x| x.is_finite())
+        .map_or("–".into(), |x| format!("{:.2}", 100.0 * x))
+}
+
+fn accuracy(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageError> {
+    if inputs.is_empty() {
+        return Ok(());
+    }
+    let mut rows = Vec::new();
+    for (stage, path) in inputs {
+        let m = read_json(path, "metrics")?;
+        rows.push(vec![
+            stage.clone(),
+            m["modes"]["paired"].as_u64().map_or("–".into(), |p| {
+                format!("{p}/{}", m["modes"]["reference_modes"])
+            }),
+            pct(&m["modes"]["mean_mac"]),
+            pct(&m["modes"]["mean_nfd"]),
+            pct(&m["modes"]["mean_ndd"]),
+            pct(&m["frf"]["mean_frac"]),
+            pct(&m["frf"]["mean_csf"]),
+            pct(&m["parameters"]["mean_abs_relative_error"]),
+        ]);
+    }
+    doc.heading(2, "Accuracy");
+    let header = [
+        "stage",
+        "paired modes",
+        "MAC %",
+        "NFD %",
+        "NDD %",
+        "FRAC %",
+        "CSF %",
+        "parameter error %",
+    ];
+    doc.table(header.map(String::from).to_vec(), rows);
+    Ok(())
+}
+
+fn costs(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageError> {
+    if inputs.is_empty() {
+        return Ok(());
+    }
+    let rows = inputs
+        .iter()
+        .map(|(stage, path)| {
+            let c = read_json(path, "costs")?;
+            Ok(vec![
+                stage.clone(),
+                c["evaluations"].to_string(),
+                c["seconds"]
+                    .as_f64()
+                    .map_or("–".into(), |s| format!("{s:.2}")),
+                c["best_objective"]
+                    .as_f64()
+                    .map_or("–".into(), |f| format!("{f:.4e}")),
+            ])
+        })
+        .collect::<Result<Vec<_>, StageError>>()?;
+    doc.heading(2, "Cost");
+    doc.table(
+        ["stage", "evaluations", "seconds", "best objective"]
+            .map(String::from)
+            .to_vec(),
+        rows,
+    );
+    Ok(())
+}
+
+fn convergence(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageError> {
+    if inputs.is_empty() {
+        return Ok(());
+    }
+    let mut plot = Plot::new("Convergence", "model evaluations", "best objective");
+    plot.y_log = true;
+    for (k, (stage, path)) in inputs.iter().enumerate() {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| StageError::io("cannot read input `histories`", e))?;
+        let points: Vec<(f64, f64)> = text
+            .lines()
+            .skip(1)
+            .filter_map(|l| {
+                let mut f = l.split(',');
+                Some((
+                    f.next()?.trim().parse().ok()?,
+                    f.next()?.trim().parse().ok()?,
+                ))
+            })
+            .collect();
+        plot.series.push(Series::line(
+            stage.clone(),
+            points,
+            PALETTE[k % PALETTE.len()],
+        ));
+    }
+    doc.heading(2, "Convergence");
+    doc.figure(
+        "Best objective over model evaluations per optimizer and seed",
+        "convergence.svg",
+        plot.to_svg(),
+    );
+    Ok(())
+}
+
+fn parameter_errors(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageError> {
+    let mut labels: Vec<String> = Vec::new();
+    let mut series = Vec::new();
+    for (stage, dir) in inputs {
+        let Ok(text) = std::fs::read_to_string(dir.join("parameter_errors.csv")) else {
+            continue;
+        };
+        let mut values = Vec::new();
+        for line in text.lines().skip(1) {
+            let f: Vec<&str> = line.split(',').collect();
+            let (Some(name), Some(rel)) = (f.first(), f.get(3).and_then(|v| v.parse::<f64>().ok()))
+            else {
+                continue;
+            };
+            let i = labels.iter().position(|l| l == name).unwrap_or_else(|| {
+                labels.push(name.to_string());
+                labels.len() - 1
+            });
+            values.resize(labels.len(), f64::NAN);
+            values[i] = 100.0 * rel.abs();
+        }
+        series.push((stage.clone(), values));
+    }
+    if series.is_empty() {
+        return Ok(());
+    }
+    doc.heading(2, "Parameter errors");
+    doc.figure(
+        "Absolute relative error of each identified parameter, %",
+        "parameter_errors.svg",
+        bars("Parameter errors", "|relative error| %", &labels, &series),
+    );
+    Ok(())
+}
+
+fn figures(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageError> {
+    if inputs.is_empty() {
+        return Ok(());
+    }
+    doc.heading(2, "Figures");
+    for (stage, path) in inputs {
+        let mut files: Vec<PathBuf> = if path.is_dir() {
+            std::fs::read_dir(path)
+                .map_err(|e| StageError::io("cannot read input `figures`", e))?
+                .flatten()
+                .map(|e| e.path())
+                .filter(|p| p.extension().is_some_and(|x| x == "svg"))
+                .collect()
+        } else {
+            vec![path.clone()]
+        };
+        files.sort();
+        for f in files {
+            let svg = std::fs::read_to_string(&f)
+                .map_err(|e| StageError::io("cannot read input `figures`", e))?;
+            if !svg.contains("<svg") {
+                return Err(StageError::InvalidInput {
+                    input: "figures".into(),
+                    message: format!("{} from {stage} is not an SVG", f.display()),
+                });
+            }
+            let name = f
+                .file_name()
+                .map(|n| n.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let file = format!(
+                "{}_{name}",
+                stage.replace(|c: char| !c.is_ascii_alphanumeric(), "_")
+            );
+            doc.figure(format!("{stage}: {name}"), file, svg);
+        }
+    }
+    Ok(())
+}

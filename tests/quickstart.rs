@@ -1,0 +1,53 @@
+//! The quickstart pipeline end to end (the README's first command), in a
+//! temp copy: every stage runs, the report is self-contained, and a rerun
+//! is fully cached.
+
+mod util;
+
+use util::Workspace;
+
+fn copy_pipelines(ws: &Workspace) {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines");
+    std::fs::create_dir_all(ws.path().join("models")).unwrap();
+    for m in std::fs::read_dir(format!("{root}/models"))
+        .unwrap()
+        .flatten()
+    {
+        std::fs::copy(m.path(), ws.path().join("models").join(m.file_name())).unwrap();
+    }
+    std::fs::copy(format!("{root}/quickstart.yaml"), ws.path().join("p.yaml")).unwrap();
+}
+
+#[test]
+fn quickstart_runs_reports_and_caches() {
+    let ws = Workspace::new();
+    copy_pipelines(&ws);
+    let r = ws.run(&[], 0);
+    assert!(r.all("ran"), "{:?}", r.statuses());
+    let html = ws.read("results/quickstart/report/report/index.html");
+    assert!(html.contains("<h1>Quickstart — three-mass system</h1>"));
+    assert!(html.contains("<td>score[measurement=hammer]</td>"));
+    assert!(html.matches("<svg").count() >= 2, "figures inlined");
+    assert!(
+        !html.contains("src=\"") && !html.contains("<link"),
+        "self-contained"
+    );
+    let md = ws.read("results/quickstart/report/report/report.md");
+    for line in md.lines().filter(|l| l.starts_with("![")) {
+        let file = line.split("](").nth(1).unwrap().trim_end_matches(')');
+        assert!(
+            ws.path()
+                .join("results/quickstart/report/report")
+                .join(file)
+                .exists(),
+            "{file}"
+        );
+    }
+    // The noisy measurement scores FRAC < 1 but close to it.
+    let m: serde_json::Value =
+        serde_json::from_str(&ws.read("results/quickstart/score[measurement=noisy]/metrics.json"))
+            .unwrap();
+    let frac = m["frf"]["mean_frac"].as_f64().unwrap();
+    assert!(frac > 0.99 && frac < 1.0, "{frac}");
+    assert!(ws.run(&[], 0).all("cached"));
+}
