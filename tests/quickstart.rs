@@ -50,4 +50,15 @@ fn quickstart_runs_reports_and_caches() {
     let frac = m["frf"]["mean_frac"].as_f64().unwrap();
     assert!(frac > 0.99 && frac < 1.0, "{frac}");
     assert!(ws.run(&[], 0).all("cached"));
+
+    // `compare` tabulates the matrix expansions' metrics.
+    let out = ws.cmd(&["compare", "p.yaml", "score", "--json"]);
+    assert_eq!(out.status.code(), Some(0), "{}", util::text(&out.stderr));
+    let table: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    let rows = table["rows"].as_array().unwrap();
+    assert_eq!(rows.len(), 2);
+    assert_eq!(rows[1]["matrix"]["measurement"], "hammer");
+    assert_eq!(rows[0]["metrics"]["frf.mean_frac"].as_f64().unwrap(), frac);
+    let csv = util::text(&ws.cmd(&["compare", "p.yaml", "--csv"]).stdout);
+    assert!(csv.starts_with("stage,measurement,"), "{csv}");
 }

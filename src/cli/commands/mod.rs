@@ -1,5 +1,6 @@
 //! One module per subcommand.
 
+pub mod compare;
 pub mod dag;
 pub mod gc;
 pub mod kinds;
