@@ -25,6 +25,26 @@ pub struct Args {
     locations: Locations,
 }
 
+/// One stage's row: name, matrix values, numeric metrics.
+struct Row {
+    stage: String,
+    matrix: Vec<(String, String)>,
+    metrics: Vec<(String, f64)>,
+}
+
+impl Row {
+    fn metric(&self, col: &str) -> Option<f64> {
+        self.metrics.iter().find(|(c, _)| c == col).map(|(_, v)| *v)
+    }
+
+    fn key(&self, k: &str) -> String {
+        self.matrix
+            .iter()
+            .find(|(c, _)| c == k)
+            .map_or(String::new(), |(_, v)| v.clone())
+    }
+}
+
 const METRIC_FILES: [&str; 3] = ["metrics.json", "cost.json", "import.json"];
 
 fn matches(name: &str, pattern: &str) -> bool {
@@ -72,7 +92,7 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
     let results = args.locations.results.join(&plan.name);
     let mut keys: Vec<String> = Vec::new();
     let mut columns: Vec<String> = Vec::new();
-    let mut rows: Vec<(String, Vec<(String, String)>, Vec<(String, f64)>)> = Vec::new();
+    let mut rows: Vec<Row> = Vec::new();
     for &i in &plan.order {
         let node = &plan.nodes[i];
         if args
@@ -113,36 +133,33 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
                 columns.push(c.clone());
             }
         }
-        rows.push((node.name.clone(), matrix, metrics));
+        rows.push(Row {
+            stage: node.name.clone(),
+            matrix,
+            metrics,
+        });
     }
     if rows.is_empty() {
         anyhow::bail!("no stage results with metrics under {} (run `modalflow run {}` first, or check the pattern)", results.display(), args.file.display());
     }
-    let cell = |row: &(String, Vec<(String, String)>, Vec<(String, f64)>), col: &str| {
-        row.2.iter().find(|(c, _)| c == col).map(|(_, v)| *v)
-    };
-    let key_cell = |row: &(String, Vec<(String, String)>, Vec<(String, f64)>), k: &str| {
-        row.1
-            .iter()
-            .find(|(c, _)| c == k)
-            .map_or(String::new(), |(_, v)| v.clone())
-    };
     if args.json {
         let out: Vec<Value> = rows
             .iter()
             .map(|r| {
                 let mut m = serde_json::Map::new();
-                m.insert("stage".into(), Value::from(r.0.clone()));
+                m.insert("stage".into(), Value::from(r.stage.clone()));
                 m.insert(
                     "matrix".into(),
-                    r.1.iter()
+                    r.matrix
+                        .iter()
                         .map(|(k, v)| (k.clone(), Value::from(v.clone())))
                         .collect::<serde_json::Map<_, _>>()
                         .into(),
                 );
                 m.insert(
                     "metrics".into(),
-                    r.2.iter()
+                    r.metrics
+                        .iter()
                         .map(|(k, v)| (k.clone(), Value::from(*v)))
                         .collect::<serde_json::Map<_, _>>()
                         .into(),
@@ -159,12 +176,12 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
             .collect();
         w.write_record(&header)?;
         for r in &rows {
-            let rec: Vec<String> = std::iter::once(r.0.clone())
-                .chain(keys.iter().map(|k| key_cell(r, k)))
+            let rec: Vec<String> = std::iter::once(r.stage.clone())
+                .chain(keys.iter().map(|k| r.key(k)))
                 .chain(
                     columns
                         .iter()
-                        .map(|c| cell(r, c).map_or(String::new(), |v| v.to_string())),
+                        .map(|c| r.metric(c).map_or(String::new(), |v| v.to_string())),
                 )
                 .collect();
             w.write_record(&rec)?;
@@ -178,9 +195,9 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
         let body: Vec<Vec<String>> = rows
             .iter()
             .map(|r| {
-                std::iter::once(r.0.clone())
-                    .chain(keys.iter().map(|k| key_cell(r, k)))
-                    .chain(columns.iter().map(|c| cell(r, c).map_or("–".into(), fmt)))
+                std::iter::once(r.stage.clone())
+                    .chain(keys.iter().map(|k| r.key(k)))
+                    .chain(columns.iter().map(|c| r.metric(c).map_or("–".into(), fmt)))
                     .collect()
             })
             .collect();
