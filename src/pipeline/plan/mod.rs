@@ -1,0 +1,351 @@
+//! From a pipeline file to a validated [`Plan`]: matrix expansion, kind and
+//! param checks against each kind's schema, input resolution, file params,
+//! and the DAG. Every problem is collected as a located [`Diagnostic`];
+//! nothing runs unless the whole file validates.
+
+mod files;
+mod inputs;
+mod params;
+
+pub use files::normalize;
+use files::resolve_files;
+use inputs::resolve_inputs;
+use params::check_params;
+
+use super::diagnostic::{closest, Diagnostic, Diagnostics, Location};
+use super::graph;
+use super::matrix::{self, Combination};
+use super::span::SpanIndex;
+use super::spec::{PipelineSpec, StageSpec};
+use crate::stages::{self, Stage};
+use serde_yaml_ng::{Mapping, Value};
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+
+/// A validated, expanded pipeline ready to run.
+pub struct Plan {
+    /// The pipeline file as named on the command line.
+    pub file: PathBuf,
+    /// Directory of the pipeline file; commands run and paths resolve here.
+    pub dir: PathBuf,
+    pub name: String,
+    pub seed: u64,
+    pub nodes: Vec<Node>,
+    /// Upstream node indices of each node (deduplicated, sorted).
+    pub upstream: Vec<Vec<usize>>,
+    /// A topological order of all nodes.
+    pub order: Vec<usize>,
+}
+
+/// One expanded stage.
+pub struct Node {
+    /// Expanded name, e.g. `ident[method=pso,seed=2]`.
+    pub name: String,
+    /// The stage entry it came from.
+    pub base: String,
+    pub kind: &'static dyn Stage,
+    pub params: Mapping,
+    pub matrix: Combination,
+    pub seed: u64,
+    pub inputs: Vec<Binding>,
+    pub files: Vec<FileParam>,
+    pub outputs: Vec<String>,
+    pub workspace_outputs: Vec<String>,
+}
+
+/// An input name bound to one or more upstream outputs.
+pub struct Binding {
+    pub name: String,
+    /// `(node index, output name)` in order.
+    pub sources: Vec<(usize, String)>,
+}
+
+/// A file named in params, hashed by content into the key.
+pub struct FileParam {
+    /// Where it was named, e.g. `model` or `deps[1]`.
+    pub param: String,
+    /// Normalized path relative to the pipeline directory.
+    pub path: String,
+    /// The stage whose workspace output this is, if any (DVC-style edge).
+    pub producer: Option<(usize, String)>,
+}
+
+/// Why a pipeline could not be planned.
+#[derive(Debug, thiserror::Error)]
+pub enum PlanError {
+    #[error("cannot read pipeline file {}: {source}\n  = help: check the path; it is resolved against the current directory", path.display())]
+    Read {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{0}")]
+    Invalid(Diagnostics),
+}
+
+pub(super) struct Ctx<'a> {
+    pub(super) file: &'a Path,
+    pub(super) source: &'a str,
+    pub(super) spans: SpanIndex,
+    pub(super) diags: Vec<Diagnostic>,
+}
+
+impl Ctx<'_> {
+    pub(super) fn at(&mut self, loc: Option<Location>, message: String, help: Option<String>) {
+        let mut d = Diagnostic::new(self.file, self.source, loc, message);
+        d.help = help;
+        if !self
+            .diags
+            .iter()
+            .any(|x| x.location == d.location && x.message == d.message)
+        {
+            self.diags.push(d);
+        }
+    }
+}
+
+/// Read, parse and validate a pipeline file.
+pub fn load(file: &Path) -> Result<Plan, PlanError> {
+    let source = std::fs::read_to_string(file).map_err(|source| PlanError::Read {
+        path: file.to_path_buf(),
+        source,
+    })?;
+    // Absolute, so commands and path params resolve the same from any
+    // working directory; the directory never enters a cache key.
+    let parent = match file.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let dir = std::fs::canonicalize(&parent).map_err(|source| PlanError::Read {
+        path: parent.clone(),
+        source,
+    })?;
+    plan_source(file, &dir, &source)
+}
+
+/// Validate `source` as the pipeline file `file` located in `dir`.
+pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanError> {
+    let mut cx = Ctx {
+        file,
+        source,
+        spans: SpanIndex::default(),
+        diags: Vec::new(),
+    };
+    let spec: PipelineSpec = match serde_yaml_ng::from_str(source) {
+        Ok(s) => s,
+        Err(e) => {
+            let loc = e.location().map(|l| Location {
+                line: l.line(),
+                column: l.column(),
+            });
+            let help = "a pipeline file has `name`, optional `seed` and `description`, and `stages`; \
+                        each stage has `kind`, and optional `params`, `inputs`, `matrix`, `description`";
+            cx.at(
+                loc,
+                format!("invalid pipeline file: {e}"),
+                Some(help.into()),
+            );
+            return Err(PlanError::Invalid(Diagnostics(cx.diags)));
+        }
+    };
+    cx.spans = SpanIndex::build(source);
+    for (path, loc) in cx.spans.duplicates.clone() {
+        cx.at(
+            Some(loc),
+            format!("duplicate key `{}`", path.join(".")),
+            Some("each key may appear once per mapping; remove or rename one".into()),
+        );
+    }
+    let mut nodes = expand(&mut cx, &spec, dir);
+    resolve_inputs(&mut cx, &spec, &mut nodes);
+    resolve_files(&mut cx, dir, &mut nodes);
+    let upstream: Vec<Vec<usize>> = nodes
+        .iter()
+        .map(|n| {
+            let set: BTreeSet<usize> = n
+                .inputs
+                .iter()
+                .flat_map(|b| b.sources.iter().map(|s| s.0))
+                .chain(
+                    n.files
+                        .iter()
+                        .filter_map(|f| f.producer.as_ref().map(|p| p.0)),
+                )
+                .collect();
+            set.into_iter().collect()
+        })
+        .collect();
+    let order = match graph::topological_order(&upstream) {
+        Ok(order) => order,
+        Err(cycle) => {
+            let names: Vec<&str> = cycle.iter().map(|&i| nodes[i].name.as_str()).collect();
+            let first = &nodes[cycle[0]];
+            let loc = cx.spans.key(&["stages", &first.base, "inputs"]);
+            cx.at(
+                loc,
+                format!(
+                    "the stages form a cycle: {} -> {}",
+                    names.join(" -> "),
+                    names[0]
+                ),
+                Some(
+                    "a stage cannot depend on its own results; remove one of these inputs or deps"
+                        .into(),
+                ),
+            );
+            Vec::new()
+        }
+    };
+    if !cx.diags.is_empty() {
+        return Err(PlanError::Invalid(Diagnostics(cx.diags)));
+    }
+    Ok(Plan {
+        file: file.to_path_buf(),
+        dir: dir.to_path_buf(),
+        name: spec.name,
+        seed: spec.seed,
+        nodes,
+        upstream,
+        order,
+    })
+}
+
+fn valid_stage_name(name: &str) -> bool {
+    !name.is_empty()
+        && name
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+}
+
+/// Kinds, matrix expansion and param checks, one node per combination.
+fn expand(cx: &mut Ctx, spec: &PipelineSpec, _dir: &Path) -> Vec<Node> {
+    if !valid_stage_name(&spec.name) {
+        let loc = cx.spans.value(&["name"]);
+        cx.at(
+            loc,
+            format!("invalid pipeline name `{}`", spec.name),
+            Some("use letters, digits, `_` and `-` (it names the results directory)".into()),
+        );
+    }
+    if spec.stages.is_empty() {
+        let loc = cx.spans.key(&["stages"]);
+        cx.at(
+            loc,
+            "the pipeline has no stages".into(),
+            Some("add at least one stage under `stages:`".into()),
+        );
+    }
+    let mut nodes = Vec::new();
+    for (base, st) in &spec.stages {
+        if !valid_stage_name(base) {
+            let loc = cx.spans.key(&["stages", base]);
+            cx.at(
+                loc,
+                format!("invalid stage name `{base}`"),
+                Some("use letters, digits, `_` and `-`; dots and brackets are reserved for references".into()),
+            );
+            continue;
+        }
+        let Some(kind) = stages::find(&st.kind) else {
+            let known: Vec<&str> = stages::registry().iter().map(|s| s.kind()).collect();
+            let mut help = format!("known kinds: {}", known.join(", "));
+            if let Some(c) = closest(&st.kind, known.iter().copied()) {
+                help = format!("did you mean `{c}`? {help}");
+            }
+            let loc = cx.spans.value(&["stages", base, "kind"]);
+            cx.at(
+                loc,
+                format!("unknown stage kind `{}` in stage `{base}`", st.kind),
+                Some(help),
+            );
+            continue;
+        };
+        if !check_matrix(cx, base, st) {
+            continue;
+        }
+        for combo in matrix::combinations(&st.matrix) {
+            if let Some(node) = expand_one(cx, spec, base, st, kind, combo) {
+                nodes.push(node);
+            }
+        }
+    }
+    nodes
+}
+
+fn check_matrix(cx: &mut Ctx, base: &str, st: &StageSpec) -> bool {
+    let mut ok = true;
+    for (key, values) in &st.matrix {
+        let loc = cx.spans.value(&["stages", base, "matrix", key]);
+        if values.is_empty() {
+            cx.at(
+                loc,
+                format!("matrix key `{key}` of stage `{base}` has no values"),
+                Some("give at least one value".into()),
+            );
+            ok = false;
+        }
+        if values.iter().any(|v| matrix::scalar_text(v).is_none()) {
+            cx.at(
+                loc,
+                format!("matrix key `{key}` of stage `{base}` has a non-scalar value"),
+                Some("matrix values must be strings, numbers or booleans".into()),
+            );
+            ok = false;
+        }
+    }
+    ok
+}
+
+fn expand_one(
+    cx: &mut Ctx,
+    spec: &PipelineSpec,
+    base: &str,
+    st: &StageSpec,
+    kind: &'static dyn Stage,
+    combo: Combination,
+) -> Option<Node> {
+    let params = match matrix::substitute_map(&st.params, &combo, &mut Vec::new()) {
+        Ok(p) => p,
+        Err(e) => {
+            let mut path = vec!["stages", base, "params"];
+            path.extend(e.path.iter().map(String::as_str));
+            let loc = cx.spans.nearest(&path);
+            let keys: Vec<&str> = st.matrix.keys().map(String::as_str).collect();
+            cx.at(
+                loc,
+                format!(
+                    "`${{matrix.{}}}` in stage `{base}` names no matrix key",
+                    e.key
+                ),
+                Some(if keys.is_empty() {
+                    "this stage has no `matrix:`; add one or write the value directly".into()
+                } else {
+                    format!("matrix keys: {}", keys.join(", "))
+                }),
+            );
+            return None;
+        }
+    };
+    check_params(cx, base, kind, &params);
+    let seed = params
+        .get("seed")
+        .and_then(Value::as_u64)
+        .unwrap_or(spec.seed);
+    let outputs = kind.outputs(&params);
+    let workspace_outputs = kind
+        .workspace_outputs(&params)
+        .iter()
+        .map(|p| normalize(p))
+        .collect();
+    Some(Node {
+        name: matrix::expanded_name(base, &combo),
+        base: base.to_string(),
+        kind,
+        params,
+        matrix: combo,
+        seed,
+        inputs: Vec::new(),
+        files: Vec::new(),
+        outputs,
+        workspace_outputs,
+    })
+}
