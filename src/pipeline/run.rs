@@ -185,14 +185,18 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     }
     let keep: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
     provenance::update(&engine.store, &plan.name, updates, &keep)?;
-    Ok(RunReport {
+    Ok(in_plan_order(plan, reports))
+}
+
+fn in_plan_order(plan: &Plan, mut reports: Vec<Option<StageReport>>) -> RunReport {
+    RunReport {
         pipeline: plan.name.clone(),
         stages: plan
             .order
             .iter()
             .filter_map(|&i| reports[i].take())
             .collect(),
-    })
+    }
 }
 
 fn skipped(plan: &Plan, i: usize, reason: String) -> StageReport {
@@ -276,14 +280,7 @@ pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
         }
         reports[i] = Some(report);
     }
-    Ok(RunReport {
-        pipeline: plan.name.clone(),
-        stages: plan
-            .order
-            .iter()
-            .filter_map(|&i| reports[i].take())
-            .collect(),
-    })
+    Ok(in_plan_order(plan, reports))
 }
 
 const PENDING: &str = "pending";
