@@ -5,11 +5,14 @@
 //! file; the numerical core (frequency-response data in [`frf`], modal models
 //! in [`modal`]) knows nothing of pipelines.
 
+pub mod dense;
 pub mod dynamics;
+pub mod ema;
 pub mod frf;
 pub mod io;
 pub mod metrics;
 pub mod modal;
+pub mod optimize;
 pub mod pipeline;
 pub mod report;
 pub mod stages;

@@ -54,7 +54,7 @@ fn unknown_kind_lists_known_ones() {
             "unknown stage kind `comand` in stage `a`",
             "p.yaml:4:11",
             "did you mean `command`?",
-            "known kinds: synthesize, import, evaluate, export, report, command",
+            "known kinds: synthesize, import, autoema,",
             "4 |     kind: comand",
         ],
     );

@@ -7,6 +7,7 @@
 //! is part of every cache key, bumped whenever the kind's results would change.
 
 pub mod artifacts;
+pub mod autoema;
 pub mod command;
 pub mod evaluate;
 pub mod export;
@@ -270,6 +271,7 @@ pub fn registry() -> &'static [&'static dyn Stage] {
     &[
         &synthesize::Synthesize,
         &import::Import,
+        &autoema::AutoEma,
         &evaluate::Evaluate,
         &export::Export,
         &report::Report,

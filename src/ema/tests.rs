@@ -1,0 +1,241 @@
+//! Known-answer tests of the AutoEMA chain on synthetic FRFs built by modal
+//! superposition (eq. 2.45): PolyMAX poles, multi- vs single-reference on
+//! close modes, LSFD shapes and FRAC, and the optimized selection end to end.
+
+use super::synthetic::{four_mode_system, lines, modal_superposition, SyntheticMode};
+use super::*;
+use crate::metrics::{mac, pole};
+use num_complex::Complex64;
+
+fn data(modes: &[SyntheticMode], refs: &[usize], noise: f64) -> FrfData {
+    let set = modal_superposition(modes, refs, &lines(20.0, 260.0, 0.25), noise, 11);
+    FrfData::from_set(&set, None, Weighting::Uniform).unwrap()
+}
+
+/// Largest relative frequency and damping errors of the poles nearest each true mode.
+fn errors(order: &PoleOrder, modes: &[SyntheticMode]) -> (f64, f64) {
+    let mut worst = (0.0f64, 0.0f64);
+    for m in modes {
+        let Some(p) = order.poles.iter().min_by(|a, b| {
+            let da = (a.s - pole(m.frequency_hz, m.damping_ratio)).norm();
+            let db = (b.s - pole(m.frequency_hz, m.damping_ratio)).norm();
+            da.total_cmp(&db)
+        }) else {
+            return (f64::INFINITY, f64::INFINITY);
+        };
+        worst.0 = worst
+            .0
+            .max((p.frequency_hz - m.frequency_hz).abs() / m.frequency_hz);
+        worst.1 = worst
+            .1
+            .max((p.damping_ratio - m.damping_ratio).abs() / m.damping_ratio);
+    }
+    worst
+}
+
+#[test]
+fn polymax_recovers_poles_of_clean_two_reference_frfs() {
+    let modes = four_mode_system();
+    let orders = polymax(
+        &data(&modes, &[0, 3], 0.0),
+        &PolymaxParams { max_order: 16 },
+    )
+    .unwrap();
+    assert_eq!(orders.len(), 16);
+    assert_eq!(orders[9].order, 10);
+    let (df, dz) = errors(&orders[9], &modes);
+    assert!(
+        df < 1e-3 && dz < 0.02,
+        "order 10: frequency error {df}, damping error {dz}"
+    );
+}
+
+#[test]
+fn polymax_tolerates_one_percent_noise() {
+    let modes = four_mode_system();
+    let orders = polymax(
+        &data(&modes, &[0, 3], 0.01),
+        &PolymaxParams { max_order: 20 },
+    )
+    .unwrap();
+    let (df, dz) = errors(&orders[19], &modes);
+    assert!(
+        df < 5e-3 && dz < 0.1,
+        "order 20: frequency error {df}, damping error {dz}"
+    );
+}
+
+#[test]
+fn reusing_the_normal_equations_gives_the_per_order_rebuild_poles() {
+    let d = data(&four_mode_system(), &[0, 3], 0.01);
+    let params = PolymaxParams { max_order: 12 };
+    let fast = polymax(&d, &params).unwrap();
+    let slow = polymax_rebuild_per_order(&d, &params).unwrap();
+    for (a, b) in fast.iter().zip(&slow) {
+        assert_eq!(a.poles.len(), b.poles.len(), "order {}", a.order);
+        for (p, q) in a.poles.iter().zip(&b.poles) {
+            assert!(
+                (p.s - q.s).norm() < 1e-6 * p.s.norm(),
+                "order {}: {} vs {}",
+                a.order,
+                p.s,
+                q.s
+            );
+        }
+    }
+}
+
+/// Two modes 1 Hz apart with different shapes.
+fn close_modes() -> Vec<SyntheticMode> {
+    let m = |f, s: [f64; 4]| SyntheticMode {
+        frequency_hz: f,
+        damping_ratio: 0.01,
+        shape: s.to_vec(),
+    };
+    vec![
+        m(60.0, [0.5, 0.5, 0.5, 0.5]),
+        m(100.0, [1.0, 0.3, -0.6, 0.8]),
+        m(101.0, [0.2, 1.0, 0.7, -0.5]),
+        m(180.0, [0.4, -0.5, 0.6, -0.7]),
+    ]
+}
+
+/// Lowest order whose poles recover both close modes (0.05 % frequency, 5 % damping).
+fn first_resolving_order(orders: &[PoleOrder], modes: &[SyntheticMode]) -> Option<usize> {
+    orders
+        .iter()
+        .find(|o| {
+            let (df, dz) = errors(o, &modes[1..3]);
+            df < 5e-4 && dz < 0.05
+        })
+        .map(|o| o.order)
+}
+
+#[test]
+fn multi_reference_resolves_close_modes_at_lower_order_than_single_reference() {
+    let modes = close_modes();
+    let params = PolymaxParams { max_order: 30 };
+    let multi = polymax(&data(&modes, &[0, 1], 0.005), &params).unwrap();
+    let single = polymax(&data(&modes, &[0], 0.005), &params).unwrap();
+    let m = first_resolving_order(&multi, &modes).expect("two references resolve the close modes");
+    let s = first_resolving_order(&single, &modes).unwrap_or(usize::MAX);
+    // Same number of poles (order · references) or fewer suffices with two references.
+    assert!(
+        2 * m < s,
+        "multi-reference order {m} (×2 poles) vs single-reference order {s}"
+    );
+}
+
+#[test]
+fn lsfd_recovers_shapes_and_frfs_for_the_true_poles() {
+    let modes = four_mode_system();
+    let d = data(&modes, &[0, 3], 0.0);
+    let lambdas: Vec<Complex64> = modes
+        .iter()
+        .map(|m| pole(m.frequency_hz, m.damping_ratio))
+        .collect();
+    let fit = lsfd(&d, &lambdas).unwrap();
+    for (m, shape) in modes.iter().zip(&fit.shapes) {
+        let truth: Vec<Complex64> = m.shape.iter().map(|&v| Complex64::new(v, 0.0)).collect();
+        assert!(mac(&truth, shape) > 0.999, "MAC {}", mac(&truth, shape));
+    }
+    assert!(
+        fit.mean_frac(&d) > 0.999999,
+        "mean FRAC {}",
+        fit.mean_frac(&d)
+    );
+    // Residues of mode r at channel (o, i) are φ_o φ_i / (2jω_d) for this model.
+    let wd = lambdas[0].im;
+    let want = modes[0].shape[1] * modes[0].shape[3] / (2.0 * wd);
+    let got = fit.residues[0][d.n_ref() + 1];
+    assert!(
+        (got - Complex64::new(0.0, -want)).norm() < 1e-6 * want.abs(),
+        "{got} vs -j{want}"
+    );
+}
+
+#[test]
+fn auto_ema_finds_the_four_modes() {
+    let modes = four_mode_system();
+    let d = data(&modes, &[0, 3], 0.01);
+    let params = AutoEmaParams {
+        max_order: (8, 24),
+        evaluations: 30,
+        initial: 10,
+        seed: 4,
+        ..AutoEmaParams::default()
+    };
+    let r = auto_ema(&d, &params, &|| {}).unwrap();
+    assert_eq!(r.trace.len(), 30);
+    assert_eq!(
+        r.best.clusters.len(),
+        4,
+        "selected {:?}",
+        r.best.hyperparameters
+    );
+    for (c, m) in r.best.clusters.iter().zip(&modes) {
+        let p = &r.orders[c.representative.0].poles[c.representative.1];
+        assert!(
+            (p.frequency_hz - m.frequency_hz).abs() / m.frequency_hz < 5e-3,
+            "{} vs {}",
+            p.frequency_hz,
+            m.frequency_hz
+        );
+        assert!((p.damping_ratio - m.damping_ratio).abs() / m.damping_ratio < 0.1);
+    }
+    for (shape, m) in r.best.fit.shapes.iter().zip(&modes) {
+        let truth: Vec<Complex64> = m.shape.iter().map(|&v| Complex64::new(v, 0.0)).collect();
+        assert!(mac(&truth, shape) > 0.99);
+    }
+    assert!(r.best.mean_frac > 0.99, "mean FRAC {}", r.best.mean_frac);
+    // Fixing every hyperparameter leaves one evaluation.
+    let fixed = r.best.hyperparameters.to_array();
+    let pinned = AutoEmaParams {
+        fixed: HYPERPARAMETER_NAMES
+            .iter()
+            .zip(fixed)
+            .map(|(n, v)| (n.to_string(), v))
+            .collect(),
+        ..params.clone()
+    };
+    let again = auto_ema(&d, &pinned, &|| {}).unwrap();
+    assert_eq!(again.trace.len(), 1);
+    assert_eq!(again.best.clusters.len(), 4);
+}
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    let d = data(&four_mode_system(), &[0, 3], 0.01);
+    let params = AutoEmaParams {
+        max_order: (6, 14),
+        evaluations: 8,
+        initial: 5,
+        seed: 1,
+        ..AutoEmaParams::default()
+    };
+    let run = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .unwrap()
+            .install(|| auto_ema(&d, &params, &|| {}).unwrap())
+    };
+    assert_eq!(run(1), run(3));
+}
+
+#[test]
+fn incomplete_channel_matrices_and_tiny_bands_are_errors() {
+    let mut set = modal_superposition(
+        &four_mode_system(),
+        &[0, 3],
+        &lines(20.0, 260.0, 1.0),
+        0.0,
+        1,
+    );
+    set.channels.remove(1);
+    let e = FrfData::from_set(&set, None, Weighting::Uniform).unwrap_err();
+    assert!(e.to_string().contains("missing"), "{e}");
+    let set = modal_superposition(&four_mode_system(), &[0], &lines(20.0, 30.0, 1.0), 0.0, 1);
+    let d = FrfData::from_set(&set, None, Weighting::Uniform).unwrap();
+    assert!(polymax(&d, &PolymaxParams { max_order: 20 }).is_err());
+}

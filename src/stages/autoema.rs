@@ -1,0 +1,468 @@
+//! The `autoema` kind: automated experimental modal analysis of an `frf`
+//! artifact (seed section 5.2.2, PUB5) with [`crate::ema`]: PolyMAX poles up
+//! to the highest order, selection hyperparameters tuned by Bayesian
+//! optimization on mean FRAC, mode shapes by LSFD. Every position of the
+//! input is analysed on its own (in parallel; results do not depend on the
+//! thread count).
+
+use super::{
+    artifacts, InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError,
+    StageOutputs,
+};
+use crate::ema::stabilization_diagram::{render, Panel};
+use crate::ema::{
+    auto_ema, AutoEmaParams, AutoEmaResult, FrfData, Weighting, HYPERPARAMETER_NAMES,
+};
+use crate::frf::{FrfChannel, FrfSet};
+use crate::modal::{ModalModel, Mode};
+use rayon::prelude::*;
+use serde_yaml_ng::{Mapping, Value};
+use std::collections::BTreeMap;
+use std::fmt::Write;
+
+pub struct AutoEma;
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec { name: "band", ty: ParamType::Any, required: false, doc: "frequency band [low, high] in Hz analysed (default: all lines above 0 Hz)" },
+    ParamSpec { name: "max_order", ty: ParamType::Any, required: false, doc: "maximum model order: an integer, or [min, max] to let the optimization choose (default [10, 40])" },
+    ParamSpec { name: "iterations", ty: ParamType::Integer, required: false, doc: "Bayesian-optimization evaluations per position, initial design included (default 40)" },
+    ParamSpec { name: "initial", ty: ParamType::Integer, required: false, doc: "Latin-hypercube points before the Gaussian process takes over (default 12)" },
+    ParamSpec { name: "penalty", ty: ParamType::Number, required: false, doc: "objective penalty per mode: mean FRAC − penalty · modes (default 0.002)" },
+    ParamSpec { name: "seed", ty: ParamType::Integer, required: false, doc: "seed of the optimization (default: the pipeline seed)" },
+    ParamSpec { name: "fixed", ty: ParamType::Mapping, required: false, doc: "hyperparameters pinned to a value: frequency_tol, damping_tol, mac_tol, max_damping, cluster_distance, min_cluster_fraction, damping_weight, mac_weight, max_order" },
+    ParamSpec { name: "weighting", ty: ParamType::Enum(&["uniform", "coherence"]), required: false, doc: "PolyMAX weighting: uniform per output, or by coherence when present (default uniform)" },
+];
+
+const INPUTS: &[InputSpec] = &[InputSpec {
+    name: "frf",
+    required: true,
+    list: false,
+    doc: "FRFs (an `frf` artifact), every response measured for every reference",
+}];
+
+struct Settings {
+    band: Option<(f64, f64)>,
+    weighting: Weighting,
+    ema: AutoEmaParams,
+}
+
+fn problem(path: &[&str], message: String, help: &str) -> ParamProblem {
+    ParamProblem {
+        path: path.iter().map(|s| s.to_string()).collect(),
+        message,
+        help: Some(help.into()),
+    }
+}
+
+/// A param value as the user wrote it (flow style), for messages.
+fn show(v: &Value) -> String {
+    match v {
+        Value::Sequence(items) => format!(
+            "[{}]",
+            items.iter().map(show).collect::<Vec<_>>().join(", ")
+        ),
+        Value::Number(n) => n.to_string(),
+        Value::String(t) => t.clone(),
+        other => serde_yaml_ng::to_string(other)
+            .unwrap_or_default()
+            .trim()
+            .to_string(),
+    }
+}
+
+fn pair(v: &Value) -> Option<(f64, f64)> {
+    match v.as_sequence().map(Vec::as_slice) {
+        Some([a, b]) => Some((a.as_f64()?, b.as_f64()?)),
+        _ => None,
+    }
+}
+
+fn settings(params: &Mapping, seed: u64) -> Result<Settings, ParamProblem> {
+    let mut ema = AutoEmaParams {
+        seed,
+        ..AutoEmaParams::default()
+    };
+    let band = match params.get("band") {
+        None => None,
+        Some(v) => match pair(v) {
+            Some((lo, hi)) if lo >= 0.0 && lo < hi && hi.is_finite() => Some((lo, hi)),
+            _ => {
+                return Err(problem(
+                    &["band"],
+                    format!("band {} is not [low, high] with 0 <= low < high", show(v)),
+                    "give the band in Hz, e.g. band: [5, 400]",
+                ))
+            }
+        },
+    };
+    match params.get("max_order") {
+        None => {}
+        Some(v) => {
+            let range = v.as_u64().map(|n| (n as f64, n as f64)).or_else(|| pair(v));
+            match range {
+                Some((lo, hi))
+                    if lo >= 1.0
+                        && lo <= hi
+                        && hi <= 400.0
+                        && lo.fract() == 0.0
+                        && hi.fract() == 0.0 =>
+                {
+                    ema.max_order = (lo as usize, hi as usize)
+                }
+                _ => {
+                    return Err(problem(
+                        &["max_order"],
+                        format!(
+                            "max_order {} is not an integer or [min, max] within 1..=400",
+                            show(v)
+                        ),
+                        "e.g. max_order: 40 or max_order: [10, 60]",
+                    ))
+                }
+            }
+        }
+    }
+    let int = |name: &str, default: usize, min: u64| -> Result<usize, ParamProblem> {
+        match params.get(name) {
+            None => Ok(default),
+            Some(v) => match v.as_u64() {
+                Some(n) if n >= min && n <= 10_000 => Ok(n as usize),
+                _ => Err(problem(
+                    &[name],
+                    format!("`{name}` must be an integer from {min} to 10000"),
+                    "see `modalflow kinds`",
+                )),
+            },
+        }
+    };
+    ema.evaluations = int("iterations", ema.evaluations, 1)?;
+    ema.initial = int("initial", ema.initial, 1)?;
+    if let Some(v) = params.get("penalty") {
+        match v.as_f64() {
+            Some(x) if (0.0..1.0).contains(&x) => ema.penalty = x,
+            _ => {
+                return Err(problem(
+                    &["penalty"],
+                    format!("penalty {} is not in [0, 1)", show(v)),
+                    "a small number such as 0.002 per mode",
+                ))
+            }
+        }
+    }
+    if let Some(v) = params.get("fixed") {
+        let Some(m) = v.as_mapping() else {
+            return Err(problem(
+                &["fixed"],
+                "`fixed` must be a mapping".into(),
+                "e.g. fixed: {max_damping: 0.1}",
+            ));
+        };
+        for (k, v) in m {
+            let name = k.as_str().unwrap_or_default();
+            if !HYPERPARAMETER_NAMES.contains(&name) {
+                return Err(problem(
+                    &["fixed", name],
+                    format!("unknown hyperparameter `{name}`"),
+                    &format!("known: {}", HYPERPARAMETER_NAMES.join(", ")),
+                ));
+            }
+            match v.as_f64() {
+                Some(x) if x.is_finite() && x >= 0.0 => {
+                    ema.fixed.insert(name.to_string(), x);
+                }
+                _ => {
+                    return Err(problem(
+                        &["fixed", name],
+                        format!("`{name}` must be a non-negative number"),
+                        "pin it to a number",
+                    ))
+                }
+            }
+        }
+    }
+    let weighting = match params.get("weighting").and_then(Value::as_str) {
+        Some("coherence") => Weighting::Coherence,
+        _ => Weighting::Uniform,
+    };
+    Ok(Settings {
+        band,
+        weighting,
+        ema,
+    })
+}
+
+impl Stage for AutoEma {
+    fn kind(&self) -> &'static str {
+        "autoema"
+    }
+    fn version(&self) -> u32 {
+        1
+    }
+    fn summary(&self) -> &'static str {
+        "automated modal analysis: PolyMAX, stabilization, clustering, LSFD, tuned by Bayesian optimization"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        PARAMS
+    }
+    fn inputs(&self) -> Option<&'static [InputSpec]> {
+        Some(INPUTS)
+    }
+    fn outputs(&self, _params: &Mapping) -> Vec<String> {
+        ["modes", "poles", "frf_fit", "stabilization", "metrics"]
+            .map(String::from)
+            .to_vec()
+    }
+    fn check(&self, params: &Mapping) -> Result<(), ParamProblem> {
+        settings(params, 0).map(|_| ())
+    }
+    fn uses_seed(&self) -> bool {
+        true
+    }
+
+    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let s = settings(ctx.params, ctx.seed).map_err(|p| StageError::InvalidParam {
+            param: p.path.join("."),
+            message: p.message,
+        })?;
+        let sets = artifacts::read_frf(ctx.input("frf")?, "frf")?;
+        // Lines at 0 Hz are dropped: the LSFD lower residual −LR/ω² is singular there.
+        let band = s
+            .band
+            .map_or((f64::MIN_POSITIVE, f64::INFINITY), |(lo, hi)| {
+                (lo.max(f64::MIN_POSITIVE), hi)
+            });
+        let data: Vec<FrfData> = sets
+            .iter()
+            .map(|set| FrfData::from_set(set, Some(band), s.weighting))
+            .collect::<Result<_, _>>()
+            .map_err(|e| StageError::InvalidInput {
+                input: "frf".into(),
+                message: e.to_string(),
+            })?;
+        ctx.progress
+            .set_length((s.ema.evaluations * sets.len()) as u64);
+        let tick = || ctx.progress.inc(1);
+        let results: Vec<AutoEmaResult> = data
+            .par_iter()
+            .zip(&sets)
+            .map(|(d, set)| {
+                auto_ema(d, &s.ema, &tick).map_err(|e| {
+                    StageError::Failed(format!(
+                        "position {} ({}): {e}",
+                        set.position.index, set.position.label
+                    ))
+                })
+            })
+            .collect::<Result<_, _>>()?;
+        write_outputs(ctx, &sets, &data, &results)
+    }
+}
+
+fn write_outputs(
+    ctx: &StageContext,
+    sets: &[FrfSet],
+    data: &[FrfData],
+    results: &[AutoEmaResult],
+) -> Result<StageOutputs, StageError> {
+    let models: Vec<ModalModel> = sets
+        .iter()
+        .zip(data)
+        .zip(results)
+        .map(|((set, d), r)| ModalModel {
+            position: set.position.clone(),
+            dofs: d.responses.clone(),
+            modes: r
+                .best
+                .clusters
+                .iter()
+                .zip(&r.best.fit.shapes)
+                .map(|(c, shape)| {
+                    let p = &r.orders[c.representative.0].poles[c.representative.1];
+                    Mode {
+                        frequency_hz: p.frequency_hz,
+                        damping_ratio: p.damping_ratio,
+                        shape: shape.clone(),
+                    }
+                })
+                .collect(),
+        })
+        .collect();
+    let modes_dir = ctx.scratch.join(artifacts::MODES_DIR);
+    artifacts::write_modes(&modes_dir, &models)?;
+
+    let mut poles = String::from("position,order,frequency_hz,damping_ratio,physical,stable_frequency,stable_damping,stable_vector,cluster,selected\n");
+    for (set, r) in sets.iter().zip(results) {
+        let mut cluster_of: BTreeMap<(usize, usize), (usize, bool)> = BTreeMap::new();
+        for (k, c) in r.best.clusters.iter().enumerate() {
+            for &m in &c.members {
+                cluster_of.insert(m, (k, m == c.representative));
+            }
+        }
+        for (j, order) in r.orders.iter().enumerate() {
+            for (k, p) in order.poles.iter().enumerate() {
+                let fl = r
+                    .best
+                    .flags
+                    .get(j)
+                    .and_then(|f| f.get(k))
+                    .copied()
+                    .unwrap_or_default();
+                let (cluster, selected) = cluster_of
+                    .get(&(j, k))
+                    .map_or((String::new(), false), |&(c, s)| (c.to_string(), s));
+                let b = |v: bool| u8::from(v);
+                let _ = writeln!(
+                    poles,
+                    "{},{},{},{},{},{},{},{},{},{}",
+                    set.position.index,
+                    order.order,
+                    p.frequency_hz,
+                    p.damping_ratio,
+                    b(fl.physical),
+                    b(fl.stable_frequency),
+                    b(fl.stable_damping),
+                    b(fl.stable_vector),
+                    cluster,
+                    b(selected)
+                );
+            }
+        }
+    }
+    let poles_path = ctx.scratch.join("poles.csv");
+    write(&poles_path, poles.as_bytes())?;
+
+    let fits: Vec<FrfSet> = sets
+        .iter()
+        .zip(data)
+        .zip(results)
+        .map(|((set, d), r)| {
+            let nf = d.n_lines();
+            let mut channels = Vec::new();
+            for (o, &resp) in d.responses.iter().enumerate() {
+                for (i, &rf) in d.references.iter().enumerate() {
+                    let c = o * d.n_ref() + i;
+                    channels.push(FrfChannel {
+                        response: resp,
+                        reference: rf,
+                        values: r.best.fit.reconstructed[c * nf..(c + 1) * nf].to_vec(),
+                        coherence: None,
+                    });
+                }
+            }
+            FrfSet {
+                position: set.position.clone(),
+                quantity: set.quantity,
+                frequencies_hz: d.frequencies_hz.clone(),
+                channels,
+            }
+        })
+        .collect();
+    let fit_path = ctx.scratch.join("frf_fit.uff");
+    artifacts::write_frf(&fit_path, &fits)?;
+
+    let panels: Vec<Panel> = sets
+        .iter()
+        .zip(data)
+        .zip(results)
+        .map(|((set, d), r)| Panel {
+            title: format!(
+                "Stabilization diagram, position {} {}",
+                set.position.index, set.position.label
+            ),
+            data: d,
+            orders: &r.orders,
+            selection: &r.best,
+        })
+        .collect();
+    let svg_path = ctx.scratch.join("stabilization.svg");
+    write(&svg_path, render(&panels).as_bytes())?;
+
+    let n_modes: usize = results.iter().map(|r| r.best.clusters.len()).sum();
+    let mean_frac =
+        results.iter().map(|r| r.best.mean_frac).sum::<f64>() / results.len().max(1) as f64;
+    let metrics = serde_json::json!({
+        "mean_frac": mean_frac,
+        "n_modes": n_modes,
+        "positions": sets.iter().zip(results).map(|(set, r)| serde_json::json!({
+            "index": set.position.index,
+            "label": set.position.label,
+            "mean_frac": r.best.mean_frac,
+            "n_modes": r.best.clusters.len(),
+            "objective": r.best.objective,
+            "hyperparameters": r.best.hyperparameters,
+            "trace": r.trace,
+        })).collect::<Vec<_>>(),
+    });
+    let metrics_path = ctx.scratch.join("metrics.json");
+    write(
+        &metrics_path,
+        &serde_json::to_vec_pretty(&metrics).map_err(|e| StageError::Failed(e.to_string()))?,
+    )?;
+    let iterations: usize = results.iter().map(|r| r.trace.len()).sum();
+    let orders: usize = results.iter().map(|r| r.orders.len()).sum();
+    Ok(StageOutputs {
+        files: vec![
+            ("modes".into(), modes_dir),
+            ("poles".into(), poles_path),
+            ("frf_fit".into(), fit_path),
+            ("stabilization".into(), svg_path),
+            ("metrics".into(), metrics_path),
+        ],
+        counters: [
+            ("bo_iterations".to_string(), iterations as u64),
+            ("orders".to_string(), orders as u64),
+        ]
+        .into(),
+    })
+}
+
+fn write(path: &std::path::Path, bytes: &[u8]) -> Result<(), StageError> {
+    std::fs::write(path, bytes)
+        .map_err(|e| StageError::io(format!("cannot write {}", path.display()), e))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn params(yaml: &str) -> Mapping {
+        serde_yaml_ng::from_str(yaml).unwrap()
+    }
+
+    #[test]
+    fn settings_parse_order_ranges_and_reject_bad_values() {
+        let s = settings(
+            &params("{max_order: 30, iterations: 5, fixed: {mac_weight: 0.5}}"),
+            9,
+        )
+        .unwrap();
+        assert_eq!(s.ema.max_order, (30, 30));
+        assert_eq!((s.ema.evaluations, s.ema.seed), (5, 9));
+        assert_eq!(s.ema.fixed.get("mac_weight"), Some(&0.5));
+        let s = settings(
+            &params("{max_order: [10, 50], band: [5, 400], weighting: coherence}"),
+            0,
+        )
+        .unwrap();
+        assert_eq!(s.ema.max_order, (10, 50));
+        assert_eq!(s.band, Some((5.0, 400.0)));
+        assert_eq!(s.weighting, Weighting::Coherence);
+        for bad in [
+            "{max_order: [50, 10]}",
+            "{max_order: 2.5}",
+            "{band: [400]}",
+            "{penalty: -1}",
+            "{fixed: {max_damp: 0.1}}",
+            "{iterations: 0}",
+        ] {
+            let p = settings(&params(bad), 0)
+                .err()
+                .unwrap_or_else(|| panic!("{bad} accepted"));
+            assert!(
+                !p.path.is_empty() && p.help.is_some(),
+                "{bad}: {}",
+                p.message
+            );
+        }
+    }
+}

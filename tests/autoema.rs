@@ -1,0 +1,160 @@
+//! The `autoema` stage through the CLI: an `frf` artifact of a known 4-mode
+//! system is imported and analysed; the modes, poles, fitted FRFs,
+//! stabilization diagram and metrics land in the results directory.
+
+mod util;
+
+use modalflow::ema::synthetic::{four_mode_system, lines, modal_superposition};
+use modalflow::io::{read_frf_artifact, write_frf_artifact};
+use util::Workspace;
+
+const PIPELINE: &str = "name: ema\nseed: 3\nstages:\n  measured:\n    kind: import\n    params: {path: truth.uff}\n  ema:\n    kind: autoema\n    inputs: {frf: measured.frf}\n    params: {band: [20, 260], max_order: [8, 24], iterations: 24, initial: 10, fixed: {max_damping: 0.1}}\n";
+
+#[test]
+fn autoema_identifies_the_modes_of_a_synthetic_system() {
+    let ws = Workspace::new();
+    let modes = four_mode_system();
+    let set = modal_superposition(&modes, &[0, 3], &lines(10.0, 270.0, 0.25), 0.005, 5);
+    std::fs::write(ws.path().join("truth.uff"), write_frf_artifact(&[set])).unwrap();
+    ws.write("p.yaml", PIPELINE);
+    let report = ws.run(&[], 0);
+    let stage = report.stage("ema");
+    assert_eq!(stage["status"], "ran");
+    assert_eq!(stage["counters"]["bo_iterations"], 24);
+    assert_eq!(stage["counters"]["orders"], 24);
+
+    let csv = ws.read("results/ema/ema/modes/modes.csv");
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (fc, zc) = (col("frequency_hz"), col("damping_ratio"));
+    let rows: Vec<Vec<String>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(String::from).collect())
+        .collect();
+    assert_eq!(rows.len(), modes.len(), "modes.csv:\n{csv}");
+    for (row, m) in rows.iter().zip(&modes) {
+        let f: f64 = row[fc].parse().unwrap();
+        let z: f64 = row[zc].parse().unwrap();
+        assert!(
+            (f - m.frequency_hz).abs() / m.frequency_hz < 5e-3,
+            "{f} vs {}",
+            m.frequency_hz
+        );
+        assert!(
+            (z - m.damping_ratio).abs() / m.damping_ratio < 0.1,
+            "{z} vs {}",
+            m.damping_ratio
+        );
+    }
+    assert!(
+        ws.read("results/ema/ema/modes/mode_shapes.csv")
+            .lines()
+            .count()
+            > 1
+    );
+
+    let metrics: serde_json::Value =
+        serde_json::from_str(&ws.read("results/ema/ema/metrics.json")).unwrap();
+    assert!(metrics["mean_frac"].as_f64().unwrap() > 0.99, "{metrics}");
+    assert_eq!(metrics["n_modes"], 4);
+    assert_eq!(
+        metrics["positions"][0]["trace"].as_array().unwrap().len(),
+        24
+    );
+    assert_eq!(
+        metrics["positions"][0]["hyperparameters"]["max_damping"],
+        0.1
+    );
+
+    let poles = ws.read("results/ema/ema/poles.csv");
+    assert!(poles.starts_with("position,order,frequency_hz,damping_ratio,"));
+    let selected = poles.lines().skip(1).filter(|l| l.ends_with(",1")).count();
+    assert_eq!(selected, 4);
+
+    let fit = read_frf_artifact(
+        &std::fs::read(ws.path().join("results/ema/ema/frf_fit.uff")).unwrap(),
+        "frf_fit.uff",
+    )
+    .unwrap();
+    assert_eq!(fit[0].channels.len(), 10);
+    assert!(fit[0]
+        .frequencies_hz
+        .iter()
+        .all(|f| (20.0..=260.0).contains(f)));
+
+    let svg = ws.read("results/ema/ema/stabilization.svg");
+    assert!(svg.starts_with("<?xml") && svg.trim_end().ends_with("</svg>"));
+    assert!(svg.contains("Model order") && svg.contains("Frequency [Hz]"));
+
+    // A rerun is cached.
+    assert_eq!(ws.run(&[], 0).status_of("ema"), "cached");
+}
+
+#[test]
+fn bad_autoema_params_are_reported_before_anything_runs() {
+    let ws = Workspace::new();
+    let set = modal_superposition(&four_mode_system(), &[0], &lines(10.0, 100.0, 1.0), 0.0, 1);
+    std::fs::write(ws.path().join("truth.uff"), write_frf_artifact(&[set])).unwrap();
+    ws.write(
+        "p.yaml",
+        &PIPELINE.replace("max_damping: 0.1", "max_dampin: 0.1"),
+    );
+    let out = ws.cmd(&["run", "p.yaml", "--progress", "none"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = util::text(&out.stderr);
+    assert!(
+        err.contains("max_dampin") && err.contains("max_damping"),
+        "{err}"
+    );
+}
+
+#[test]
+fn positions_are_analysed_separately() {
+    let ws = Workspace::new();
+    let modes = four_mode_system();
+    let stiffer: Vec<_> = modes
+        .iter()
+        .map(|m| modalflow::ema::synthetic::SyntheticMode {
+            frequency_hz: 1.05 * m.frequency_hz,
+            ..m.clone()
+        })
+        .collect();
+    let grid = lines(10.0, 270.0, 0.5);
+    let mut sets = vec![
+        modal_superposition(&modes, &[0, 3], &grid, 0.005, 1),
+        modal_superposition(&stiffer, &[0, 3], &grid, 0.005, 2),
+    ];
+    sets[1].position = modalflow::frf::Position {
+        index: 1,
+        label: "stiff".into(),
+    };
+    std::fs::write(ws.path().join("truth.uff"), write_frf_artifact(&sets)).unwrap();
+    ws.write(
+        "p.yaml",
+        &PIPELINE.replace("iterations: 24", "iterations: 16"),
+    );
+    let report = ws.run(&[], 0);
+    assert_eq!(report.stage("ema")["counters"]["bo_iterations"], 32);
+    let csv = ws.read("results/ema/ema/modes/modes.csv");
+    let header: Vec<&str> = csv.lines().next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap();
+    let (pc, fc) = (col("position"), col("frequency_hz"));
+    for (pos, truth) in [(0, &modes), (1, &stiffer)] {
+        let found: Vec<f64> = csv
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|r| r[pc] == pos.to_string())
+            .map(|r| r[fc].parse().unwrap())
+            .collect();
+        assert_eq!(found.len(), 4, "position {pos}:\n{csv}");
+        for (f, m) in found.iter().zip(truth.iter()) {
+            assert!(
+                (f - m.frequency_hz).abs() / m.frequency_hz < 5e-3,
+                "position {pos}: {f} vs {}",
+                m.frequency_hz
+            );
+        }
+    }
+}
