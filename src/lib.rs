@@ -8,6 +8,7 @@
 pub mod dense;
 pub mod dynamics;
 pub mod ema;
+pub mod evaluation;
 pub mod frf;
 pub mod io;
 pub mod metrics;
@@ -15,4 +16,5 @@ pub mod modal;
 pub mod optimize;
 pub mod pipeline;
 pub mod report;
+pub mod sensitivity;
 pub mod stages;

@@ -11,6 +11,7 @@ pub mod autoema;
 pub mod command;
 pub mod evaluate;
 pub mod export;
+pub mod gsa;
 pub mod import;
 pub mod report;
 pub mod synthesize;
@@ -272,6 +273,7 @@ pub fn registry() -> &'static [&'static dyn Stage] {
         &synthesize::Synthesize,
         &import::Import,
         &autoema::AutoEma,
+        &gsa::Gsa,
         &evaluate::Evaluate,
         &export::Export,
         &report::Report,

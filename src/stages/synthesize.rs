@@ -62,6 +62,25 @@ fn load_model(dir: &Path, rel: &str) -> Result<(Model, String), String> {
     Ok((model, text))
 }
 
+/// Files a model file references, relative to the pipeline directory
+/// (`rel` is the model file's path relative to it).
+fn external_files(spec: &model_file::ModelFile, rel: &str) -> Vec<String> {
+    let model_dir = Path::new(rel).parent().unwrap_or(Path::new(""));
+    spec.external_files()
+        .iter()
+        .map(|f| model_dir.join(f).to_string_lossy().into_owned())
+        .collect()
+}
+
+/// Validate the model file `rel` (relative to the pipeline directory `dir`)
+/// and list the files it references, for cache keys of other kinds that
+/// read model files.
+pub(crate) fn model_file_dependencies(dir: &Path, rel: &str) -> Result<Vec<String>, String> {
+    let (_, text) = load_model(dir, rel)?;
+    let spec = model_file::parse(&text, rel).map_err(|e| e.to_string())?;
+    Ok(external_files(&spec, rel))
+}
+
 /// Parameter values to use, in model order.
 fn values(model: &Model, spec: Option<&Values>) -> Result<Vec<f64>, String> {
     let mut v = model.true_values();
@@ -188,38 +207,27 @@ impl Stage for Synthesize {
                 "use the model's parameter names and stay within bounds",
             )
         })?;
-        let prepared_free = |names: Option<&[String]>, what| -> Result<(), ParamProblem> {
-            if let Some(names) = names {
-                let spec = model_file::parse(&text, &p.model)
-                    .map_err(|e| problem(&["model"], e.to_string(), ""))?;
-                let list = if what == "sensor" {
-                    spec.sensors
-                } else {
-                    spec.excitations
-                };
-                for n in names {
-                    if !list.iter().any(|s| &s.name == n) {
-                        let known: Vec<&str> = list.iter().map(|s| s.name.as_str()).collect();
-                        return Err(problem(
-                            &[&format!("{what}s")],
-                            format!("the model has no {what} `{n}` ({})", known.join(", ")),
-                            "use a name from the model file",
-                        ));
-                    }
+        let spec = model_file::parse(&text, &p.model)
+            .map_err(|e| problem(&["model"], e.to_string(), ""))?;
+        let check_names = |names: Option<&[String]>,
+                           list: &[model_file::PointDofSpec],
+                           what: &str|
+         -> Result<(), ParamProblem> {
+            for n in names.unwrap_or_default() {
+                if !list.iter().any(|s| &s.name == n) {
+                    let known: Vec<&str> = list.iter().map(|s| s.name.as_str()).collect();
+                    return Err(problem(
+                        &[&format!("{what}s")],
+                        format!("the model has no {what} `{n}` ({})", known.join(", ")),
+                        "use a name from the model file",
+                    ));
                 }
             }
             Ok(())
         };
-        prepared_free(p.sensors.as_deref(), "sensor")?;
-        prepared_free(p.excitations.as_deref(), "excitation")?;
-        let spec = model_file::parse(&text, &p.model)
-            .map_err(|e| problem(&["model"], e.to_string(), ""))?;
-        let model_dir = Path::new(&p.model).parent().unwrap_or(Path::new(""));
-        Ok(spec
-            .external_files()
-            .iter()
-            .map(|f| model_dir.join(f).to_string_lossy().into_owned())
-            .collect())
+        check_names(p.sensors.as_deref(), &spec.sensors, "sensor")?;
+        check_names(p.excitations.as_deref(), &spec.excitations, "excitation")?;
+        Ok(external_files(&spec, &p.model))
     }
 
     fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {

@@ -1,0 +1,326 @@
+//! A modalflow structural model ([`crate::dynamics`]) as a [`Model`] for GSA
+//! and identification: parameter values in, per axis position (model
+//! configuration) and reference mode three outputs —
+//!
+//! - `p{position}.mode{r}.frequency`: eigenfrequency of the paired model mode, Hz
+//! - `p{position}.mode{r}.damping`: its damping ratio (ζ + η/2)
+//! - `p{position}.mode{r}.mac`: MAC (eq. 2.62) with reference mode r
+//!
+//! (`r` 1-based in reference order). Model modes are paired with the
+//! reference modes of the same position one-to-one by
+//! [`crate::metrics::pair_modes`] within a relative frequency window. A
+//! reference mode left unpaired (its partner moved out of the window or
+//! another mode claimed it) takes the model mode nearest in frequency among
+//! those left, so every output stays finite — such a sample simply has a low
+//! MAC. Shapes are compared at the DOFs the reference and the model's sensors
+//! share (same node and axis; an opposite sign flips the coefficient).
+
+use super::{check_dimension, EvalError, Model, Parameter, Scale};
+use crate::dynamics::{self, DynamicsError, PreparedModel};
+use crate::metrics::{mac, pair_modes};
+use crate::modal::ModalModel;
+use num_complex::Complex64;
+
+/// Pairing settings.
+#[derive(Clone, Copy, Debug)]
+pub struct StructuralOptions {
+    /// Relative frequency window for pairing (0.2 = ±20 %, eq. 2.64).
+    pub window: f64,
+    /// Model modes computed per position; at least the reference's count.
+    pub modes: usize,
+}
+
+impl Default for StructuralOptions {
+    fn default() -> Self {
+        StructuralOptions {
+            window: 0.2,
+            modes: 0,
+        }
+    }
+}
+
+/// Reference modes of one position reduced to the shared DOFs.
+struct Reference {
+    config: usize,
+    frequencies: Vec<f64>,
+    shapes: Vec<Vec<Complex64>>,
+    /// (model sensor row, sign) per shared DOF.
+    rows: Vec<(usize, f64)>,
+}
+
+/// A prepared structural model with reference modes.
+pub struct StructuralModel {
+    prepared: PreparedModel,
+    parameters: Vec<Parameter>,
+    outputs: Vec<String>,
+    references: Vec<Reference>,
+    modes: usize,
+    window: f64,
+}
+
+fn model_error(e: DynamicsError) -> EvalError {
+    EvalError::Domain(e.to_string())
+}
+
+impl StructuralModel {
+    /// Wrap `model` with reference modes per position (matched by position
+    /// index). `reference = None` uses the model's own lowest `options.modes`
+    /// modes at its true parameter values (a self-consistent study).
+    pub fn new(
+        model: &dynamics::Model,
+        reference: Option<&[ModalModel]>,
+        options: StructuralOptions,
+    ) -> Result<StructuralModel, EvalError> {
+        if !(options.window > 0.0 && options.window.is_finite()) {
+            return Err(EvalError::Domain(format!(
+                "pairing window {} must be a positive fraction such as 0.2",
+                options.window
+            )));
+        }
+        let prepared = PreparedModel::new(model).map_err(model_error)?;
+        let parameters = model
+            .parameters
+            .iter()
+            .map(|p| {
+                let scale = match p.scale {
+                    dynamics::Scale::Log => Scale::Log,
+                    dynamics::Scale::Linear => Scale::Linear,
+                };
+                Parameter::new(p.name.clone(), p.lower, p.upper, scale)
+                    .and_then(|q| q.with_nominal(p.value.clamp(p.lower, p.upper)))
+                    .map_err(|e| EvalError::Domain(e.to_string()))
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        let own: Vec<ModalModel>;
+        let reference = match reference {
+            Some(r) => r,
+            None => {
+                if options.modes == 0 {
+                    return Err(EvalError::Domain(
+                        "without reference modes, give the number of model modes to use".into(),
+                    ));
+                }
+                let values = model.true_values();
+                own = (0..prepared.configurations.len())
+                    .map(|c| {
+                        let sol = prepared.evaluate(c, &values, options.modes)?;
+                        prepared.modal_model(&sol)
+                    })
+                    .collect::<Result<_, _>>()
+                    .map_err(model_error)?;
+                &own
+            }
+        };
+        let mut references = Vec::new();
+        let mut outputs = Vec::new();
+        let mut most = 0;
+        for r in reference {
+            let Some(config) = prepared
+                .configurations
+                .iter()
+                .position(|c| c.position.index == r.position.index)
+            else {
+                return Err(EvalError::Domain(format!(
+                    "reference position {} ({}) is not a configuration of the model, which has {}",
+                    r.position.index,
+                    r.position.label,
+                    prepared.configurations.len()
+                )));
+            };
+            let mut rows = Vec::new();
+            let mut keep = Vec::new();
+            for (k, d) in r.dofs.iter().enumerate() {
+                let found = prepared
+                    .sensors
+                    .iter()
+                    .position(|(_, s)| s.node == d.node && s.direction.abs() == d.direction.abs());
+                if let Some(i) = found {
+                    let sign = if prepared.sensors[i].1.direction == d.direction {
+                        1.0
+                    } else {
+                        -1.0
+                    };
+                    rows.push((i, sign));
+                    keep.push(k);
+                }
+            }
+            if rows.is_empty() {
+                return Err(EvalError::Domain(format!(
+                    "reference position {} shares no DOF with the model's sensors; check node numbers and directions",
+                    r.position.index
+                )));
+            }
+            for m in 1..=r.modes.len() {
+                for q in ["frequency", "damping", "mac"] {
+                    outputs.push(format!("p{}.mode{m}.{q}", r.position.index));
+                }
+            }
+            most = most.max(r.modes.len());
+            references.push(Reference {
+                config,
+                frequencies: r.modes.iter().map(|m| m.frequency_hz).collect(),
+                shapes: r
+                    .modes
+                    .iter()
+                    .map(|m| keep.iter().map(|&k| m.shape[k]).collect())
+                    .collect(),
+                rows,
+            });
+        }
+        if outputs.is_empty() {
+            return Err(EvalError::Domain("the reference has no modes".into()));
+        }
+        Ok(StructuralModel {
+            prepared,
+            parameters,
+            outputs,
+            references,
+            modes: options.modes.max(most),
+            window: options.window,
+        })
+    }
+}
+
+impl Model for StructuralModel {
+    fn parameters(&self) -> &[Parameter] {
+        &self.parameters
+    }
+    fn outputs(&self) -> &[String] {
+        &self.outputs
+    }
+    fn evaluate(&self, x: &[f64]) -> Result<Vec<f64>, EvalError> {
+        check_dimension(self, x)?;
+        let mut out = Vec::with_capacity(self.outputs.len());
+        for r in &self.references {
+            let sol = self
+                .prepared
+                .evaluate(r.config, x, self.modes)
+                .map_err(model_error)?;
+            let f = sol.frequencies_hz();
+            let zeta = sol.damping_ratios();
+            let shapes: Vec<Vec<Complex64>> = (0..f.len())
+                .map(|m| {
+                    r.rows
+                        .iter()
+                        .map(|&(i, s)| Complex64::new(s * sol.sensor_shapes[(i, m)], 0.0))
+                        .collect()
+                })
+                .collect();
+            let pairs = pair_modes(&r.frequencies, &r.shapes, &f, &shapes, self.window, 0.0);
+            let mut partner: Vec<Option<usize>> = vec![None; r.frequencies.len()];
+            let mut used = vec![false; f.len()];
+            for p in &pairs {
+                partner[p.reference] = Some(p.candidate);
+                used[p.candidate] = true;
+            }
+            for (i, fr) in r.frequencies.iter().enumerate() {
+                let m = match partner[i] {
+                    Some(m) => m,
+                    None => {
+                        let nearest = (0..f.len())
+                            .filter(|&m| !used[m])
+                            .min_by(|&a, &b| (f[a] - fr).abs().total_cmp(&(f[b] - fr).abs()))
+                            .or_else(|| {
+                                (0..f.len()).min_by(|&a, &b| {
+                                    (f[a] - fr).abs().total_cmp(&(f[b] - fr).abs())
+                                })
+                            })
+                            .ok_or_else(|| EvalError::Domain("the model has no modes".into()))?;
+                        used[nearest] = true;
+                        nearest
+                    }
+                };
+                out.extend([f[m], zeta[m], mac(&r.shapes[i], &shapes[m])]);
+            }
+        }
+        Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sensitivity::sobol::{run, SobolParams};
+
+    /// Two masses, ground -k1- m1 -k2- m2, with dampers.
+    const TWO_MASS: &str = r#"
+parameters:
+  - {name: k1, value: 1.0e6, lower: 5.0e5, upper: 2.0e6, scale: log, kind: stiffness}
+  - {name: k2, value: 1.0e6, lower: 5.0e5, upper: 2.0e6, scale: log, kind: stiffness}
+  - {name: c1, value: 20.0, lower: 10.0, upper: 40.0, scale: log, kind: damping}
+bodies:
+  - name: m1
+    rigid: {mass: 1.0, inertia: [[1.0e-3, 0, 0], [0, 1.0e-3, 0], [0, 0, 1.0e-3]], cg: [0, 0, 0], points: {c: [0, 0, 0]}, dofs: [x]}
+  - name: m2
+    rigid: {mass: 1.0, inertia: [[1.0e-3, 0, 0], [0, 1.0e-3, 0], [0, 0, 1.0e-3]], cg: [0.1, 0, 0], points: {c: [0.1, 0, 0]}, dofs: [x]}
+joints:
+  - {name: j1, a: {body: m1, point: c}, connections: [{dir: x, stiffness: k1, damper: c1}]}
+  - {name: j2, a: {body: m2, point: c}, b: {body: m1, point: c}, connections: [{dir: x, stiffness: k2}]}
+sensors:
+  - {name: s1, body: m1, point: c, node: 1, direction: 1}
+  - {name: s2, body: m2, point: c, node: 2, direction: 1}
+excitations:
+  - {name: f, body: m1, point: c, node: 1, direction: 1}
+"#;
+
+    fn model() -> StructuralModel {
+        let read = |p: &str| std::fs::read(p);
+        let m = dynamics::Model::from_yaml(TWO_MASS, "two_mass.yaml", &read).unwrap();
+        StructuralModel::new(
+            &m,
+            None,
+            StructuralOptions {
+                window: 0.2,
+                modes: 2,
+            },
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn outputs_at_the_true_values_reproduce_the_reference() {
+        let m = model();
+        assert_eq!(m.outputs().len(), 6);
+        assert_eq!(m.outputs()[0], "p0.mode1.frequency");
+        assert_eq!(m.outputs()[5], "p0.mode2.mac");
+        let y = m.evaluate(&[1.0e6, 1.0e6, 20.0]).unwrap();
+        // Equal masses and springs: ω² = k/m (3 ∓ √5)/2.
+        let f =
+            |s: f64| (1.0e6 * (3.0 + s * 5f64.sqrt()) / 2.0).sqrt() / (2.0 * std::f64::consts::PI);
+        assert!((y[0] - f(-1.0)).abs() < 1e-6 * f(-1.0), "{y:?}");
+        assert!((y[3] - f(1.0)).abs() < 1e-6 * f(1.0), "{y:?}");
+        assert!((y[2] - 1.0).abs() < 1e-12 && (y[5] - 1.0).abs() < 1e-12);
+        assert!(y[1] > 0.0 && y[4] > 0.0);
+        // A changed k2 moves both modes; pairing still finds them.
+        let y2 = m.evaluate(&[1.0e6, 1.5e6, 20.0]).unwrap();
+        assert!(y2[0] > y[0] && y2[2] > 0.9);
+    }
+
+    #[test]
+    fn sobol_on_the_structural_model() {
+        let m = model();
+        let p = SobolParams {
+            n: 128,
+            bootstrap: 10,
+            ..SobolParams::default()
+        };
+        let r = run(&m, &p, &|_| {}).unwrap();
+        assert_eq!(r.evaluations, 128 * 5);
+        let damping = &r
+            .outputs
+            .iter()
+            .find(|(o, _)| o == "p0.mode1.damping")
+            .unwrap()
+            .1;
+        let freq = &r
+            .outputs
+            .iter()
+            .find(|(o, _)| o == "p0.mode1.frequency")
+            .unwrap()
+            .1;
+        // The damper matters for damping only; the frequencies ignore it.
+        assert!(freq.ST[2].abs() < 1e-9, "{freq:?}");
+        assert!(damping.ST[2] > 0.3, "{damping:?}");
+        assert!(freq.ST[0] > 0.1 && freq.ST[1] > 0.1, "{freq:?}");
+    }
+}

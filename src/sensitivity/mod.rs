@@ -1,0 +1,45 @@
+//! Global sensitivity analysis (seed section 2.1; PUB1, PUB2):
+//!
+//! - [`sobol`]: variance-based Sobol indices — Saltelli sampling on a
+//!   scrambled Sobol sequence, Saltelli-2010 first-order and Jansen total
+//!   estimators, bootstrap confidence intervals (`sobol::{sample, analyze}`
+//!   as in SALib, and `sobol::run` over a [`crate::evaluation::Model`]);
+//! - [`aggregate`](mod@aggregate): weighted combination of total indices over outputs and a
+//!   threshold → significant parameters and per-output subproblems (PUB2);
+//! - [`anova`](mod@anova): ANOVA tables for factorial designs (section 2.1.1, PUB1).
+
+pub mod aggregate;
+pub mod anova;
+pub mod sobol;
+
+pub use aggregate::{aggregate, Screening, Subproblem};
+pub use anova::{anova, AnovaRow, Design, Factor};
+
+use crate::evaluation::EvalError;
+
+/// Why a sensitivity analysis cannot be carried out.
+#[derive(Debug, thiserror::Error)]
+pub enum SensitivityError {
+    /// Settings or data that cannot be analyzed (sizes, ranges, non-finite outputs).
+    #[error("{0}")]
+    Invalid(String),
+    /// A parameter subset names a parameter the model does not have.
+    #[error("unknown parameter `{name}`; the model's parameters are: {}", known.join(", "))]
+    UnknownParameter { name: String, known: Vec<String> },
+    /// An output selection names an output the model does not have.
+    #[error("unknown output `{name}`; the model's outputs are: {}", known.join(", "))]
+    UnknownOutput { name: String, known: Vec<String> },
+    /// Evaluating the model failed (the error names the sample).
+    #[error("model evaluation failed: {0}")]
+    Evaluation(#[from] EvalError),
+    /// A data table is malformed, with its file and 1-based line.
+    #[error("{file}:{line}: {message}")]
+    Table {
+        file: String,
+        line: u64,
+        message: String,
+    },
+    /// A multi-factor ANOVA design whose level combinations are not equally filled.
+    #[error("unbalanced design: {0}")]
+    Unbalanced(String),
+}
