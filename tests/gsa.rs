@@ -48,6 +48,15 @@ fn sobol_on_ishigami_writes_indices_screening_and_heatmap() {
     assert_eq!(sub["threshold"], 0.1);
     let svg = ws.read("results/g/ishigami/sobol.svg");
     assert!(svg.starts_with("<svg") && svg.contains(">x3</text>"));
+    // Ranked by total index: x1 (0.56) > x2 (0.44) > x3 (0.24).
+    let ranking = ws.read("results/g/ishigami/ranking.csv");
+    let order: Vec<&str> = ranking
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').nth(1).unwrap())
+        .collect();
+    assert_eq!(order, ["x1", "x2", "x3"], "{ranking}");
+    assert!(ranking.starts_with("rank,parameter,score,significant\n1,x1,"));
     // A rerun is cached and the seed is part of the key.
     assert_eq!(ws.run(&[], 0).status_of("ishigami"), "cached");
     ws.write("p.yaml", &ws.read("p.yaml").replace("seed: 5", "seed: 6"));

@@ -16,7 +16,6 @@
 //!
 //! Results are bit-identical for a seed whatever the thread count.
 
-mod heatmap;
 mod model_spec;
 mod spec;
 
@@ -32,8 +31,6 @@ use serde_yaml_ng::{Mapping, Value};
 use spec::{AnovaSpec, GsaSpec, SobolSpec};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
-
-pub use heatmap::svg as heatmap_svg;
 
 pub struct Gsa;
 
@@ -97,7 +94,12 @@ impl Stage for Gsa {
         if is_anova(params) {
             return vec!["anova".into()];
         }
-        let mut out = vec!["indices".into(), "subproblems".into(), "heatmap".into()];
+        let mut out = vec![
+            "indices".into(),
+            "ranking".into(),
+            "subproblems".into(),
+            "heatmap".into(),
+        ];
         if params.get("second_order").and_then(Value::as_bool) == Some(true) {
             out.push("second_order".into());
         }
@@ -266,18 +268,35 @@ fn run_sobol(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageErr
     write(&subproblems, &(text + "\n"))?;
 
     let heatmap = ctx.scratch.join("sobol.svg");
-    write(
-        &heatmap,
-        &heatmap::svg(
-            &format!("Total Sobol indices ST ({})", ctx.stage),
-            &names,
-            &report.parameters,
-            &st,
-        ),
-    )?;
+    let svg = crate::report::svg::heatmap(
+        &format!("Total Sobol indices ST ({})", ctx.stage),
+        &names,
+        &report.parameters,
+        &st,
+        0.0,
+        1.0,
+    );
+    write(&heatmap, &svg)?;
+
+    // The PUB2 split: parameters ranked by their weighted total index.
+    let mut ranked = screening.combined_ST.clone();
+    ranked.sort_by(|a, b| b.1.total_cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+    let mut csv = String::from("rank,parameter,score,significant\n");
+    for (k, (p, v)) in ranked.iter().enumerate() {
+        let _ = writeln!(
+            csv,
+            "{},{p},{},{}",
+            k + 1,
+            num(*v),
+            screening.significant.contains(p)
+        );
+    }
+    let ranking = ctx.scratch.join("ranking.csv");
+    write(&ranking, &csv)?;
 
     let mut files: Vec<(String, PathBuf)> = vec![
         ("indices".into(), indices),
+        ("ranking".into(), ranking),
         ("subproblems".into(), subproblems),
         ("heatmap".into(), heatmap),
     ];
