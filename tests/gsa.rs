@@ -170,7 +170,7 @@ fn anova_on_a_factorial_table() {
     ws.run(&[], 0);
     let csv = ws.read("results/a/coffee/anova.csv");
     let lines: Vec<&str> = csv.lines().collect();
-    assert_eq!(lines[0], "source,SS,DOF,MS,F,p");
+    assert_eq!(lines[0], "source,SSB,dof,MS,F,p");
     let sources: Vec<&str> = lines[1..]
         .iter()
         .map(|l| l.split(',').next().unwrap())

@@ -12,7 +12,7 @@
 //! damping ratio and MAC per position and reference mode
 //! ([`crate::evaluation::structural`]).
 //! `method: anova` reads a factorial table (CSV) and writes the ANOVA table
-//! (`anova.csv`: `source,SS,DOF,MS,F,p`).
+//! (`anova.csv`: `source,SSB,dof,MS,F,p`).
 //!
 //! Results are bit-identical for a seed whatever the thread count.
 
@@ -333,7 +333,7 @@ fn run_anova(ctx: &StageContext, a: &AnovaSpec) -> Result<StageOutputs, StageErr
     let design = sensitivity::Design::from_csv(&text, &a.data, &a.response, a.factors.as_deref())
         .map_err(invalid)?;
     let rows = sensitivity::anova(&design, a.interactions).map_err(invalid)?;
-    let mut csv = String::from("source,SS,DOF,MS,F,p\n");
+    let mut csv = String::from("source,SSB,dof,MS,F,p\n");
     for r in &rows {
         let opt = |v: Option<f64>| v.map(num).unwrap_or_default();
         let _ = writeln!(
