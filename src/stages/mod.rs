@@ -12,6 +12,7 @@ pub mod command;
 pub mod evaluate;
 pub mod export;
 pub mod gsa;
+pub mod identify;
 pub mod import;
 pub mod report;
 pub mod synthesize;
@@ -274,6 +275,7 @@ pub fn registry() -> &'static [&'static dyn Stage] {
         &import::Import,
         &autoema::AutoEma,
         &gsa::Gsa,
+        &identify::Identify,
         &evaluate::Evaluate,
         &export::Export,
         &report::Report,

@@ -1,0 +1,340 @@
+//! The identification objective (seed section 2.3.4, PUB3/PUB4): model modes
+//! are paired with reference modes per axis position and the mismatch is
+//!
+//! J(x) = Σ_positions Σ_r [ w_mac (1 − MAC_r) + w_nfd NFD_r + w_ndd NDD_r ]
+//!
+//! with MAC (eq. 2.62), NFD (eq. 2.64) and NDD (eq. 2.65) of the pair. Modes
+//! are paired by [`crate::metrics::pair_modes`] (optimal MAC assignment within
+//! a relative frequency window, as the GSA pairs them); a reference mode left
+//! unpaired costs the fixed penalty [`Weights::penalty`] =
+//! `w_mac + w_nfd · window + w_ndd`, i.e. as much as a pair at the edge of the
+//! window with MAC 0 and 100 % damping difference, so losing a mode is never
+//! cheaper than keeping a bad pair.
+//!
+//! Shapes are compared at the DOFs the reference and the model's sensors
+//! share (same node and axis; an opposite direction flips the sign).
+
+use super::IdentifyError;
+use crate::dynamics::{self, PreparedModel};
+use crate::metrics::{mac, nfd, pair_modes};
+use crate::modal::{ModalModel, Mode};
+use crate::optimize::{Bounds, Scale};
+use num_complex::Complex64;
+
+/// Weights of the three terms of J.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Weights {
+    pub mac: f64,
+    pub nfd: f64,
+    pub ndd: f64,
+}
+
+impl Default for Weights {
+    fn default() -> Self {
+        Weights {
+            mac: 1.0,
+            nfd: 1.0,
+            ndd: 1.0,
+        }
+    }
+}
+
+impl Weights {
+    /// Cost of an unpaired reference mode (see the module docs).
+    pub fn penalty(&self, window: f64) -> f64 {
+        self.mac + self.nfd * window + self.ndd
+    }
+}
+
+/// NDD (eq. 2.65), guarded for undamped modes: with min(ζ₁, ζ₂) ≤ 0 the
+/// absolute difference is used instead of the relative one.
+pub fn ndd_guarded(z1: f64, z2: f64) -> f64 {
+    let m = z1.min(z2);
+    if m > 0.0 {
+        (z1 - z2).abs() / m
+    } else {
+        (z1 - z2).abs()
+    }
+}
+
+/// Reference modes of one position reduced to the shared DOFs.
+struct Reference {
+    config: usize,
+    position: crate::frf::Position,
+    frequencies: Vec<f64>,
+    damping: Vec<f64>,
+    shapes: Vec<Vec<Complex64>>,
+    /// (model sensor row, sign, reference DOF) per shared DOF.
+    rows: Vec<(usize, f64, crate::frf::Dof)>,
+}
+
+/// The model mode paired with one reference mode.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Match {
+    pub frequency_hz: f64,
+    pub damping_ratio: f64,
+    pub mac: f64,
+}
+
+/// A prepared model with reference modes: J(x) and its parts.
+pub struct ModalObjective {
+    prepared: PreparedModel,
+    parameters: Vec<dynamics::Parameter>,
+    references: Vec<Reference>,
+    modes: usize,
+    pub weights: Weights,
+    pub window: f64,
+}
+
+impl ModalObjective {
+    /// Pair `model` with `reference` (matched by position index); `positions`
+    /// keeps only those reference positions (all when `None`).
+    pub fn new(
+        model: &dynamics::Model,
+        reference: &[ModalModel],
+        positions: Option<&[u32]>,
+        weights: Weights,
+        window: f64,
+    ) -> Result<ModalObjective, IdentifyError> {
+        if !(window > 0.0 && window.is_finite()) {
+            return Err(IdentifyError::Invalid(format!(
+                "pairing window {window} must be a positive fraction such as 0.2"
+            )));
+        }
+        let prepared =
+            PreparedModel::new(model).map_err(|e| IdentifyError::Model(e.to_string()))?;
+        let mut references = Vec::new();
+        let mut most = 0;
+        for r in reference {
+            if positions.is_some_and(|p| !p.contains(&r.position.index)) {
+                continue;
+            }
+            let config = prepared
+                .configurations
+                .iter()
+                .position(|c| c.position.index == r.position.index)
+                .ok_or_else(|| {
+                    IdentifyError::Invalid(format!(
+                        "reference position {} ({}) is not a configuration of the model, which has {}",
+                        r.position.index,
+                        r.position.label,
+                        prepared.configurations.len()
+                    ))
+                })?;
+            let mut rows = Vec::new();
+            let mut keep = Vec::new();
+            for (k, d) in r.dofs.iter().enumerate() {
+                let found = prepared
+                    .sensors
+                    .iter()
+                    .position(|(_, s)| s.node == d.node && s.direction.abs() == d.direction.abs());
+                if let Some(i) = found {
+                    let sign = if prepared.sensors[i].1.direction == d.direction {
+                        1.0
+                    } else {
+                        -1.0
+                    };
+                    rows.push((i, sign, *d));
+                    keep.push(k);
+                }
+            }
+            if rows.is_empty() {
+                return Err(IdentifyError::Invalid(format!(
+                    "reference position {} shares no DOF with the model's sensors; check node numbers and directions",
+                    r.position.index
+                )));
+            }
+            most = most.max(r.modes.len());
+            references.push(Reference {
+                config,
+                position: r.position.clone(),
+                frequencies: r.modes.iter().map(|m| m.frequency_hz).collect(),
+                damping: r.modes.iter().map(|m| m.damping_ratio).collect(),
+                shapes: r
+                    .modes
+                    .iter()
+                    .map(|m| keep.iter().map(|&k| m.shape[k]).collect())
+                    .collect(),
+                rows,
+            });
+        }
+        if most == 0 {
+            return Err(IdentifyError::Invalid(
+                "the reference has no modes at the selected positions".into(),
+            ));
+        }
+        // Two spare model modes let the pairing skip a mode that moved in.
+        let modes = (most + 2).min(prepared.n_dofs()).max(1);
+        Ok(ModalObjective {
+            prepared,
+            parameters: model.parameters.clone(),
+            references,
+            modes,
+            weights,
+            window,
+        })
+    }
+
+    pub fn parameters(&self) -> &[dynamics::Parameter] {
+        &self.parameters
+    }
+
+    /// Number of reference modes over all positions (terms of J).
+    pub fn reference_modes(&self) -> usize {
+        self.references.iter().map(|r| r.frequencies.len()).sum()
+    }
+
+    /// Box bounds of all parameters (log10 for `scale: log`).
+    pub fn bounds(&self) -> Result<Bounds, IdentifyError> {
+        let p = &self.parameters;
+        Bounds::new(
+            p.iter().map(|p| p.lower).collect(),
+            p.iter().map(|p| p.upper).collect(),
+            p.iter()
+                .map(|p| match p.scale {
+                    dynamics::Scale::Log => Scale::Log10,
+                    dynamics::Scale::Linear => Scale::Linear,
+                })
+                .collect(),
+        )
+        .map_err(|e| IdentifyError::Invalid(e.to_string()))
+    }
+
+    /// The model file's values clamped to the bounds (the start point).
+    pub fn nominal(&self) -> Vec<f64> {
+        self.parameters
+            .iter()
+            .map(|p| p.value.clamp(p.lower, p.upper))
+            .collect()
+    }
+
+    /// Model modes of each reference position at `x`, at the shared DOFs in
+    /// the reference's orientation.
+    pub fn model_modes(&self, x: &[f64]) -> Result<Vec<ModalModel>, IdentifyError> {
+        self.references
+            .iter()
+            .map(|r| {
+                let sol = self
+                    .prepared
+                    .evaluate(r.config, x, self.modes)
+                    .map_err(|e| IdentifyError::Model(e.to_string()))?;
+                let f = sol.frequencies_hz();
+                let z = sol.damping_ratios();
+                Ok(ModalModel {
+                    position: r.position.clone(),
+                    dofs: r.rows.iter().map(|row| row.2).collect(),
+                    modes: (0..f.len())
+                        .map(|m| Mode {
+                            frequency_hz: f[m],
+                            damping_ratio: z[m],
+                            shape: r
+                                .rows
+                                .iter()
+                                .map(|&(i, s, _)| {
+                                    Complex64::new(s * sol.sensor_shapes[(i, m)], 0.0)
+                                })
+                                .collect(),
+                        })
+                        .collect(),
+                })
+            })
+            .collect()
+    }
+
+    /// Per position and reference mode, the paired model mode (`None` when
+    /// unpaired).
+    pub fn matches(&self, x: &[f64]) -> Result<Vec<Vec<Option<Match>>>, IdentifyError> {
+        let models = self.model_modes(x)?;
+        Ok(self
+            .references
+            .iter()
+            .zip(&models)
+            .map(|(r, m)| {
+                let f: Vec<f64> = m.modes.iter().map(|m| m.frequency_hz).collect();
+                let shapes: Vec<Vec<Complex64>> = m.modes.iter().map(|m| m.shape.clone()).collect();
+                let pairs = pair_modes(&r.frequencies, &r.shapes, &f, &shapes, self.window, 0.0);
+                let mut out = vec![None; r.frequencies.len()];
+                for p in pairs {
+                    let c = &m.modes[p.candidate];
+                    out[p.reference] = Some(Match {
+                        frequency_hz: c.frequency_hz,
+                        damping_ratio: c.damping_ratio,
+                        mac: mac(&r.shapes[p.reference], &c.shape),
+                    });
+                }
+                out
+            })
+            .collect())
+    }
+
+    /// Reference damping ratio of mode `r` at position slot `p`.
+    pub fn reference_damping(&self, p: usize, r: usize) -> f64 {
+        self.references[p].damping[r]
+    }
+
+    /// Reference frequency of mode `r` at position slot `p`.
+    pub fn reference_frequency(&self, p: usize, r: usize) -> f64 {
+        self.references[p].frequencies[r]
+    }
+
+    /// Position slot of reference position index `index`.
+    pub fn slot(&self, index: u32) -> Option<usize> {
+        self.references
+            .iter()
+            .position(|r| r.position.index == index)
+    }
+
+    /// One term of J for reference mode `r` at slot `p`: `which` selects
+    /// (1 − MAC), NFD or NDD; the weighted sum of all three when `None`.
+    pub fn term(&self, p: usize, r: usize, m: Option<Match>, which: Option<Term>) -> f64 {
+        let w = self.weights;
+        let Some(m) = m else {
+            return match which {
+                None => w.penalty(self.window),
+                Some(Term::Mac) => 1.0,
+                Some(Term::Nfd) => self.window,
+                Some(Term::Ndd) => 1.0,
+            };
+        };
+        let (f, z) = (
+            self.references[p].frequencies[r],
+            self.references[p].damping[r],
+        );
+        let t_mac = 1.0 - m.mac;
+        let t_nfd = nfd(f, m.frequency_hz);
+        let t_ndd = ndd_guarded(z, m.damping_ratio);
+        match which {
+            None => w.mac * t_mac + w.nfd * t_nfd + w.ndd * t_ndd,
+            Some(Term::Mac) => t_mac,
+            Some(Term::Nfd) => t_nfd,
+            Some(Term::Ndd) => t_ndd,
+        }
+    }
+
+    /// J(x); +∞ when the model cannot be solved at x.
+    pub fn cost(&self, x: &[f64]) -> f64 {
+        let Ok(all) = self.matches(x) else {
+            return f64::INFINITY;
+        };
+        let mut j = 0.0;
+        for (p, ms) in all.iter().enumerate() {
+            for (r, m) in ms.iter().enumerate() {
+                j += self.term(p, r, *m, None);
+            }
+        }
+        if j.is_finite() {
+            j
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// One criterion of J.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Term {
+    Mac,
+    Nfd,
+    Ndd,
+}
