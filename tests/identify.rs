@@ -111,14 +111,17 @@ fn bad_params_are_rejected_before_anything_runs() {
 }
 
 #[test]
-fn guided_without_sensitivity_fails_with_a_clear_message() {
-    // Inputs are not visible to a kind's param check, so this is found when
-    // the stage runs (exit 1), before any evaluation.
+fn guided_without_sensitivity_is_rejected_before_anything_runs() {
+    // `Stage::check_inputs` sees which inputs are bound: a validation error.
     let ws = setup(
         "name: g\nstages:\n  truth:\n    kind: synthesize\n    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 0.5}}\n  fit:\n    kind: identify\n    inputs: {model: truth.model, reference: truth.modes}\n    params: {strategy: sensitivity_guided}\n",
     );
     let out = ws.cmd(&["run", "p.yaml"]);
     let err = util::text(&out.stderr) + &util::text(&out.stdout);
-    assert_eq!(out.status.code(), Some(1), "{err}");
-    assert!(err.contains("sensitivity"), "{err}");
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("sensitivity_guided needs the `sensitivity` input"),
+        "{err}"
+    );
+    assert!(!ws.path().join("cache/runs").exists());
 }

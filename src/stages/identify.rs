@@ -243,6 +243,28 @@ impl Stage for Identify {
         })
     }
 
+    fn check_inputs(&self, params: &Mapping, bound: &[&str]) -> Result<(), ParamProblem> {
+        let guided = params.get("strategy").and_then(Value::as_str) == Some("sensitivity_guided");
+        if guided && !bound.contains(&"sensitivity") {
+            return Err(ParamProblem {
+                path: vec!["strategy".into()],
+                message: "strategy sensitivity_guided needs the `sensitivity` input".into(),
+                help: Some(
+                    "bind a gsa stage's subproblems: `inputs: {sensitivity: gsa.subproblems}`"
+                        .into(),
+                ),
+            });
+        }
+        if !bound.contains(&"model") && !params.contains_key("model") {
+            return Err(ParamProblem {
+                path: vec![],
+                message: "no model: bind the `model` input (a synthesize `model` output) or give the `model` param (a model file)".into(),
+                help: None,
+            });
+        }
+        Ok(())
+    }
+
     fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
         let started = Instant::now();
         let spec = parse(ctx.params).map_err(|p| StageError::InvalidParam {

@@ -255,6 +255,11 @@ pub trait Stage: Sync + Send {
     ) -> Result<Vec<String>, ParamProblem> {
         Ok(Vec::new())
     }
+    /// Check params against which inputs are bound (e.g. a strategy that
+    /// needs an optional input); `bound` lists the bound input names.
+    fn check_inputs(&self, _params: &Mapping, _bound: &[&str]) -> Result<(), ParamProblem> {
+        Ok(())
+    }
     /// Whether the stage draws random numbers, so its seed enters the key.
     fn uses_seed(&self) -> bool {
         false

@@ -82,6 +82,14 @@ pub(super) fn resolve_inputs(cx: &mut Ctx, spec: &PipelineSpec, nodes: &mut [Nod
                 sources,
             });
         }
+        let bound: Vec<&str> = st.inputs.keys().map(String::as_str).collect();
+        if let Err(p) = node.kind.check_inputs(&node.params, &bound) {
+            let loc = cx
+                .spans
+                .key(&["stages", &node.base, "inputs"])
+                .or_else(|| cx.spans.key(&["stages", &node.base]));
+            cx.at(loc, format!("stage `{}`: {}", node.name, p.message), p.help);
+        }
         for s in declared.unwrap_or(&[]).iter().filter(|s| s.required) {
             if !st.inputs.contains_key(s.name) {
                 let loc = cx.spans.key(&["stages", &node.base]);
