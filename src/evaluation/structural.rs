@@ -115,41 +115,8 @@ impl StructuralModel {
         let mut outputs = Vec::new();
         let mut most = 0;
         for r in reference {
-            let Some(config) = prepared
-                .configurations
-                .iter()
-                .position(|c| c.position.index == r.position.index)
-            else {
-                return Err(EvalError::Domain(format!(
-                    "reference position {} ({}) is not a configuration of the model, which has {}",
-                    r.position.index,
-                    r.position.label,
-                    prepared.configurations.len()
-                )));
-            };
-            let mut rows = Vec::new();
-            let mut keep = Vec::new();
-            for (k, d) in r.dofs.iter().enumerate() {
-                let found = prepared
-                    .sensors
-                    .iter()
-                    .position(|(_, s)| s.node == d.node && s.direction.abs() == d.direction.abs());
-                if let Some(i) = found {
-                    let sign = if prepared.sensors[i].1.direction == d.direction {
-                        1.0
-                    } else {
-                        -1.0
-                    };
-                    rows.push((i, sign));
-                    keep.push(k);
-                }
-            }
-            if rows.is_empty() {
-                return Err(EvalError::Domain(format!(
-                    "reference position {} shares no DOF with the model's sensors; check node numbers and directions",
-                    r.position.index
-                )));
-            }
+            let matched = prepared.match_reference(r).map_err(EvalError::Domain)?;
+            let (config, rows, keep) = (matched.config, matched.rows, matched.keep);
             for m in 1..=r.modes.len() {
                 for q in ["frequency", "damping", "mac"] {
                     outputs.push(format!("p{}.mode{m}.{q}", r.position.index));

@@ -110,41 +110,17 @@ impl ModalObjective {
             if positions.is_some_and(|p| !p.contains(&r.position.index)) {
                 continue;
             }
-            let config = prepared
-                .configurations
+            let matched = prepared
+                .match_reference(r)
+                .map_err(IdentifyError::Invalid)?;
+            let config = matched.config;
+            let rows: Vec<_> = matched
+                .rows
                 .iter()
-                .position(|c| c.position.index == r.position.index)
-                .ok_or_else(|| {
-                    IdentifyError::Invalid(format!(
-                        "reference position {} ({}) is not a configuration of the model, which has {}",
-                        r.position.index,
-                        r.position.label,
-                        prepared.configurations.len()
-                    ))
-                })?;
-            let mut rows = Vec::new();
-            let mut keep = Vec::new();
-            for (k, d) in r.dofs.iter().enumerate() {
-                let found = prepared
-                    .sensors
-                    .iter()
-                    .position(|(_, s)| s.node == d.node && s.direction.abs() == d.direction.abs());
-                if let Some(i) = found {
-                    let sign = if prepared.sensors[i].1.direction == d.direction {
-                        1.0
-                    } else {
-                        -1.0
-                    };
-                    rows.push((i, sign, *d));
-                    keep.push(k);
-                }
-            }
-            if rows.is_empty() {
-                return Err(IdentifyError::Invalid(format!(
-                    "reference position {} shares no DOF with the model's sensors; check node numbers and directions",
-                    r.position.index
-                )));
-            }
+                .zip(&matched.keep)
+                .map(|(&(i, sign), &k)| (i, sign, r.dofs[k]))
+                .collect();
+            let keep = matched.keep;
             most = most.max(r.modes.len());
             references.push(Reference {
                 config,
