@@ -210,25 +210,7 @@ mod tests {
     use crate::sensitivity::sobol::{run, SobolParams};
 
     /// Two masses, ground -k1- m1 -k2- m2, with dampers.
-    const TWO_MASS: &str = r#"
-parameters:
-  - {name: k1, value: 1.0e6, lower: 5.0e5, upper: 2.0e6, scale: log, kind: stiffness}
-  - {name: k2, value: 1.0e6, lower: 5.0e5, upper: 2.0e6, scale: log, kind: stiffness}
-  - {name: c1, value: 20.0, lower: 10.0, upper: 40.0, scale: log, kind: damping}
-bodies:
-  - name: m1
-    rigid: {mass: 1.0, inertia: [[1.0e-3, 0, 0], [0, 1.0e-3, 0], [0, 0, 1.0e-3]], cg: [0, 0, 0], points: {c: [0, 0, 0]}, dofs: [x]}
-  - name: m2
-    rigid: {mass: 1.0, inertia: [[1.0e-3, 0, 0], [0, 1.0e-3, 0], [0, 0, 1.0e-3]], cg: [0.1, 0, 0], points: {c: [0.1, 0, 0]}, dofs: [x]}
-joints:
-  - {name: j1, a: {body: m1, point: c}, connections: [{dir: x, stiffness: k1, damper: c1}]}
-  - {name: j2, a: {body: m2, point: c}, b: {body: m1, point: c}, connections: [{dir: x, stiffness: k2}]}
-sensors:
-  - {name: s1, body: m1, point: c, node: 1, direction: 1}
-  - {name: s2, body: m2, point: c, node: 2, direction: 1}
-excitations:
-  - {name: f, body: m1, point: c, node: 1, direction: 1}
-"#;
+    const TWO_MASS: &str = include_str!("../../tests/fixtures/models/two_mass.yaml");
 
     fn model() -> StructuralModel {
         let read = |p: &str| std::fs::read(p);

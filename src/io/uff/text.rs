@@ -234,19 +234,16 @@ impl<'a> Iterator for SplitTouching<'a> {
 
 /// Parses a float token; accepts Fortran `D` exponents.
 pub(crate) fn parse_f64(tok: &[u8]) -> Option<f64> {
-    if let Some(v) = std::str::from_utf8(tok).ok().and_then(|s| s.parse().ok()) {
-        return Some(v);
-    }
-    let fixed: Vec<u8> = tok
-        .iter()
-        .map(|&b| if b == b'D' || b == b'd' { b'E' } else { b })
-        .collect();
-    std::str::from_utf8(&fixed).ok()?.parse().ok()
+    parse_float(tok)
 }
 
 /// Parses a float token directly to `f32` (single-precision records), so the
 /// value is the correctly rounded `f32` of the text.
 pub(crate) fn parse_f32(tok: &[u8]) -> Option<f32> {
+    parse_float(tok)
+}
+
+fn parse_float<T: std::str::FromStr>(tok: &[u8]) -> Option<T> {
     if let Some(v) = std::str::from_utf8(tok).ok().and_then(|s| s.parse().ok()) {
         return Some(v);
     }
