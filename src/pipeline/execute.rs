@@ -8,7 +8,7 @@ use super::progress::Progress;
 use super::provenance::{self, LastRun, StageProvenance};
 use super::results::{self, InputOrigin, Manifest};
 use super::store::{self, OutputRecord, RunRecord, Store};
-use crate::stages::{StageContext, StageError};
+use crate::stages::{InputSource, StageContext, StageError};
 use serde_yaml_ng::Value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -284,17 +284,15 @@ impl Engine<'_> {
             inputs.insert(b.name.clone(), paths);
         }
         self.restore_workspace_deps(node, done)?;
-        let sources: BTreeMap<String, Vec<String>> = node
+        let sources: BTreeMap<String, Vec<InputSource>> = node
             .inputs
             .iter()
             .map(|b| {
-                (
-                    b.name.clone(),
-                    b.sources
-                        .iter()
-                        .map(|(s, o)| format!("{}.{o}", self.plan.nodes[*s].name))
-                        .collect(),
-                )
+                let list = b.sources.iter().map(|(s, o)| InputSource {
+                    stage: self.plan.nodes[*s].name.clone(),
+                    output: o.clone(),
+                });
+                (b.name.clone(), list.collect())
             })
             .collect();
         let ctx = StageContext {

@@ -123,6 +123,13 @@ impl StageError {
     }
 }
 
+/// The upstream stage (expanded name) and output an input artifact came from.
+#[derive(Clone, Debug, PartialEq)]
+pub struct InputSource {
+    pub stage: String,
+    pub output: String,
+}
+
 /// Everything a running stage may look at. Inputs are read-only artifact
 /// paths; outputs go to `scratch`, which the engine moves into the cache.
 pub struct StageContext<'a> {
@@ -134,9 +141,8 @@ pub struct StageContext<'a> {
     /// Input artifacts by input name; a single input has one path, a list
     /// input (`stage[*].output`) one per matched stage, in expansion order.
     pub inputs: &'a BTreeMap<String, Vec<PathBuf>>,
-    /// Where each input came from, parallel to `inputs`: `stage.output`
-    /// references with expanded stage names (labels for reports).
-    pub sources: &'a BTreeMap<String, Vec<String>>,
+    /// Where each input came from, parallel to `inputs` (labels for reports).
+    pub sources: &'a BTreeMap<String, Vec<InputSource>>,
     /// The pipeline's name.
     pub pipeline: &'a str,
     /// Directory of the pipeline file; relative paths in params start here.

@@ -96,7 +96,7 @@ impl Stage for Report {
             let paths = ctx.inputs.get(name).cloned().unwrap_or_default();
             labels
                 .into_iter()
-                .map(|l| l.rsplit_once('.').map_or(l.clone(), |(s, _)| s.to_string()))
+                .map(|source| source.stage)
                 .zip(paths)
                 .collect()
         };
