@@ -346,3 +346,115 @@ stages:
         "{error}"
     );
 }
+
+#[test]
+fn frf_bands_split_and_monte_carlo_validation() {
+    let ws = Workspace::new();
+    ws.write("models/two_mass.yaml", TWO_MASS);
+    ws.write(
+        "p.yaml",
+        r#"name: v
+seed: 4
+stages:
+  truth:
+    kind: synthesize
+    params: {model: models/two_mass.yaml, frequency: {min: 20, max: 400, step: 1}}
+  gsa:
+    kind: gsa
+    inputs: {reference: truth.modes, reference_frf: truth.frf}
+    params:
+      model: models/two_mass.yaml
+      samples: 64
+      bootstrap: 10
+      bands: {min: 40, max: 360, count: 2}
+      threshold: 0.05
+      weights: {p0.mode1.damping: 0, p0.mode2.damping: 0}
+      validation: 300
+"#,
+    );
+    let report = ws.run(&[], 0);
+    assert_eq!(
+        report.stage("gsa")["counters"]["evaluations"],
+        64 * 5 + 300 + 1
+    );
+    let rows = indices(&ws.read("results/v/gsa/indices.csv"));
+    assert!(rows.iter().any(|r| r.0 == "p0.band2.csf"), "{rows:?}");
+    // The damper shapes the resonance peaks: FRAC sees it, the MAC does not.
+    let st = |o: &str, p: &str| rows.iter().find(|r| r.0 == o && r.1 == p).unwrap().2[2];
+    assert!(st("p0.band1.frac", "c1") > 0.01, "{rows:?}");
+    assert_eq!(st("p0.mode1.mac", "c1"), 0.0);
+    let significant = ws.read("results/v/gsa/significant.csv");
+    assert!(
+        significant.starts_with("parameter,score,significant\nk1,"),
+        "{significant}"
+    );
+    assert_eq!(significant.lines().count(), 4);
+    // Without the damping outputs the damper falls below the threshold, so the
+    // validation draws it at random: MAC cannot notice, FRAC and CSF do, a little.
+    let v: Value = serde_json::from_str(&ws.read("results/v/gsa/validation.json")).unwrap();
+    assert_eq!(v["random"], serde_json::json!(["c1"]));
+    assert_eq!(v["headline"], "criterion");
+    let (min, mean) = (v["min"].as_f64().unwrap(), v["mean"].as_f64().unwrap());
+    assert!(min > 0.5 && min < mean && mean < 1.0, "{v}");
+    let table = ws.read("results/v/gsa/validation.csv");
+    let mac = table
+        .lines()
+        .find(|l| l.starts_with("p0.mode1.mac,"))
+        .unwrap();
+    assert!(mac.starts_with("p0.mode1.mac,criterion,1,1,1,1"), "{mac}");
+    assert!(ws.read("results/v/gsa/validation.svg").contains("<svg"));
+}
+
+#[test]
+fn anova_of_a_factorial_design_run_on_a_model() {
+    let ws = Workspace::new();
+    ws.write("models/two_mass.yaml", TWO_MASS);
+    ws.write(
+        "p.yaml",
+        r#"name: a
+stages:
+  wear:
+    kind: gsa
+    params:
+      method: anova
+      model: models/two_mass.yaml
+      modes: 2
+      levels: {k1: [6.0e5, 1.0e6, 1.6e6], k2: [6.0e5, 1.6e6], c1: [15, 30]}
+      outputs: [p0.mode1.frequency, p0.mode2.damping]
+      interactions: 2
+"#,
+    );
+    let report = ws.run(&[], 0);
+    assert_eq!(report.stage("wear")["counters"]["evaluations"], 12);
+    let csv = ws.read("results/a/wear/anova.csv");
+    let row = |o: &str, s: &str| -> Vec<String> {
+        csv.lines()
+            .find(|l| l.starts_with(&format!("{o},{s},")))
+            .unwrap_or_else(|| panic!("{o} {s} in {csv}"))
+            .split(',')
+            .map(str::to_string)
+            .collect()
+    };
+    assert!(csv.starts_with("output,source,SSB,dof,MS,F,p\n"), "{csv}");
+    assert_eq!(row("p0.mode1.frequency", "k1")[3], "2");
+    assert_eq!(row("p0.mode1.frequency", "k1:k2")[3], "2");
+    assert_eq!(row("p0.mode1.frequency", "residual")[3], "2");
+    // The damper cannot move an eigenfrequency: no sum of squares at all.
+    assert_eq!(
+        row("p0.mode1.frequency", "c1")[2].parse::<f64>().unwrap(),
+        0.0
+    );
+    let p_k1: f64 = row("p0.mode1.frequency", "k1")[6].parse().unwrap();
+    assert!(p_k1 < 0.05, "{csv}");
+    assert!(row("p0.mode2.damping", "c1")[2].parse::<f64>().unwrap() > 0.0);
+    let runs = ws.read("results/a/wear/runs.csv");
+    assert!(
+        runs.starts_with("k1,k2,c1,p0.mode1.frequency,p0.mode2.damping\n600000,600000,15,"),
+        "{runs}"
+    );
+    assert!(ws.read("results/a/wear/anova.svg").contains("<svg"));
+    // A level outside the bounds, or `levels` without a model, is named.
+    ws.write("p.yaml", "name: a\nstages:\n  wear:\n    kind: gsa\n    params: {method: anova, levels: {k1: [1, 2]}}\n");
+    let err = text(&ws.cmd(&["validate", "p.yaml"]).stderr);
+    assert!(err.contains("`levels` needs a `model`"), "{err}");
+}

@@ -69,32 +69,12 @@ impl PreparedModel {
     ) -> Result<FrfSet, DynamicsError> {
         check_grid(frequencies_hz)?;
         let mut set = self.empty_set(sol.config, quantity, frequencies_hz)?;
-        let ne = self.excitations.len();
-        for &fhz in frequencies_hz {
-            let w = 2.0 * std::f64::consts::PI * fhz;
-            // 1 / (ω_r² − ω² + j(2ζ_r ω ω_r + η_r ω_r²)) per mode.
-            let poles: Vec<Complex64> = sol
-                .eigenvalues
-                .iter()
-                .zip(sol.zeta.iter().zip(&sol.eta))
-                .map(|(&l, (&z, &e))| {
-                    let den = Complex64::new(l - w * w, 2.0 * z * w * l.sqrt() + e * l);
-                    if den.norm() == 0.0 {
-                        Complex64::new(0.0, 0.0)
-                    } else {
-                        den.inv()
-                    }
-                })
-                .collect();
-            for (ch_i, ch) in set.channels.iter_mut().enumerate() {
-                let (j, k) = (ch_i / ne.max(1), ch_i % ne.max(1));
-                let a: Complex64 = poles
-                    .iter()
-                    .enumerate()
-                    .map(|(r, p)| p * (sol.sensor_shapes[(j, r)] * sol.excitation_shapes[(k, r)]))
-                    .sum();
-                ch.values.push(convert(a, w, quantity));
-            }
+        let ne = self.excitations.len().max(1);
+        let pairs: Vec<(usize, usize)> =
+            (0..set.channels.len()).map(|c| (c / ne, c % ne)).collect();
+        let values = superposition(sol, quantity, frequencies_hz, &pairs);
+        for (ch, v) in set.channels.iter_mut().zip(values) {
+            ch.values = v;
         }
         Ok(set)
     }
@@ -128,4 +108,49 @@ impl PreparedModel {
         }
         Ok(set)
     }
+}
+
+/// Modal superposition (eq. 2.42 with 2.45) of `sol` at `frequencies_hz` for
+/// the (sensor row, excitation row) `pairs`: one value vector per pair.
+/// α_jk(ω) = Σ_r φ_jr φ_kr / (ω_r² − ω² + j(2 ζ_r ω ω_r + η_r ω_r²)); a mode
+/// whose denominator vanishes (a rigid-body mode at 0 Hz) contributes nothing.
+pub fn superposition(
+    sol: &ModalSolution,
+    quantity: FrfQuantity,
+    frequencies_hz: &[f64],
+    pairs: &[(usize, usize)],
+) -> Vec<Vec<Complex64>> {
+    let mut out: Vec<Vec<Complex64>> = pairs
+        .iter()
+        .map(|_| Vec::with_capacity(frequencies_hz.len()))
+        .collect();
+    // φ_jr φ_kr per pair and mode, reused on every line.
+    let residues: Vec<Vec<f64>> = pairs
+        .iter()
+        .map(|&(j, k)| {
+            (0..sol.eigenvalues.len())
+                .map(|r| sol.sensor_shapes[(j, r)] * sol.excitation_shapes[(k, r)])
+                .collect()
+        })
+        .collect();
+    let mut poles = vec![Complex64::new(0.0, 0.0); sol.eigenvalues.len()];
+    for &fhz in frequencies_hz {
+        let w = 2.0 * std::f64::consts::PI * fhz;
+        for (p, (&l, (&z, &e))) in poles
+            .iter_mut()
+            .zip(sol.eigenvalues.iter().zip(sol.zeta.iter().zip(&sol.eta)))
+        {
+            let den = Complex64::new(l - w * w, 2.0 * z * w * l.sqrt() + e * l);
+            *p = if den.norm() == 0.0 {
+                Complex64::new(0.0, 0.0)
+            } else {
+                den.inv()
+            };
+        }
+        for (values, res) in out.iter_mut().zip(&residues) {
+            let a: Complex64 = poles.iter().zip(res).map(|(p, r)| p * r).sum();
+            values.push(convert(a, w, quantity));
+        }
+    }
+    out
 }

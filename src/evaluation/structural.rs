@@ -14,9 +14,14 @@
 //! those left, so every output stays finite — such a sample simply has a low
 //! MAC. Shapes are compared at the DOFs the reference and the model's sensors
 //! share (same node and axis; an opposite sign flips the coefficient).
+//!
+//! With [`StructuralModel::with_frf_bands`], FRAC and CSF per position and
+//! frequency band follow ([`super::frf_bands`]): `p{position}.band{b}.frac`
+//! and `.csf`.
 
+use super::frf_bands::FrfBands;
 use super::{check_dimension, EvalError, Model, Parameter, Scale};
-use crate::dynamics::{self, DynamicsError, PreparedModel};
+use crate::dynamics::{self, DynamicsError, ModalSolution, PreparedModel};
 use crate::metrics::{mac, pair_modes};
 use crate::modal::ModalModel;
 use num_complex::Complex64;
@@ -56,6 +61,7 @@ pub struct StructuralModel {
     references: Vec<Reference>,
     modes: usize,
     window: f64,
+    bands: Option<FrfBands>,
 }
 
 fn model_error(e: DynamicsError) -> EvalError {
@@ -144,7 +150,52 @@ impl StructuralModel {
             references,
             modes: options.modes.max(most),
             window: options.window,
+            bands: None,
         })
+    }
+
+    /// Add FRAC and CSF outputs per position and frequency band.
+    pub fn with_frf_bands(mut self, bands: FrfBands) -> StructuralModel {
+        self.outputs.extend(bands.outputs());
+        self.bands = Some(bands);
+        self
+    }
+
+    /// The prepared model (for building [`FrfBands`] against it).
+    pub fn prepared(&self) -> &PreparedModel {
+        &self.prepared
+    }
+
+    /// Modes computed per position.
+    pub fn modes(&self) -> usize {
+        self.modes
+    }
+
+    /// The configuration of every reference position, in output order.
+    pub fn reference_configs(&self) -> Vec<usize> {
+        self.references.iter().map(|r| r.config).collect()
+    }
+
+    /// The modes of configuration `config` at `x`, solved once per call of
+    /// `evaluate` however many outputs need them.
+    fn solve<'a>(
+        &self,
+        solved: &'a mut Vec<ModalSolution>,
+        config: usize,
+        x: &[f64],
+    ) -> Result<&'a ModalSolution, EvalError> {
+        let at = match solved.iter().position(|s| s.config == config) {
+            Some(i) => i,
+            None => {
+                let sol = self
+                    .prepared
+                    .evaluate(config, x, self.modes)
+                    .map_err(model_error)?;
+                solved.push(sol);
+                solved.len() - 1
+            }
+        };
+        Ok(&solved[at])
     }
 }
 
@@ -158,11 +209,9 @@ impl Model for StructuralModel {
     fn evaluate(&self, x: &[f64]) -> Result<Vec<f64>, EvalError> {
         check_dimension(self, x)?;
         let mut out = Vec::with_capacity(self.outputs.len());
+        let mut solved = Vec::new();
         for r in &self.references {
-            let sol = self
-                .prepared
-                .evaluate(r.config, x, self.modes)
-                .map_err(model_error)?;
+            let sol = self.solve(&mut solved, r.config, x)?;
             let f = sol.frequencies_hz();
             let zeta = sol.damping_ratios();
             let shapes: Vec<Vec<Complex64>> = (0..f.len())
@@ -198,6 +247,12 @@ impl Model for StructuralModel {
                     }
                 };
                 out.extend([f[m], zeta[m], mac(&r.shapes[i], &shapes[m])]);
+            }
+        }
+        if let Some(bands) = &self.bands {
+            for (slot, config) in bands.configs().enumerate() {
+                let sol = self.solve(&mut solved, config, x)?;
+                bands.criteria(slot, sol, &mut out);
             }
         }
         Ok(out)

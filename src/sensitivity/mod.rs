@@ -10,10 +10,14 @@
 
 pub mod aggregate;
 pub mod anova;
+pub mod factorial;
 pub mod sobol;
+pub mod validation;
 
 pub use aggregate::{aggregate, Screening, Subproblem};
 pub use anova::{anova, AnovaRow, Design, Factor};
+pub use factorial::{factorial_anova, FactorialResult};
+pub use validation::{validate, ConformityKind, OutputConformity, Validation};
 
 use crate::evaluation::EvalError;
 

@@ -188,6 +188,29 @@ mod tests {
     }
 
     #[test]
+    fn n8192_is_within_one_hundredth_of_the_analytic_values() {
+        // The acceptance bar of the GSA issue: |error| ≤ 0.01 for every S1 and
+        // ST of Ishigami (a = 7, b = 0.1) and of a G-function at N = 8192.
+        let check =
+            |m: &dyn Model, exact: &crate::evaluation::builtin::AnalyticIndices, name: &str| {
+                let r = run(m, &study(8192, 11), &|_| {}).unwrap();
+                let idx = &r.outputs[0].1;
+                for i in 0..exact.S1.len() {
+                    let (e1, et) = (idx.S1[i] - exact.S1[i], idx.ST[i] - exact.ST[i]);
+                    assert!(
+                        e1.abs() <= 0.01 && et.abs() <= 0.01,
+                        "{name} x{}: {idx:?}",
+                        i + 1
+                    );
+                }
+            };
+        let ishigami = Ishigami::new();
+        check(&ishigami, &ishigami.analytic_indices(), "ishigami");
+        let g = SobolG::new(vec![0.0, 1.0, 4.5, 9.0, 99.0, 99.0]).unwrap();
+        check(&g, &g.analytic_indices(), "sobol_g");
+    }
+
+    #[test]
     fn bootstrap_interval_covers_the_analytic_value_over_seeds() {
         // At 95 % nominal coverage, the interval S1 ± S1_conf should contain the
         // true x2 index in most of 20 independent studies.

@@ -29,6 +29,10 @@ pub enum ModelSpec {
         path: String,
         window: f64,
         modes: usize,
+        /// FRF bands (low, high) in Hz for FRAC/CSF outputs; empty: none.
+        bands: Vec<(f64, f64)>,
+        /// Line spacing (Hz) of the model's own reference FRFs.
+        band_step: f64,
     },
 }
 
@@ -117,6 +121,66 @@ fn parameter(name: &str, v: &Value) -> Result<Parameter, ParamProblem> {
     }
 }
 
+/// Params that only a model file takes.
+pub const FILE_ONLY: &[&str] = &["window", "modes", "bands", "band_step"];
+
+/// `bands: [[lo, hi], ...]` or `bands: {min, max, count}` (equal bands).
+fn parse_bands(params: &Mapping) -> Result<Vec<(f64, f64)>, ParamProblem> {
+    const HELP: &str = "bands: [[10, 50], [50, 120]] or bands: {min: 0, max: 500, count: 10} (Hz)";
+    let bands = match params.get("bands") {
+        None => return Ok(Vec::new()),
+        Some(Value::Sequence(items)) => items
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let at = ["bands".to_string(), i.to_string()];
+                let at: Vec<&str> = at.iter().map(String::as_str).collect();
+                match b.as_sequence().map(Vec::as_slice) {
+                    Some([lo, hi]) => Ok((number(lo, &at)?, number(hi, &at)?)),
+                    _ => Err(problem(&at, "a band is a pair [low, high] in Hz", HELP)),
+                }
+            })
+            .collect::<Result<Vec<_>, _>>()?,
+        Some(Value::Mapping(m)) => {
+            let get = |k: &str| {
+                m.get(k)
+                    .ok_or_else(|| problem(&["bands"], format!("`bands` needs `{k}`"), HELP))
+                    .and_then(|v| number(v, &["bands", k]))
+            };
+            let (lo, hi, count) = (get("min")?, get("max")?, get("count")?);
+            if count < 1.0 || count.fract() != 0.0 || count > 1000.0 {
+                return Err(problem(
+                    &["bands", "count"],
+                    "`count` must be a whole number of bands in 1..=1000",
+                    HELP,
+                ));
+            }
+            let n = count as usize;
+            let width = (hi - lo) / count;
+            (0..n)
+                .map(|i| (lo + i as f64 * width, lo + (i + 1) as f64 * width))
+                .collect()
+        }
+        Some(_) => {
+            return Err(problem(
+                &["bands"],
+                "`bands` must be a list or a mapping",
+                HELP,
+            ))
+        }
+    };
+    for (i, &(lo, hi)) in bands.iter().enumerate() {
+        if !(lo >= 0.0 && lo < hi) {
+            return Err(problem(
+                &["bands", &i.to_string()],
+                format!("band [{lo}, {hi}] Hz is empty or negative"),
+                "give 0 <= low < high",
+            ));
+        }
+    }
+    Ok(bands)
+}
+
 pub fn parse_model(v: &Value, params: &Mapping) -> Result<ModelSpec, ParamProblem> {
     const HELP: &str = "model: {builtin: ishigami} | {builtin: sobol_g, a: [0, 1, 9]} | {command: \"./sim.sh\", parameters: {k: {lower: 1, upper: 10, scale: log}}, outputs: [f1]}";
     if let Some(path) = v.as_str() {
@@ -135,13 +199,29 @@ pub fn parse_model(v: &Value, params: &Mapping) -> Result<ModelSpec, ParamProble
             }
         };
         let modes = int(params, "modes", 0, 0, 10_000)? as usize;
+        let band_step = match params.get("band_step") {
+            None => 0.5,
+            Some(v) => {
+                let s = number(v, &["band_step"])?;
+                if s <= 0.0 {
+                    return Err(problem(
+                        &["band_step"],
+                        "`band_step` must be a positive spacing in Hz",
+                        "e.g. band_step: 0.5",
+                    ));
+                }
+                s
+            }
+        };
         return Ok(ModelSpec::File {
             path: path.to_string(),
             window,
             modes,
+            bands: parse_bands(params)?,
+            band_step,
         });
     }
-    for key in ["window", "modes"] {
+    for key in FILE_ONLY {
         if params.contains_key(key) {
             return Err(problem(
                 &[key],

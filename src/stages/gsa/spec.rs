@@ -20,14 +20,32 @@ pub struct SobolSpec {
     /// Weights given per output name (unlisted outputs weigh 1).
     pub weights: Vec<(String, f64)>,
     pub threshold: f64,
+    /// Monte Carlo validation samples of the split (0: none).
+    pub validation: usize,
+}
+
+/// Where the ANOVA's observations come from.
+#[derive(Clone, Debug, PartialEq)]
+pub enum AnovaSource {
+    /// A CSV table of factor levels and one response column.
+    Table {
+        data: String,
+        response: String,
+        factors: Option<Vec<String>>,
+    },
+    /// A full factorial design run on a model: levels per parameter (the
+    /// others at their nominal values); one ANOVA per model output.
+    Model {
+        model: ModelSpec,
+        levels: Vec<(String, Vec<f64>)>,
+        outputs: Vec<String>,
+    },
 }
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct AnovaSpec {
-    pub data: String,
-    pub response: String,
+    pub source: AnovaSource,
     pub interactions: u8,
-    pub factors: Option<Vec<String>>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -37,20 +55,16 @@ pub enum GsaSpec {
 }
 
 pub const SOBOL_ONLY: &[&str] = &[
-    "model",
-    "window",
-    "modes",
     "samples",
     "bootstrap",
     "confidence",
     "second_order",
-    "outputs",
     "parameters",
     "weights",
     "threshold",
-    "deps",
+    "validation",
 ];
-pub const ANOVA_ONLY: &[&str] = &["data", "response", "interactions", "factors"];
+pub const ANOVA_ONLY: &[&str] = &["data", "response", "interactions", "factors", "levels"];
 
 pub fn problem(path: &[&str], message: impl Into<String>, help: impl Into<String>) -> ParamProblem {
     ParamProblem {
@@ -210,6 +224,7 @@ fn sobol(params: &Mapping) -> Result<SobolSpec, ParamProblem> {
         parameters: subset,
         weights,
         threshold,
+        validation: int(params, "validation", 0, 0, 10_000_000)? as usize,
     })
 }
 
@@ -282,24 +297,112 @@ pub fn resolve_weights(analyzed: &[String], weights: &[(String, f64)]) -> Vec<f6
 }
 
 fn anova(params: &Mapping) -> Result<AnovaSpec, ParamProblem> {
+    let interactions = int(params, "interactions", 2, 1, 2)? as u8;
+    if let Some(m) = params.get("model") {
+        if let Some(k) = ["data", "response", "factors"]
+            .iter()
+            .find(|k| params.contains_key(**k))
+        {
+            return Err(problem(
+                &[k],
+                format!("`{k}` belongs to an ANOVA of a data table, but `model` is given"),
+                "give either `data` + `response` or `model` + `levels`",
+            ));
+        }
+        let model = parse_model(m, params)?;
+        let outputs = strings(params, "outputs")?;
+        return Ok(AnovaSpec {
+            source: AnovaSource::Model {
+                model,
+                levels: levels(params)?,
+                outputs,
+            },
+            interactions,
+        });
+    }
+    if params.contains_key("levels") {
+        return Err(problem(
+            &["levels"],
+            "`levels` needs a `model` to run the factorial design on",
+            "add `model:` or remove `levels`",
+        ));
+    }
     let text = |key: &str, help: &str| match params.get(key).and_then(Value::as_str) {
         Some(s) if !s.trim().is_empty() => Ok(s.to_string()),
         _ => Err(problem(
             &[],
-            format!("method `anova` needs param `{key}`"),
+            format!("method `anova` needs param `{key}` (or `model` + `levels`)"),
             help.to_string(),
         )),
     };
+    if let Some(k) = super::model_spec::FILE_ONLY
+        .iter()
+        .chain(&["outputs", "deps"])
+        .find(|k| params.contains_key(**k))
+    {
+        return Err(problem(
+            &[k],
+            format!("`{k}` applies to an ANOVA on a model, not to a data table"),
+            format!("remove `{k}` or give `model` + `levels`"),
+        ));
+    }
     let factors = strings(params, "factors")?;
     Ok(AnovaSpec {
-        data: text(
-            "data",
-            "data: a CSV file of factor levels and the response, relative to the pipeline file",
-        )?,
-        response: text("response", "response: the name of the response column")?,
-        interactions: int(params, "interactions", 2, 1, 2)? as u8,
-        factors: (!factors.is_empty()).then_some(factors),
+        source: AnovaSource::Table {
+            data: text(
+                "data",
+                "data: a CSV file of factor levels and the response, relative to the pipeline file",
+            )?,
+            response: text("response", "response: the name of the response column")?,
+            factors: (!factors.is_empty()).then_some(factors),
+        },
+        interactions,
     })
+}
+
+/// `levels: {parameter: [v1, v2, ...]}`, each parameter with at least two
+/// distinct finite levels (factors in the order written).
+fn levels(params: &Mapping) -> Result<Vec<(String, Vec<f64>)>, ParamProblem> {
+    const HELP: &str = "levels: {bsd_preload: [0.5e8, 1.0e8, 2.0e8], lgs_preload: [1e8, 3e8]}";
+    let Some(Value::Mapping(m)) = params.get("levels") else {
+        return Err(problem(
+            &[],
+            "an ANOVA on a model needs `levels`: the factor levels per parameter",
+            HELP,
+        ));
+    };
+    let mut out = Vec::new();
+    for (k, v) in m {
+        let name = k.as_str().unwrap_or_default().to_string();
+        let Some(items) = v.as_sequence() else {
+            return Err(problem(
+                &["levels", &name],
+                "levels must be a list of values",
+                HELP,
+            ));
+        };
+        let values = items
+            .iter()
+            .enumerate()
+            .map(|(i, x)| number(x, &["levels", &name, &i.to_string()]))
+            .collect::<Result<Vec<f64>, _>>()?;
+        let distinct = values
+            .iter()
+            .enumerate()
+            .all(|(i, x)| !values[..i].contains(x));
+        if values.len() < 2 || !distinct {
+            return Err(problem(
+                &["levels", &name],
+                format!("`{name}` needs at least two distinct levels"),
+                HELP,
+            ));
+        }
+        out.push((name, values));
+    }
+    if out.is_empty() {
+        return Err(problem(&["levels"], "`levels` lists no parameter", HELP));
+    }
+    Ok(out)
 }
 
 /// Parse and validate the params of a `gsa` stage.

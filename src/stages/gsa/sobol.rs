@@ -1,0 +1,236 @@
+//! `method: sobol` of the `gsa` kind: Saltelli sampling, evaluation, Sobol
+//! indices, the PUB2 screening and its Monte Carlo validation, written as
+//! CSV/JSON tables and SVG pictures.
+
+use super::spec::{self, SobolSpec};
+use super::{build_model, num, write};
+use crate::evaluation::{parameter::nominal, Model};
+use crate::sensitivity::{self, sobol};
+use crate::stages::{StageContext, StageError, StageOutputs};
+use std::fmt::Write;
+use std::path::PathBuf;
+
+pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError> {
+    let model = build_model(ctx, &s.model)?;
+    let names: Vec<String> = model.parameters().iter().map(|p| p.name.clone()).collect();
+    spec::check_names(
+        &names,
+        model.outputs(),
+        &s.outputs,
+        &s.parameters,
+        &s.weights,
+    )
+    .map_err(|p| StageError::InvalidParam {
+        param: p.path.join("."),
+        message: format!("{}; {}", p.message, p.help.unwrap_or_default()),
+    })?;
+    let params = sobol::SobolParams {
+        n: s.samples,
+        second_order: s.second_order,
+        bootstrap: s.bootstrap,
+        confidence: s.confidence,
+        seed: ctx.seed,
+        subset: s.parameters.clone(),
+        outputs: s.outputs.clone(),
+        chunk: 256,
+    };
+    let d = if s.parameters.is_empty() {
+        model.parameters().len()
+    } else {
+        s.parameters.len()
+    };
+    let layout = sobol::Layout {
+        n: s.samples,
+        d,
+        second_order: s.second_order,
+    };
+    ctx.progress
+        .set_length((layout.len() + s.validation) as u64);
+    ctx.progress
+        .set_message(format!("{} evaluations", layout.len()));
+    let report = sobol::run(model.as_ref(), &params, &|k| ctx.progress.inc(k))
+        .map_err(|e| StageError::Failed(e.to_string()))?;
+
+    let mut csv = String::from("output,parameter,S1,S1_conf,ST,ST_conf\n");
+    for (o, idx) in &report.outputs {
+        for (i, p) in report.parameters.iter().enumerate() {
+            let _ = writeln!(
+                csv,
+                "{o},{p},{},{},{},{}",
+                num(idx.S1[i]),
+                num(idx.S1_conf[i]),
+                num(idx.ST[i]),
+                num(idx.ST_conf[i])
+            );
+        }
+    }
+    let indices = ctx.scratch.join("indices.csv");
+    write(&indices, &csv)?;
+
+    let names: Vec<String> = report.outputs.iter().map(|(o, _)| o.clone()).collect();
+    let st: Vec<Vec<f64>> = report.outputs.iter().map(|(_, i)| i.ST.clone()).collect();
+    let weights = spec::resolve_weights(&names, &s.weights);
+    let screening = sensitivity::aggregate(&report.parameters, &names, &st, &weights, s.threshold)
+        .map_err(|e| StageError::Failed(e.to_string()))?;
+    let json = serde_json::json!({
+        "method": "sobol",
+        "samples": s.samples,
+        "evaluations": report.evaluations,
+        "parameters": report.parameters,
+        "subproblems": screening.subproblems,
+        "significant": screening.significant,
+        "non_significant": screening.non_significant,
+        "combined_ST": screening.combined_ST.iter().map(|(p, v)| serde_json::json!({"parameter": p, "ST": v})).collect::<Vec<_>>(),
+        "weights": screening.weights.iter().map(|(o, w)| serde_json::json!({"output": o, "weight": w})).collect::<Vec<_>>(),
+        "threshold": screening.threshold,
+        "warnings": report.warnings,
+    });
+    let subproblems = ctx.scratch.join("subproblems.json");
+    let text =
+        serde_json::to_string_pretty(&json).map_err(|e| StageError::Failed(e.to_string()))?;
+    write(&subproblems, &(text + "\n"))?;
+
+    let heatmap = ctx.scratch.join("sobol.svg");
+    let svg = crate::report::svg::heatmap(
+        &format!("Total Sobol indices ST ({})", ctx.stage),
+        &names,
+        &report.parameters,
+        &st,
+        0.0,
+        1.0,
+    );
+    write(&heatmap, &svg)?;
+
+    // The PUB2 split: parameters ranked by their weighted total index.
+    let mut ranked = screening.combined_ST.clone();
+    ranked.sort_by(|a, b| b.1.total_cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+    let mut csv = String::from("rank,parameter,score,significant\n");
+    for (k, (p, v)) in ranked.iter().enumerate() {
+        let _ = writeln!(
+            csv,
+            "{},{p},{},{}",
+            k + 1,
+            num(*v),
+            screening.significant.contains(p)
+        );
+    }
+    let ranking = ctx.scratch.join("ranking.csv");
+    write(&ranking, &csv)?;
+
+    // The split itself, in parameter order, for tools that join on names.
+    let mut csv = String::from("parameter,score,significant\n");
+    for (p, v) in &screening.combined_ST {
+        let _ = writeln!(csv, "{p},{},{}", num(*v), screening.significant.contains(p));
+    }
+    let significant = ctx.scratch.join("significant.csv");
+    write(&significant, &csv)?;
+
+    let mut files: Vec<(String, PathBuf)> = vec![
+        ("indices".into(), indices),
+        ("ranking".into(), ranking),
+        ("significant".into(), significant),
+        ("subproblems".into(), subproblems),
+        ("heatmap".into(), heatmap),
+    ];
+    if s.second_order {
+        let mut csv = String::from("output,parameter_1,parameter_2,S2,S2_conf\n");
+        for (o, idx) in &report.outputs {
+            if let (Some(s2), Some(c2)) = (&idx.S2, &idx.S2_conf) {
+                for i in 0..d {
+                    for k in i + 1..d {
+                        let (pi, pk) = (&report.parameters[i], &report.parameters[k]);
+                        let _ = writeln!(csv, "{o},{pi},{pk},{},{}", num(s2[i][k]), num(c2[i][k]));
+                    }
+                }
+            }
+        }
+        let path = ctx.scratch.join("second_order.csv");
+        write(&path, &csv)?;
+        files.push(("second_order".into(), path));
+    }
+    let mut evaluations = report.evaluations as u64;
+    if s.validation > 0 {
+        files.extend(validate(
+            ctx,
+            model.as_ref(),
+            &screening.significant,
+            s.validation,
+        )?);
+        evaluations += s.validation as u64 + 1;
+    }
+    Ok(StageOutputs {
+        files,
+        counters: [("evaluations".to_string(), evaluations)].into(),
+    })
+}
+
+/// PUB2's check of the split: `samples` points with the significant
+/// parameters at their nominal (true) values and the others random; writes
+/// per-output conformity (`validation.csv`), the summary
+/// (`validation.json`) and min/mean bars of the headline outputs
+/// (`validation.svg`).
+fn validate(
+    ctx: &StageContext,
+    model: &dyn Model,
+    significant: &[String],
+    samples: usize,
+) -> Result<Vec<(String, PathBuf)>, StageError> {
+    ctx.progress
+        .set_message(format!("validation: {samples} evaluations"));
+    let x0 = nominal(model.parameters());
+    // A stream of its own, so adding validation does not move the Sobol points.
+    let seed = ctx.seed ^ 0x5641_4c49_4441_5445;
+    let v = sensitivity::validate(model, significant, &x0, samples, seed, &|k| {
+        ctx.progress.inc(k)
+    })
+    .map_err(|e| StageError::Failed(format!("validation: {e}")))?;
+
+    let mut csv = String::from("output,kind,reference,min,mean,p05\n");
+    for o in &v.outputs {
+        let kind = match o.kind {
+            sensitivity::ConformityKind::Criterion => "criterion",
+            sensitivity::ConformityKind::Relative => "relative",
+        };
+        let _ = writeln!(
+            csv,
+            "{},{kind},{},{},{},{}",
+            o.output,
+            num(o.reference),
+            num(o.min),
+            num(o.mean),
+            num(o.p05)
+        );
+    }
+    let table = ctx.scratch.join("validation.csv");
+    write(&table, &csv)?;
+
+    let summary = ctx.scratch.join("validation.json");
+    let text = serde_json::to_string_pretty(&v).map_err(|e| StageError::Failed(e.to_string()))?;
+    write(&summary, &(text + "\n"))?;
+
+    let shown: Vec<&sensitivity::OutputConformity> =
+        v.outputs.iter().filter(|o| o.kind == v.headline).collect();
+    let labels: Vec<String> = shown.iter().map(|o| o.output.clone()).collect();
+    let svg = crate::report::svg::bars(
+        &format!(
+            "Split validation ({samples} samples, {} of {} parameters random): min {:.3}, mean {:.3}",
+            v.random.len(),
+            v.random.len() + v.fixed.len(),
+            v.min,
+            v.mean
+        ),
+        "conformity",
+        &labels,
+        &[
+            ("min".into(), shown.iter().map(|o| o.min).collect()),
+            ("mean".into(), shown.iter().map(|o| o.mean).collect()),
+        ],
+    );
+    let plot = ctx.scratch.join("validation.svg");
+    write(&plot, &svg)?;
+    Ok(vec![
+        ("validation".into(), table),
+        ("validation_summary".into(), summary),
+        ("validation_plot".into(), plot),
+    ])
+}
