@@ -7,9 +7,7 @@
 //! `cargo bench --bench gsa`
 
 use modalflow::dynamics::{directory_resolver, Model as Dynamics};
-use modalflow::evaluation::{
-    BandOptions, FrfBands, Model, StructuralModel, StructuralOptions,
-};
+use modalflow::evaluation::{BandOptions, FrfBands, Model, StructuralModel, StructuralOptions};
 use modalflow::sensitivity::sobol::{self, AnalyzeParams, Layout, Problem};
 use std::path::Path;
 use std::time::Instant;
@@ -34,7 +32,8 @@ fn pool(threads: usize) -> rayon::ThreadPool {
 }
 
 fn test_bench() -> Dynamics {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/models/uniaxial_test_bench.yaml");
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("pipelines/models/uniaxial_test_bench.yaml");
     let text = std::fs::read_to_string(&path).expect("model file");
     let dir = path.parent().expect("dir").to_path_buf();
     let resolver = directory_resolver(&dir);
@@ -72,7 +71,9 @@ fn main() {
         &modal.reference_configs(),
         modal.modes(),
         &BandOptions {
-            bands: (0..10).map(|i| (10.0 + 19.0 * i as f64, 29.0 + 19.0 * i as f64)).collect(),
+            bands: (0..10)
+                .map(|i| (10.0 + 19.0 * i as f64, 29.0 + 19.0 * i as f64))
+                .collect(),
             step: 0.5,
         },
     )
@@ -117,7 +118,10 @@ fn main() {
         r.expect("analyze");
         println!(
             "{:<40} {:>10.1}",
-            format!("{} evaluations, d = {p}, bootstrap {bootstrap}", layout.len()),
+            format!(
+                "{} evaluations, d = {p}, bootstrap {bootstrap}",
+                layout.len()
+            ),
             t * 1e3
         );
     }

@@ -23,3 +23,37 @@ pub struct ModalModel {
     pub dofs: Vec<Dof>,
     pub modes: Vec<Mode>,
 }
+
+/// Mode shapes of two modal models on the DOFs both have.
+pub struct SharedShapes {
+    /// Per mode of the first model: its shape on the shared DOFs.
+    pub first: Vec<Vec<Complex64>>,
+    /// Per mode of the second model, likewise.
+    pub second: Vec<Vec<Complex64>>,
+    /// The shared DOFs, in the first model's order.
+    pub dofs: Vec<Dof>,
+}
+
+impl ModalModel {
+    /// Shapes of `self` and `other` restricted to the DOFs both have (the
+    /// comparison space of MAC pairing, eq. 2.62).
+    pub fn shared_shapes(&self, other: &ModalModel) -> SharedShapes {
+        let idx: Vec<(usize, usize)> = self
+            .dofs
+            .iter()
+            .enumerate()
+            .filter_map(|(i, d)| other.dofs.iter().position(|x| x == d).map(|j| (i, j)))
+            .collect();
+        let pick = |m: &ModalModel, col: fn(&(usize, usize)) -> usize| -> Vec<Vec<Complex64>> {
+            m.modes
+                .iter()
+                .map(|mode| idx.iter().map(|p| mode.shape[col(p)]).collect())
+                .collect()
+        };
+        SharedShapes {
+            first: pick(self, |p| p.0),
+            second: pick(other, |p| p.1),
+            dofs: idx.iter().map(|p| self.dofs[p.0]).collect(),
+        }
+    }
+}

@@ -458,3 +458,68 @@ stages:
     let err = text(&ws.cmd(&["validate", "p.yaml"]).stderr);
     assert!(err.contains("`levels` needs a `model`"), "{err}");
 }
+
+#[test]
+fn anova_of_modal_models_from_matrix_runs() {
+    let ws = Workspace::new();
+    ws.write("models/two_mass.yaml", TWO_MASS);
+    ws.write(
+        "p.yaml",
+        r#"name: m
+stages:
+  healthy:
+    kind: synthesize
+    params: {model: models/two_mass.yaml, frequency: {min: 20, max: 400, step: 1}}
+  states:
+    kind: synthesize
+    matrix: {k1: [1.0, 0.8, 0.6], k2: [1.0, 0.7], c: [1]}
+    params:
+      model: models/two_mass.yaml
+      frequency: {min: 20, max: 400, step: 1}
+      values: {scale: {k1: "${matrix.k1}", "k2*": "${matrix.k2}"}}
+  wear:
+    kind: gsa
+    inputs: {modes: "states[*].modes", reference: healthy.modes}
+    params: {method: anova, interactions: 1, window: 0.5}
+"#,
+    );
+    let report = ws.run(&[], 0);
+    assert_eq!(report.stage("wear")["counters"]["runs"], 6);
+    let runs = ws.read("results/m/wear/runs.csv");
+    // `c` never varies, so only k1 and k2 are factors.
+    assert!(
+        runs.starts_with("k1,k2,p0.mode1.frequency,p0.mode1.damping,"),
+        "{runs}"
+    );
+    assert!(
+        runs.lines().nth(1).unwrap().starts_with("1.0,1.0,98.36"),
+        "{runs}"
+    );
+    let csv = ws.read("results/m/wear/anova.csv");
+    let ss = |o: &str, s: &str| -> f64 {
+        csv.lines()
+            .find(|l| l.starts_with(&format!("{o},{s},")))
+            .unwrap_or_else(|| panic!("{o} {s}: {csv}"))
+            .split(',')
+            .nth(2)
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    // Both springs move both modes; k1 (grounded) dominates mode 1.
+    assert!(
+        ss("p0.mode1.frequency", "k1") > ss("p0.mode1.frequency", "k2"),
+        "{csv}"
+    );
+    assert!(ss("p0.mode2.frequency", "k2") > 0.0);
+    // A `modes` input on a Sobol stage, or a modal ANOVA without it, is refused.
+    ws.write(
+        "p.yaml",
+        "name: m\nstages:\n  wear:\n    kind: gsa\n    params: {method: anova}\n",
+    );
+    let err = text(&ws.cmd(&["validate", "p.yaml"]).stderr);
+    assert!(
+        err.contains("bind the `modes` and `reference` inputs"),
+        "{err}"
+    );
+}

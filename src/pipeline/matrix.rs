@@ -50,6 +50,29 @@ pub fn expanded_name(base: &str, combo: &Combination) -> String {
     format!("{base}[{}]", inner.join(","))
 }
 
+/// The inverse of [`expanded_name`]: `base[k1=v1,k2=v2]` → (`base`,
+/// [(k1, v1), (k2, v2)]); a name without brackets has no matrix values.
+/// Stages that compare matrix runs (an ANOVA over wear states) read their
+/// factor levels from their inputs' stage names this way.
+pub fn parse_expanded_name(name: &str) -> (&str, Vec<(String, String)>) {
+    let Some(inner) = name
+        .strip_suffix(']')
+        .and_then(|n| n.split_once('['))
+        .filter(|(_, inner)| !inner.is_empty())
+    else {
+        return (name, Vec::new());
+    };
+    let values = inner
+        .1
+        .split(',')
+        .map(|kv| match kv.split_once('=') {
+            Some((k, v)) => (k.to_string(), v.to_string()),
+            None => (kv.to_string(), String::new()),
+        })
+        .collect();
+    (inner.0, values)
+}
+
 /// A `${matrix.key}` whose key the matrix does not define.
 #[derive(Debug, PartialEq)]
 pub struct UnknownKey {
@@ -139,6 +162,26 @@ pub fn substitute_str(s: &str, combo: &Combination, path: &[String]) -> Result<V
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn expanded_names_parse_back() {
+        let combo: Combination = vec![
+            ("bsd".into(), Value::from(0.75)),
+            ("state".into(), Value::from("worn")),
+        ];
+        let name = expanded_name("ema", &combo);
+        assert_eq!(name, "ema[bsd=0.75,state=worn]");
+        let (base, kv) = parse_expanded_name(&name);
+        assert_eq!(base, "ema");
+        assert_eq!(
+            kv,
+            [
+                ("bsd".to_string(), "0.75".to_string()),
+                ("state".into(), "worn".into())
+            ]
+        );
+        assert_eq!(parse_expanded_name("plain"), ("plain", Vec::new()));
+    }
 
     fn yaml(s: &str) -> Value {
         serde_yaml_ng::from_str(s).unwrap()

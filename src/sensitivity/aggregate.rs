@@ -5,6 +5,11 @@
 //! own total index reaches the threshold form an identification subproblem.
 //!
 //! combined_i = Σ_o w_o ST_{o,i} / Σ_o w_o;  significant ⇔ combined_i ≥ threshold.
+//!
+//! The weighted mean is PUB2's rule. It can overlook a parameter that rules
+//! one or two outputs among hundreds; [`Combine::Max`] instead takes
+//! max_o w_o ST_{o,i} / max_o w_o, so a parameter is significant as soon as
+//! it is in some output's subproblem (the union of the subproblems).
 
 #![allow(non_snake_case)]
 
@@ -32,6 +37,19 @@ pub struct Screening {
     /// Weight of every output as given (before normalization).
     pub weights: Vec<(String, f64)>,
     pub threshold: f64,
+    pub rule: Combine,
+}
+
+/// How total indices are combined over the outputs.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Combine {
+    /// Weighted mean (PUB2).
+    #[default]
+    Mean,
+    /// Weighted maximum: significant for the screening if significant for
+    /// any output.
+    Max,
 }
 
 /// Screen `parameters` by the total indices `ST[o]` of each output `outputs[o]`
@@ -42,6 +60,7 @@ pub fn aggregate(
     ST: &[Vec<f64>],
     weights: &[f64],
     threshold: f64,
+    rule: Combine,
 ) -> Result<Screening, SensitivityError> {
     if outputs.is_empty() || ST.len() != outputs.len() || weights.len() != outputs.len() {
         return Err(SensitivityError::Invalid(format!(
@@ -75,8 +94,15 @@ pub fn aggregate(
             "the threshold must be a finite number".into(),
         ));
     }
+    let heaviest = weights.iter().copied().fold(0.0, f64::max);
     let combined: Vec<f64> = (0..parameters.len())
-        .map(|i| ST.iter().zip(weights).map(|(s, w)| w * s[i]).sum::<f64>() / total)
+        .map(|i| {
+            let weighted = ST.iter().zip(weights).map(|(s, w)| w * s[i]);
+            match rule {
+                Combine::Mean => weighted.sum::<f64>() / total,
+                Combine::Max => weighted.fold(f64::NEG_INFINITY, f64::max) / heaviest,
+            }
+        })
         .collect();
     let (mut significant, mut non_significant) = (Vec::new(), Vec::new());
     for (name, c) in parameters.iter().zip(&combined) {
@@ -110,6 +136,7 @@ pub fn aggregate(
             .zip(weights.iter().copied())
             .collect(),
         threshold,
+        rule,
     })
 }
 
@@ -126,7 +153,7 @@ mod tests {
         let params = names(&["k1", "k2", "c1"]);
         let outputs = names(&["f1", "f2"]);
         let ST = vec![vec![0.9, 0.05, 0.01], vec![0.0, 0.3, 0.02]];
-        let s = aggregate(&params, &outputs, &ST, &[1.0, 3.0], 0.1).unwrap();
+        let s = aggregate(&params, &outputs, &ST, &[1.0, 3.0], 0.1, Combine::Mean).unwrap();
         // combined = [(0.9 + 0)/4, (0.05 + 0.9)/4, (0.01 + 0.06)/4]
         let c: Vec<f64> = s.combined_ST.iter().map(|(_, v)| *v).collect();
         for (a, b) in c.iter().zip([0.225, 0.2375, 0.0175]) {
@@ -137,17 +164,22 @@ mod tests {
         assert_eq!(s.subproblems[0].parameters, names(&["k1"]));
         assert_eq!(s.subproblems[1].parameters, names(&["k2"]));
         // With the weight on f1 only, k2 drops out.
-        let s = aggregate(&params, &outputs, &ST, &[1.0, 0.0], 0.1).unwrap();
+        let s = aggregate(&params, &outputs, &ST, &[1.0, 0.0], 0.1, Combine::Mean).unwrap();
         assert_eq!(s.significant, names(&["k1"]));
+        // The maximum rule: c1 (0.02 at most) stays out, k2 (0.3 · 3 / 3) is in.
+        let s = aggregate(&params, &outputs, &ST, &[1.0, 3.0], 0.1, Combine::Max).unwrap();
+        let c: Vec<f64> = s.combined_ST.iter().map(|(_, v)| *v).collect();
+        assert_eq!(c, [0.3, 0.3, 0.02]);
+        assert_eq!(s.significant, names(&["k1", "k2"]));
     }
 
     #[test]
     fn bad_weights_are_rejected() {
         let p = names(&["a"]);
         let o = names(&["y"]);
-        assert!(aggregate(&p, &o, &[vec![0.5]], &[0.0], 0.1).is_err());
-        assert!(aggregate(&p, &o, &[vec![0.5]], &[-1.0], 0.1).is_err());
-        assert!(aggregate(&p, &o, &[vec![0.5]], &[1.0, 1.0], 0.1).is_err());
-        assert!(aggregate(&p, &o, &[vec![0.5, 0.1]], &[1.0], 0.1).is_err());
+        assert!(aggregate(&p, &o, &[vec![0.5]], &[0.0], 0.1, Combine::Mean).is_err());
+        assert!(aggregate(&p, &o, &[vec![0.5]], &[-1.0], 0.1, Combine::Mean).is_err());
+        assert!(aggregate(&p, &o, &[vec![0.5]], &[1.0, 1.0], 0.1, Combine::Mean).is_err());
+        assert!(aggregate(&p, &o, &[vec![0.5, 0.1]], &[1.0], 0.1, Combine::Mean).is_err());
     }
 }

@@ -14,7 +14,7 @@ pub mod factorial;
 pub mod sobol;
 pub mod validation;
 
-pub use aggregate::{aggregate, Screening, Subproblem};
+pub use aggregate::{aggregate, Combine, Screening, Subproblem};
 pub use anova::{anova, AnovaRow, Design, Factor};
 pub use factorial::{factorial_anova, FactorialResult};
 pub use validation::{validate, ConformityKind, OutputConformity, Validation};

@@ -11,7 +11,7 @@ use super::artifacts::{read_frf, read_modes};
 use super::{
     InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs,
 };
-use crate::frf::{Dof, FrfSet};
+use crate::frf::FrfSet;
 use crate::metrics;
 use crate::modal::ModalModel;
 use crate::report::svg::{heatmap, Plot, Series, PALETTE};
@@ -181,30 +181,6 @@ fn write(path: &Path, text: &str) -> Result<(), StageError> {
         .map_err(|e| StageError::io(format!("cannot write {}", path.display()), e))
 }
 
-/// Shapes restricted to the DOFs both models have, in the reference's order.
-fn common_shapes(
-    r: &ModalModel,
-    c: &ModalModel,
-) -> (Vec<Vec<Complex64>>, Vec<Vec<Complex64>>, Vec<Dof>) {
-    let idx: Vec<(usize, usize)> = r
-        .dofs
-        .iter()
-        .enumerate()
-        .filter_map(|(i, d)| c.dofs.iter().position(|x| x == d).map(|j| (i, j)))
-        .collect();
-    let pick = |m: &ModalModel, col: fn(&(usize, usize)) -> usize| -> Vec<Vec<Complex64>> {
-        m.modes
-            .iter()
-            .map(|mode| idx.iter().map(|p| mode.shape[col(p)]).collect())
-            .collect()
-    };
-    (
-        pick(r, |p| p.0),
-        pick(c, |p| p.1),
-        idx.iter().map(|p| r.dofs[p.0]).collect(),
-    )
-}
-
 fn compare_modes(
     reference: &[ModalModel],
     candidate: &[ModalModel],
@@ -225,7 +201,8 @@ fn compare_modes(
             positions.push(json!({"position": r.position.index, "label": r.position.label, "error": "no candidate modes for this position"}));
             continue;
         };
-        let (rs, cs, dofs) = common_shapes(r, c);
+        let shared = r.shared_shapes(c);
+        let (rs, cs, dofs) = (shared.first, shared.second, shared.dofs);
         if dofs.is_empty() {
             return Err(StageError::InvalidInput {
                 input: "candidate".into(),

@@ -51,12 +51,14 @@ const PARAMS: &[ParamSpec] = &[
     ParamSpec { name: "parameters", ty: ParamType::Strings, required: false, doc: "parameters to vary (default all; the others stay at their nominal values)" },
     ParamSpec { name: "weights", ty: ParamType::Mapping, required: false, doc: "output → weight for combining total indices (unlisted outputs weigh 1)" },
     ParamSpec { name: "threshold", ty: ParamType::Number, required: false, doc: "total-index threshold for significant parameters (default 0.05)" },
+    ParamSpec { name: "combine", ty: ParamType::Enum(&["mean", "max"]), required: false, doc: "sobol: how total indices combine over outputs for the split: mean (weighted mean, PUB2; default) or max (significant for any output)" },
     ParamSpec { name: "validation", ty: ParamType::Integer, required: false, doc: "sobol: Monte Carlo samples validating the split (significant at nominal values, the others random; PUB2 used ≥ 1000); 0 = none" },
     ParamSpec { name: "seed", ty: ParamType::Integer, required: false, doc: "seed of the scrambled Sobol sequence and the bootstrap (default: the pipeline's seed)" },
     ParamSpec { name: "data", ty: ParamType::Path, required: false, doc: "anova: CSV table of factor levels and the response, relative to the pipeline file" },
     ParamSpec { name: "response", ty: ParamType::String, required: false, doc: "anova: name of the response column" },
     ParamSpec { name: "factors", ty: ParamType::Strings, required: false, doc: "anova: factor columns in order (default every column but the response)" },
     ParamSpec { name: "interactions", ty: ParamType::Integer, required: false, doc: "anova: 1 = main effects, 2 = with two-factor interactions (default 2)" },
+    ParamSpec { name: "min_mac", ty: ParamType::Number, required: false, doc: "anova of modal models: least MAC for pairing a run's mode with a reference mode (default 0.5)" },
     ParamSpec { name: "levels", ty: ParamType::Mapping, required: false, doc: "anova on a model: parameter → list of levels; the full factorial is run (others at nominal), one ANOVA per output" },
 ];
 
@@ -100,6 +102,12 @@ impl Stage for Gsa {
                 doc: "model files: reference modes (a `modes` artifact); default: the model's own modes at its true values",
             },
             InputSpec {
+                name: "modes",
+                required: false,
+                list: true,
+                doc: "anova of modal models: the `modes` of matrix runs (e.g. `ema[*].modes`); factor levels come from their matrix values, modes are paired with `reference`",
+            },
+            InputSpec {
                 name: "reference_frf",
                 required: false,
                 list: false,
@@ -111,7 +119,7 @@ impl Stage for Gsa {
     fn outputs(&self, params: &Mapping) -> Vec<String> {
         if is_anova(params) {
             let mut out = vec!["anova".into()];
-            if params.contains_key("model") {
+            if !params.contains_key("data") {
                 out.extend(["runs".into(), "heatmap".into()]);
             }
             return out;
@@ -147,6 +155,35 @@ impl Stage for Gsa {
 
     fn uses_seed(&self) -> bool {
         true
+    }
+
+    fn check_inputs(&self, params: &Mapping, bound: &[&str]) -> Result<(), ParamProblem> {
+        let modal_anova = matches!(
+            spec::parse(params),
+            Ok(GsaSpec::Anova(spec::AnovaSpec {
+                source: spec::AnovaSource::Modes { .. },
+                ..
+            }))
+        );
+        let has = |n: &str| bound.contains(&n);
+        let problem = |message: &str, help: &str| ParamProblem {
+            path: Vec::new(),
+            message: message.into(),
+            help: Some(help.into()),
+        };
+        if modal_anova && !(has("modes") && has("reference")) {
+            return Err(problem(
+                "an ANOVA without `data` or `model` analyzes modal models: bind the `modes` and `reference` inputs",
+                "inputs: {modes: \"ema[*].modes\", reference: healthy.modes}, or give `data` (a CSV table) or `model` + `levels`",
+            ));
+        }
+        if !modal_anova && has("modes") {
+            return Err(problem(
+                "the `modes` input belongs to an ANOVA of modal models",
+                "use `method: anova` without `data` and `model`, or remove the `modes` input",
+            ));
+        }
+        Ok(())
     }
 
     /// A model file named by `model` is hashed into the key with the files it

@@ -4,6 +4,8 @@
 //! seconds), convergence histories, parameter errors, and any SVG figures
 //! (FRF overlays, MAC matrices, stabilization diagrams, Sobol heatmaps).
 
+mod screening;
+
 use super::{InputSpec, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs};
 use crate::report::document::Document;
 use crate::report::svg::{bars, Plot, Series, PALETTE};
@@ -52,6 +54,24 @@ const INPUTS: &[InputSpec] = &[
         required: false,
         list: true,
         doc: "history.csv files (evaluation,best_objective): convergence curves",
+    },
+    InputSpec {
+        name: "splits",
+        required: false,
+        list: true,
+        doc: "gsa significant.csv files: the split per stage and its stability between stages",
+    },
+    InputSpec {
+        name: "validations",
+        required: false,
+        list: true,
+        doc: "gsa validation.json files: min and mean conformity of each split",
+    },
+    InputSpec {
+        name: "csv",
+        required: false,
+        list: true,
+        doc: "any CSV tables (e.g. anova.csv), shown as they are (first 200 rows)",
     },
     InputSpec {
         name: "figures",
@@ -104,6 +124,9 @@ impl Stage for Report {
         costs(&mut doc, &bound("costs"))?;
         convergence(&mut doc, &bound("histories"))?;
         parameter_errors(&mut doc, &bound("tables"))?;
+        screening::splits(&mut doc, &bound("splits"))?;
+        screening::validations(&mut doc, &bound("validations"))?;
+        tables(&mut doc, &bound("csv"))?;
         figures(&mut doc, &bound("figures"))?;
         let dir = ctx.scratch.join("report");
         let fig_dir = dir.join("figures");
@@ -125,7 +148,7 @@ impl Stage for Report {
     }
 }
 
-fn read_json(path: &Path, input: &str) -> Result<Json, StageError> {
+pub(super) fn read_json(path: &Path, input: &str) -> Result<Json, StageError> {
     let bytes = std::fs::read(path)
         .map_err(|e| StageError::io(format!("cannot read input `{input}`"), e))?;
     serde_json::from_slice(&bytes).map_err(|e| StageError::InvalidInput {
@@ -273,6 +296,48 @@ fn parameter_errors(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<
         bars("Parameter errors", "|relative error| %", &labels, &series),
     );
     Ok(())
+}
+
+/// CSV inputs as tables, each under its stage and file name.
+fn tables(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageError> {
+    const MAX_ROWS: usize = 200;
+    for (stage, path) in inputs {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| StageError::io("cannot read input `csv`", e))?;
+        let mut lines = text.lines().filter(|l| !l.trim().is_empty());
+        let header: Vec<String> = lines
+            .next()
+            .unwrap_or_default()
+            .split(',')
+            .map(str::to_string)
+            .collect();
+        let rows: Vec<Vec<String>> = lines
+            .by_ref()
+            .take(MAX_ROWS)
+            .map(|l| l.split(',').map(short_number).collect())
+            .collect();
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        doc.heading(2, format!("{stage}: {name}"));
+        doc.table(header, rows);
+        let rest = lines.count();
+        if rest > 0 {
+            doc.paragraph(format!("{rest} more rows in {name}."));
+        }
+    }
+    Ok(())
+}
+
+/// Numbers to 4 significant digits for reading; text as it is.
+fn short_number(cell: &str) -> String {
+    match cell.parse::<f64>() {
+        Ok(v) if v.is_finite() && v != v.trunc() => format!("{v:.4e}")
+            .parse::<f64>()
+            .map_or(cell.to_string(), |r| format!("{r}")),
+        _ => cell.to_string(),
+    }
 }
 
 fn figures(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageError> {

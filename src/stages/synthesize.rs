@@ -106,6 +106,31 @@ fn values(model: &Model, spec: Option<&Values>) -> Result<Vec<f64>, String> {
                 v[i] = x;
             }
         }
+        Some(Values::Scale { scale }) => {
+            for (pattern, &f) in scale {
+                let glob = glob::Pattern::new(pattern)
+                    .map_err(|e| format!("values.scale: `{pattern}`: {e}"))?;
+                let mut matched = false;
+                for (i, p) in model.parameters.iter().enumerate() {
+                    if glob.matches(&p.name) {
+                        matched = true;
+                        let x = v[i] * f;
+                        if !(p.lower <= x && x <= p.upper) {
+                            return Err(format!(
+                                "values.scale: `{}` × {f} = {x} is outside its bounds [{}, {}]",
+                                p.name, p.lower, p.upper
+                            ));
+                        }
+                        v[i] = x;
+                    }
+                }
+                if !matched {
+                    return Err(format!(
+                        "values.scale: `{pattern}` matches no parameter of the model"
+                    ));
+                }
+            }
+        }
         Some(Values::Perturb { perturb }) => {
             // One Gaussian stream per parameter index: adding a parameter
             // leaves the others' perturbations unchanged.

@@ -34,11 +34,14 @@ pub struct Params {
 }
 
 /// Parameter values to synthesize with: `truth` (default), overrides by
-/// name, or a seeded random perturbation of the truth (a disturbed model).
+/// name, a seeded random perturbation of the truth (a disturbed model), or
+/// factors on the true values of every parameter a glob pattern matches
+/// (a worn component: `{scale: {"lgs_*.k_*": 0.6}}`).
 #[derive(Deserialize)]
 #[serde(untagged)]
 pub enum Values {
     Perturb { perturb: Perturb },
+    Scale { scale: BTreeMap<String, f64> },
     Overrides(BTreeMap<String, f64>),
     Named(String),
 }
@@ -216,12 +219,30 @@ pub fn parse(params: &Mapping) -> Result<Params, ParamProblem> {
             ));
         }
     }
+    if let Some(Values::Scale { scale }) = &p.values {
+        for (pattern, f) in scale {
+            if let Err(e) = glob::Pattern::new(pattern) {
+                return Err(problem(
+                    &["values", "scale", pattern],
+                    format!("`{pattern}` is not a valid pattern: {e}"),
+                    "use * and ? as in lgs_*.k_*",
+                ));
+            }
+            if !(f.is_finite() && *f > 0.0) {
+                return Err(problem(
+                    &["values", "scale", pattern],
+                    format!("factor {f} must be a positive number"),
+                    "e.g. 0.6 for 60 % of the true value",
+                ));
+            }
+        }
+    }
     if let Some(Values::Named(n)) = &p.values {
         if n != "truth" {
             return Err(problem(
                 &["values"],
                 format!("unknown values `{n}`"),
-                "`truth`, a map of parameter overrides, or {perturb: {relative, seed}}",
+                "`truth`, a map of parameter overrides, {perturb: {relative, seed}} or {scale: {pattern: factor}}",
             ));
         }
     }

@@ -2,12 +2,16 @@
 //! table of a factorial data set (CSV), or of a full factorial design run on
 //! a model with one table per output, the runs as a table and the share of
 //! variance per source as a heatmap (outputs × sources: which component's
-//! level moves which mode).
+//! level moves which mode); or of the modal models of matrix runs (PUB1:
+//! AutoEMA of each BSD × LGS preload state), with the factor levels read
+//! from the runs' matrix values and each reference mode tracked by MAC.
 
 use super::spec::{AnovaSource, AnovaSpec};
 use super::{build_model, num, write};
-use crate::sensitivity::{self, AnovaRow};
-use crate::stages::{StageContext, StageError, StageOutputs};
+use crate::modal::ModalModel;
+use crate::pipeline::matrix::parse_expanded_name;
+use crate::sensitivity::{self, AnovaRow, Design, Factor, FactorialResult};
+use crate::stages::{artifacts, StageContext, StageError, StageOutputs};
 use std::fmt::Write;
 
 pub fn run(ctx: &StageContext, a: &AnovaSpec) -> Result<StageOutputs, StageError> {
@@ -40,9 +44,185 @@ pub fn run(ctx: &StageContext, a: &AnovaSpec) -> Result<StageOutputs, StageError
                     message: e.to_string(),
                 },
             })?;
-            write_factorial(ctx, &r)
+            let text: Vec<Vec<String>> = r
+                .runs
+                .iter()
+                .map(|x| x.iter().map(|v| num(*v)).collect())
+                .collect();
+            write_factorial(ctx, &r, &text, &[], "evaluations")
+        }
+        AnovaSource::Modes {
+            factors,
+            window,
+            min_mac,
+            outputs,
+        } => run_modes(ctx, factors, *window, *min_mac, outputs, a.interactions),
+    }
+}
+
+/// Frequency and damping of every reference mode in one run, `None` where
+/// no mode of the run pairs with it (MAC on shared DOFs, Hungarian pairing
+/// within the window, eq. 2.62/2.64).
+fn track(
+    reference: &[ModalModel],
+    run: &[ModalModel],
+    window: f64,
+    min_mac: f64,
+) -> (Vec<String>, Vec<Option<f64>>) {
+    let (mut names, mut values) = (Vec::new(), Vec::new());
+    for r in reference {
+        let c = run.iter().find(|c| c.position.index == r.position.index);
+        let mut partner = vec![None; r.modes.len()];
+        if let Some(c) = c {
+            let shared = r.shared_shapes(c);
+            if !shared.dofs.is_empty() {
+                let rf: Vec<f64> = r.modes.iter().map(|m| m.frequency_hz).collect();
+                let cf: Vec<f64> = c.modes.iter().map(|m| m.frequency_hz).collect();
+                let pairs = crate::metrics::pair_modes(
+                    &rf,
+                    &shared.first,
+                    &cf,
+                    &shared.second,
+                    window,
+                    min_mac,
+                );
+                for p in pairs {
+                    partner[p.reference] = Some(&c.modes[p.candidate]);
+                }
+            }
+        }
+        for (m, p) in partner.iter().enumerate() {
+            let pos = r.position.index;
+            names.push(format!("p{pos}.mode{}.frequency", m + 1));
+            names.push(format!("p{pos}.mode{}.damping", m + 1));
+            values.push(p.map(|p| p.frequency_hz));
+            values.push(p.map(|p| p.damping_ratio));
         }
     }
+    (names, values)
+}
+
+fn run_modes(
+    ctx: &StageContext,
+    factors: &[String],
+    window: f64,
+    min_mac: f64,
+    selected: &[String],
+    interactions: u8,
+) -> Result<StageOutputs, StageError> {
+    let reference = artifacts::read_modes(ctx.input("reference")?, "reference")?;
+    let paths = ctx.inputs.get("modes").cloned().unwrap_or_default();
+    let sources = ctx.sources.get("modes").cloned().unwrap_or_default();
+    let invalid = |message: String| StageError::InvalidInput {
+        input: "modes".into(),
+        message,
+    };
+    // Matrix values of every run, keys in the order of the first run.
+    let runs: Vec<Vec<(String, String)>> = sources
+        .iter()
+        .map(|s| parse_expanded_name(&s.stage).1)
+        .collect();
+    let keys: Vec<String> = runs
+        .first()
+        .map(|r| r.iter().map(|(k, _)| k.clone()).collect())
+        .unwrap_or_default();
+    let level = |run: &[(String, String)], key: &str| {
+        run.iter().find(|(k, _)| k == key).map(|(_, v)| v.clone())
+    };
+    let factors: Vec<String> = if factors.is_empty() {
+        keys.iter()
+            .filter(|k| {
+                let first = level(&runs[0], k);
+                runs.iter().any(|r| level(r, k) != first)
+            })
+            .cloned()
+            .collect()
+    } else {
+        factors.to_vec()
+    };
+    if factors.is_empty() {
+        return Err(invalid(format!(
+            "the {} bound runs have no matrix key that varies ({}); bind the modes of a matrix stage such as `ema[*].modes`",
+            runs.len(),
+            sources.iter().map(|s| s.stage.as_str()).collect::<Vec<_>>().join(", ")
+        )));
+    }
+    let mut labels: Vec<Vec<String>> = vec![Vec::new(); factors.len()];
+    for (run, source) in runs.iter().zip(&sources) {
+        for (f, name) in factors.iter().enumerate() {
+            let v = level(run, name).ok_or_else(|| {
+                invalid(format!(
+                    "run `{}` has no matrix key `{name}`; its keys: {}",
+                    source.stage,
+                    keys.join(", ")
+                ))
+            })?;
+            labels[f].push(v);
+        }
+    }
+
+    let mut names = Vec::new();
+    let mut table: Vec<Vec<Option<f64>>> = Vec::new();
+    for path in &paths {
+        let run = artifacts::read_modes(path, "modes")?;
+        let (n, v) = track(&reference, &run, window, min_mac);
+        names = n;
+        table.push(v);
+    }
+    if let Some(o) = selected.iter().find(|o| !names.contains(o)) {
+        return Err(StageError::InvalidParam {
+            param: "outputs".into(),
+            message: format!("unknown output `{o}`; outputs: {}", names.join(", ")),
+        });
+    }
+    let design_factors: Vec<Factor> = factors
+        .iter()
+        .zip(&labels)
+        .map(|(n, l)| Factor::from_labels(n.clone(), l))
+        .collect();
+    let mut result = FactorialResult {
+        factors: factors.clone(),
+        runs: Vec::new(), // levels may be text; written from `labels`
+        outputs: Vec::new(),
+        responses: vec![Vec::new(); table.len()],
+        tables: Vec::new(),
+    };
+    let mut skipped = Vec::new();
+    for (o, name) in names.iter().enumerate() {
+        if !selected.is_empty() && !selected.contains(name) {
+            continue;
+        }
+        let column: Option<Vec<f64>> = table.iter().map(|row| row[o]).collect();
+        let Some(column) = column else {
+            let missing = table.iter().filter(|row| row[o].is_none()).count();
+            skipped.push(format!(
+                "{name}: unpaired in {missing} of {} runs",
+                table.len()
+            ));
+            continue;
+        };
+        let design = Design {
+            factors: design_factors.clone(),
+            response: column.clone(),
+        };
+        let rows = sensitivity::anova(&design, interactions)
+            .map_err(|e| invalid(format!("output `{name}`: {e}")))?;
+        for (r, v) in result.responses.iter_mut().zip(&column) {
+            r.push(*v);
+        }
+        result.outputs.push(name.clone());
+        result.tables.push(rows);
+    }
+    if result.outputs.is_empty() {
+        return Err(invalid(format!(
+            "no reference mode pairs in every run ({}); widen `window` or lower `min_mac`",
+            skipped.join("; ")
+        )));
+    }
+    let text: Vec<Vec<String>> = (0..table.len())
+        .map(|j| labels.iter().map(|l| l[j].clone()).collect())
+        .collect();
+    write_factorial(ctx, &result, &text, &skipped, "runs")
 }
 
 fn row_text(r: &AnovaRow) -> String {
@@ -90,7 +270,10 @@ fn run_table(
 /// outputs per run) and `anova.svg` (SS share per output and source).
 fn write_factorial(
     ctx: &StageContext,
-    r: &sensitivity::FactorialResult,
+    r: &FactorialResult,
+    levels: &[Vec<String>],
+    skipped: &[String],
+    counter: &str,
 ) -> Result<StageOutputs, StageError> {
     let mut csv = String::from("output,source,SSB,dof,MS,F,p\n");
     for (o, table) in r.outputs.iter().zip(&r.tables) {
@@ -106,8 +289,8 @@ fn write_factorial(
         let _ = write!(csv, ",{o}");
     }
     csv.push('\n');
-    for (x, y) in r.runs.iter().zip(&r.responses) {
-        let cells: Vec<String> = x.iter().chain(y).map(|v| num(*v)).collect();
+    for (x, y) in levels.iter().zip(&r.responses) {
+        let cells: Vec<String> = x.iter().cloned().chain(y.iter().map(|v| num(*v))).collect();
         let _ = writeln!(csv, "{}", cells.join(","));
     }
     let runs = ctx.scratch.join("runs.csv");
@@ -136,14 +319,16 @@ fn write_factorial(
                 .collect()
         })
         .collect();
-    let svg = crate::report::svg::heatmap(
-        &format!("ANOVA: share of variance per source ({})", ctx.stage),
-        &r.outputs,
-        &sources,
-        &share,
-        0.0,
-        1.0,
-    );
+    let title = if skipped.is_empty() {
+        format!("ANOVA: share of variance per source ({})", ctx.stage)
+    } else {
+        format!(
+            "ANOVA: share of variance per source ({}; {} outputs left out: not paired in every run)",
+            ctx.stage,
+            skipped.len()
+        )
+    };
+    let svg = crate::report::svg::heatmap(&title, &r.outputs, &sources, &share, 0.0, 1.0);
     let heatmap = ctx.scratch.join("anova.svg");
     write(&heatmap, &svg)?;
     Ok(StageOutputs {
@@ -152,6 +337,10 @@ fn write_factorial(
             ("runs".into(), runs),
             ("heatmap".into(), heatmap),
         ],
-        counters: [("evaluations".to_string(), r.runs.len() as u64)].into(),
+        counters: [
+            (counter.to_string(), levels.len() as u64),
+            ("outputs_left_out".to_string(), skipped.len() as u64),
+        ]
+        .into(),
     })
 }

@@ -70,8 +70,15 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
     let names: Vec<String> = report.outputs.iter().map(|(o, _)| o.clone()).collect();
     let st: Vec<Vec<f64>> = report.outputs.iter().map(|(_, i)| i.ST.clone()).collect();
     let weights = spec::resolve_weights(&names, &s.weights);
-    let screening = sensitivity::aggregate(&report.parameters, &names, &st, &weights, s.threshold)
-        .map_err(|e| StageError::Failed(e.to_string()))?;
+    let screening = sensitivity::aggregate(
+        &report.parameters,
+        &names,
+        &st,
+        &weights,
+        s.threshold,
+        s.combine,
+    )
+    .map_err(|e| StageError::Failed(e.to_string()))?;
     let json = serde_json::json!({
         "method": "sobol",
         "samples": s.samples,
@@ -83,6 +90,7 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
         "combined_ST": screening.combined_ST.iter().map(|(p, v)| serde_json::json!({"parameter": p, "ST": v})).collect::<Vec<_>>(),
         "weights": screening.weights.iter().map(|(o, w)| serde_json::json!({"output": o, "weight": w})).collect::<Vec<_>>(),
         "threshold": screening.threshold,
+        "combine": screening.rule,
         "warnings": report.warnings,
     });
     let subproblems = ctx.scratch.join("subproblems.json");

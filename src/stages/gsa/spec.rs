@@ -20,6 +20,8 @@ pub struct SobolSpec {
     /// Weights given per output name (unlisted outputs weigh 1).
     pub weights: Vec<(String, f64)>,
     pub threshold: f64,
+    /// How total indices combine over outputs for the split.
+    pub combine: crate::sensitivity::Combine,
     /// Monte Carlo validation samples of the split (0: none).
     pub validation: usize,
 }
@@ -38,6 +40,17 @@ pub enum AnovaSource {
     Model {
         model: ModelSpec,
         levels: Vec<(String, Vec<f64>)>,
+        outputs: Vec<String>,
+    },
+    /// Modal models of matrix runs (the `modes` input, e.g. AutoEMA of each
+    /// wear state): factor levels from the runs' matrix values, responses
+    /// the frequency and damping of each reference mode paired by MAC.
+    Modes {
+        /// Matrix keys that are factors (empty: every key with more than one
+        /// value); other keys count as replicates.
+        factors: Vec<String>,
+        window: f64,
+        min_mac: f64,
         outputs: Vec<String>,
     },
 }
@@ -62,9 +75,17 @@ pub const SOBOL_ONLY: &[&str] = &[
     "parameters",
     "weights",
     "threshold",
+    "combine",
     "validation",
 ];
-pub const ANOVA_ONLY: &[&str] = &["data", "response", "interactions", "factors", "levels"];
+pub const ANOVA_ONLY: &[&str] = &[
+    "data",
+    "response",
+    "interactions",
+    "factors",
+    "levels",
+    "min_mac",
+];
 
 pub fn problem(path: &[&str], message: impl Into<String>, help: impl Into<String>) -> ParamProblem {
     ParamProblem {
@@ -224,6 +245,17 @@ fn sobol(params: &Mapping) -> Result<SobolSpec, ParamProblem> {
         parameters: subset,
         weights,
         threshold,
+        combine: match params.get("combine").and_then(Value::as_str) {
+            None | Some("mean") => crate::sensitivity::Combine::Mean,
+            Some("max") => crate::sensitivity::Combine::Max,
+            Some(other) => {
+                return Err(problem(
+                    &["combine"],
+                    format!("unknown rule `{other}`"),
+                    "combine: mean (weighted mean, PUB2) | max (significant for any output)",
+                ))
+            }
+        },
         validation: int(params, "validation", 0, 0, 10_000_000)? as usize,
     })
 }
@@ -327,11 +359,23 @@ fn anova(params: &Mapping) -> Result<AnovaSpec, ParamProblem> {
             "add `model:` or remove `levels`",
         ));
     }
+    if !params.contains_key("data") && !params.contains_key("response") {
+        return modes_source(params, interactions);
+    }
+    if params.contains_key("min_mac") {
+        return Err(problem(
+            &["min_mac"],
+            "`min_mac` applies to an ANOVA of modal models (the `modes` input)",
+            "remove it for a data table",
+        ));
+    }
     let text = |key: &str, help: &str| match params.get(key).and_then(Value::as_str) {
         Some(s) if !s.trim().is_empty() => Ok(s.to_string()),
         _ => Err(problem(
             &[],
-            format!("method `anova` needs param `{key}` (or `model` + `levels`)"),
+            format!(
+                "method `anova` needs param `{key}` (or `model` + `levels`, or a `modes` input)"
+            ),
             help.to_string(),
         )),
     };
@@ -355,6 +399,44 @@ fn anova(params: &Mapping) -> Result<AnovaSpec, ParamProblem> {
             )?,
             response: text("response", "response: the name of the response column")?,
             factors: (!factors.is_empty()).then_some(factors),
+        },
+        interactions,
+    })
+}
+
+/// An ANOVA of the modal models bound to the `modes` input.
+fn modes_source(params: &Mapping, interactions: u8) -> Result<AnovaSpec, ParamProblem> {
+    if let Some(k) = ["modes", "bands", "band_step", "deps"]
+        .iter()
+        .find(|k| params.contains_key(**k))
+    {
+        return Err(problem(
+            &[k],
+            format!("`{k}` does not apply to an ANOVA of modal models"),
+            format!("remove `{k}`"),
+        ));
+    }
+    let fraction = |key: &str, default: f64, max: f64| match params.get(key) {
+        None => Ok(default),
+        Some(v) => {
+            let x = number(v, &[key])?;
+            if x > 0.0 && x <= max {
+                Ok(x)
+            } else {
+                Err(problem(
+                    &[key],
+                    format!("`{key}` must lie in (0, {max}]"),
+                    format!("e.g. {key}: {default}"),
+                ))
+            }
+        }
+    };
+    Ok(AnovaSpec {
+        source: AnovaSource::Modes {
+            factors: strings(params, "factors")?,
+            window: fraction("window", 0.2, 10.0)?,
+            min_mac: fraction("min_mac", 0.5, 1.0)?,
+            outputs: strings(params, "outputs")?,
         },
         interactions,
     })
