@@ -72,7 +72,8 @@ pub enum Selector {
     None,
     /// `stage[*].output`: every expansion of a matrix stage, as a list.
     All,
-    /// `stage[k=v,...].output`: one expansion, keys in any order.
+    /// `stage[k=v,...].output`: the expansions with these matrix values
+    /// (keys in any order; naming every key selects one expansion).
     Exact(Vec<(String, String)>),
 }
 

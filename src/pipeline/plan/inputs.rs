@@ -155,13 +155,14 @@ fn resolve_ref(
                 .iter()
                 .copied()
                 .filter(|&i| {
-                    let mut mine: Vec<(String, String)> = nodes[i]
+                    let mine: Vec<(String, String)> = nodes[i]
                         .matrix
                         .iter()
                         .map(|(k, v)| (k.clone(), matrix::scalar_text(v).unwrap_or_default()))
                         .collect();
-                    mine.sort();
-                    &mine == pairs
+                    // Every given key must match; keys left out select
+                    // all their values (`ema[lgs=1.0].modes`: every bsd).
+                    pairs.iter().all(|p| mine.contains(p))
                 })
                 .collect();
             if hit.is_empty() {
