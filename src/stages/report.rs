@@ -126,7 +126,16 @@ impl Stage for Report {
         parameter_errors(&mut doc, &bound("tables"))?;
         screening::splits(&mut doc, &bound("splits"))?;
         screening::validations(&mut doc, &bound("validations"))?;
-        tables(&mut doc, &bound("csv"))?;
+        let named: Vec<(String, PathBuf)> = ctx
+            .sources
+            .get("csv")
+            .cloned()
+            .unwrap_or_default()
+            .into_iter()
+            .map(|s| format!("{}.{}", s.stage, s.output))
+            .zip(ctx.inputs.get("csv").cloned().unwrap_or_default())
+            .collect();
+        tables(&mut doc, &named)?;
         figures(&mut doc, &bound("figures"))?;
         let dir = ctx.scratch.join("report");
         let fig_dir = dir.join("figures");
@@ -298,7 +307,7 @@ fn parameter_errors(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<
     Ok(())
 }
 
-/// CSV inputs as tables, each under its stage and file name.
+/// CSV inputs as tables, each under its `stage.output` name.
 fn tables(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageError> {
     const MAX_ROWS: usize = 200;
     for (stage, path) in inputs {
@@ -316,15 +325,11 @@ fn tables(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageE
             .take(MAX_ROWS)
             .map(|l| l.split(',').map(short_number).collect())
             .collect();
-        let name = path
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned())
-            .unwrap_or_default();
-        doc.heading(2, format!("{stage}: {name}"));
+        doc.heading(2, stage.clone());
         doc.table(header, rows);
         let rest = lines.count();
         if rest > 0 {
-            doc.paragraph(format!("{rest} more rows in {name}."));
+            doc.paragraph(format!("{rest} more rows in {stage}."));
         }
     }
     Ok(())

@@ -1,0 +1,117 @@
+//! CI-sized variants of the shipped studies in `pipelines/`: each pipeline
+//! file is copied with its models, shrunk by a few textual edits (fewer
+//! samples, levels or seeds; every edit must apply, so a changed study fails
+//! here rather than silently running full size) and run end to end; the
+//! assertions check the study's headline result, not only that it ran.
+
+mod util;
+
+use serde_json::Value;
+use util::Workspace;
+
+/// A workspace holding `pipelines/models` and the study `name` as `p.yaml`,
+/// with each (from, to) edit applied exactly as written.
+fn study(name: &str, edits: &[(&str, &str)]) -> Workspace {
+    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines");
+    let ws = Workspace::new();
+    for entry in std::fs::read_dir(format!("{root}/models")).unwrap().flatten() {
+        let text = std::fs::read_to_string(entry.path()).unwrap();
+        ws.write(
+            &format!("models/{}", entry.file_name().to_string_lossy()),
+            &text,
+        );
+    }
+    let mut text = std::fs::read_to_string(format!("{root}/{name}.yaml")).unwrap();
+    for (from, to) in edits {
+        assert!(text.contains(from), "{name}.yaml no longer contains `{from}`");
+        text = text.replace(from, to);
+    }
+    ws.write("p.yaml", &text);
+    ws
+}
+
+fn csv_rows(text: &str) -> Vec<Vec<String>> {
+    text.lines()
+        .map(|l| l.split(',').map(str::to_string).collect())
+        .collect()
+}
+
+#[test]
+fn wear_monitoring_localizes_wear_by_mode() {
+    let ws = study(
+        "wear_monitoring",
+        &[
+            (
+                "matrix: {bsd: [1.0, 0.7, 0.4], lgs: [1.0, 0.7, 0.4], repeat: [1, 2]}\n    params:\n      model",
+                "matrix: {bsd: [1.0, 0.4], lgs: [1.0, 0.4], repeat: [1, 2]}\n    params:\n      model",
+            ),
+            (
+                "matrix: {bsd: [1.0, 0.7, 0.4], lgs: [1.0, 0.7, 0.4], repeat: [1, 2]}\n    inputs",
+                "matrix: {bsd: [1.0, 0.4], lgs: [1.0, 0.4], repeat: [1, 2]}\n    inputs",
+            ),
+        ],
+    );
+    let report = ws.run(&[], 0);
+    assert_eq!(report.stage("anova")["counters"]["runs"], 8);
+    // Share of the sum of squares of `source` in `output`'s ANOVA.
+    let share = |stage: &str, output: &str, source: &str| -> f64 {
+        let rows = csv_rows(&ws.read(&format!("results/wear_monitoring/{stage}/anova.csv")));
+        let of = |s: &str| -> f64 {
+            rows.iter()
+                .find(|r| r[0] == output && r[1] == s)
+                .unwrap_or_else(|| panic!("{stage}: no {output} {s}"))[2]
+                .parse()
+                .unwrap()
+        };
+        let total: f64 = rows
+            .iter()
+            .filter(|r| r[0] == output)
+            .map(|r| r[2].parse::<f64>().unwrap())
+            .sum();
+        of(source) / total
+    };
+    // The model: the first mode is the guides' alone, the second the ball screw's.
+    assert!(share("model_anova", "p1.mode1.frequency", "lgs") > 0.99);
+    assert!(share("model_anova", "p1.mode2.frequency", "bsd") > 0.9);
+    // AutoEMA on noisy FRFs of each state sees the same.
+    assert!(share("anova", "p1.mode1.frequency", "lgs") > 0.5);
+    assert!(share("anova", "p1.mode2.frequency", "bsd") > 0.8);
+    let html = ws.read("results/wear_monitoring/report/report/index.html");
+    assert!(html.contains("<h2>model_anova.anova</h2>"), "report lacks the tables");
+}
+
+#[test]
+fn autoema_study_finds_the_modes() {
+    let ws = study("autoema_study", &[("iterations: 40, initial: 12", "iterations: 16, initial: 8")]);
+    ws.run(&[], 0);
+    let m: Value = serde_json::from_str(&ws.read("results/autoema_study/score/metrics.json")).unwrap();
+    let paired = m["modes"]["paired"].as_u64().unwrap();
+    assert!(paired >= 30, "{m}");
+    assert!(m["modes"]["mean_mac"].as_f64().unwrap() > 0.9, "{m}");
+    assert!(m["frf"]["mean_frac"].as_f64().unwrap() > 0.95, "{m}");
+}
+
+#[test]
+fn dimensionality_reduction_splits_and_validates() {
+    let ws = study(
+        "dimensionality_reduction",
+        &[
+            ("matrix: {seed: [3, 4]}", "matrix: {seed: [3]}"),
+            ("samples: 128", "samples: 8"),
+            ("bootstrap: 100", "bootstrap: 10"),
+            ("validation: 1000", "validation: 40"),
+            ("positions: [0, 2, 3]", "positions: [0]"),
+        ],
+    );
+    ws.run(&[], 0);
+    let dir = "results/dimensionality_reduction/gsa[seed=3]";
+    let significant = ws.read(&format!("{dir}/significant.csv"));
+    let flagged = significant.lines().filter(|l| l.ends_with(",true")).count();
+    assert!(flagged > 3 && flagged < 78, "{significant}");
+    let v: Value = serde_json::from_str(&ws.read(&format!("{dir}/validation.json"))).unwrap();
+    assert_eq!(v["samples"], 40);
+    let (min, mean) = (v["min"].as_f64().unwrap(), v["mean"].as_f64().unwrap());
+    assert!(min <= mean && mean > 0.8 && mean <= 1.0, "{v}");
+    let md = ws.read("results/dimensionality_reduction/report/report/report.md");
+    assert!(md.contains("Validation of the split"), "{md}");
+}
