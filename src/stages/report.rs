@@ -126,17 +126,18 @@ impl Stage for Report {
         parameter_errors(&mut doc, &bound("tables"))?;
         screening::splits(&mut doc, &bound("splits"))?;
         screening::validations(&mut doc, &bound("validations"))?;
-        let named: Vec<(String, PathBuf)> = ctx
-            .sources
-            .get("csv")
-            .cloned()
-            .unwrap_or_default()
-            .into_iter()
-            .map(|s| format!("{}.{}", s.stage, s.output))
-            .zip(ctx.inputs.get("csv").cloned().unwrap_or_default())
-            .collect();
-        tables(&mut doc, &named)?;
-        figures(&mut doc, &bound("figures"))?;
+        // Inputs labelled `stage.output`: cached files carry hashes, not names.
+        let named = |name: &str| -> Vec<(String, PathBuf)> {
+            let labels = ctx.sources.get(name).cloned().unwrap_or_default();
+            let paths = ctx.inputs.get(name).cloned().unwrap_or_default();
+            labels
+                .into_iter()
+                .map(|s| format!("{}.{}", s.stage, s.output))
+                .zip(paths)
+                .collect()
+        };
+        tables(&mut doc, &named("csv"))?;
+        figures(&mut doc, &named("figures"))?;
         let dir = ctx.scratch.join("report");
         let fig_dir = dir.join("figures");
         std::fs::create_dir_all(&fig_dir)
@@ -371,15 +372,21 @@ fn figures(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), Stage
                     message: format!("{} from {stage} is not an SVG", f.display()),
                 });
             }
-            let name = f
-                .file_name()
-                .map(|n| n.to_string_lossy().into_owned())
-                .unwrap_or_default();
-            let file = format!(
-                "{}_{name}",
-                stage.replace(|c: char| !c.is_ascii_alphanumeric(), "_")
-            );
-            doc.figure(format!("{stage}: {name}"), file, svg);
+            // A directory's SVGs keep their file names; a single file is
+            // named by its output (`stage.output`).
+            let name = if path.is_dir() {
+                f.file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default()
+            } else {
+                String::new()
+            };
+            let slug = stage.replace(|c: char| !c.is_ascii_alphanumeric(), "_");
+            if name.is_empty() {
+                doc.figure(stage.clone(), format!("{slug}.svg"), svg);
+            } else {
+                doc.figure(format!("{stage}: {name}"), format!("{slug}_{name}"), svg);
+            }
         }
     }
     Ok(())
