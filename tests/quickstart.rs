@@ -51,13 +51,19 @@ fn quickstart_runs_reports_and_caches() {
     assert!(frac > 0.99 && frac < 1.0, "{frac}");
     // AutoEMA finds all three modes of each measurement.
     for which in ["noisy", "hammer"] {
-        let m: serde_json::Value = serde_json::from_str(
-            &ws.read(&format!("results/quickstart/score[measurement={which}]/metrics.json")),
-        )
+        let m: serde_json::Value = serde_json::from_str(&ws.read(&format!(
+            "results/quickstart/score[measurement={which}]/metrics.json"
+        )))
         .unwrap();
         assert_eq!(m["modes"]["paired"], 3, "{which}: {m}");
-        assert!(m["modes"]["mean_mac"].as_f64().unwrap() > 0.99, "{which}: {m}");
-        assert!(m["modes"]["mean_nfd"].as_f64().unwrap() < 0.01, "{which}: {m}");
+        assert!(
+            m["modes"]["mean_mac"].as_f64().unwrap() > 0.99,
+            "{which}: {m}"
+        );
+        assert!(
+            m["modes"]["mean_nfd"].as_f64().unwrap() < 0.01,
+            "{which}: {m}"
+        );
     }
     assert!(ws.run(&[], 0).all("cached"));
 

@@ -14,7 +14,10 @@ use util::Workspace;
 fn study(name: &str, edits: &[(&str, &str)]) -> Workspace {
     let root = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines");
     let ws = Workspace::new();
-    for entry in std::fs::read_dir(format!("{root}/models")).unwrap().flatten() {
+    for entry in std::fs::read_dir(format!("{root}/models"))
+        .unwrap()
+        .flatten()
+    {
         let text = std::fs::read_to_string(entry.path()).unwrap();
         ws.write(
             &format!("models/{}", entry.file_name().to_string_lossy()),
@@ -23,7 +26,10 @@ fn study(name: &str, edits: &[(&str, &str)]) -> Workspace {
     }
     let mut text = std::fs::read_to_string(format!("{root}/{name}.yaml")).unwrap();
     for (from, to) in edits {
-        assert!(text.contains(from), "{name}.yaml no longer contains `{from}`");
+        assert!(
+            text.contains(from),
+            "{name}.yaml no longer contains `{from}`"
+        );
         text = text.replace(from, to);
     }
     ws.write("p.yaml", &text);
@@ -77,14 +83,21 @@ fn wear_monitoring_localizes_wear_by_mode() {
     assert!(share("anova", "p1.mode1.frequency", "lgs") > 0.5);
     assert!(share("anova", "p1.mode2.frequency", "bsd") > 0.8);
     let html = ws.read("results/wear_monitoring/report/report/index.html");
-    assert!(html.contains("<h2>model_anova.anova</h2>"), "report lacks the tables");
+    assert!(
+        html.contains("<h2>model_anova.anova</h2>"),
+        "report lacks the tables"
+    );
 }
 
 #[test]
 fn autoema_study_finds_the_modes() {
-    let ws = study("autoema_study", &[("iterations: 40, initial: 12", "iterations: 16, initial: 8")]);
+    let ws = study(
+        "autoema_study",
+        &[("iterations: 40, initial: 12", "iterations: 16, initial: 8")],
+    );
     ws.run(&[], 0);
-    let m: Value = serde_json::from_str(&ws.read("results/autoema_study/score/metrics.json")).unwrap();
+    let m: Value =
+        serde_json::from_str(&ws.read("results/autoema_study/score/metrics.json")).unwrap();
     let paired = m["modes"]["paired"].as_u64().unwrap();
     assert!(paired >= 30, "{m}");
     assert!(m["modes"]["mean_mac"].as_f64().unwrap() > 0.9, "{m}");
