@@ -98,3 +98,61 @@ fn evaluate_needs_something_to_compare() {
     assert_eq!(out.status.code(), Some(2));
     assert!(util::text(&out.stderr).contains("window -1 must be > 0"));
 }
+
+#[test]
+fn updated_model_frfs_with_the_initial_model_overlaid() {
+    // An "identified" parameter table fed back into synthesize re-solves the
+    // model; evaluate then shows reference, initial and updated FRFs.
+    let ws = Workspace::new();
+    std::fs::copy(
+        format!("{MODELS}/three_mass.yaml"),
+        ws.path().join("three_mass.yaml"),
+    )
+    .unwrap();
+    ws.write(
+        "p.yaml",
+        &PIPELINE.replace(
+            "  same:\n",
+            r#"  updated:
+    kind: synthesize
+    inputs: {values: truth.truth}
+    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 0.5}, values: {k12.k_x: 1.8e6}}
+  score:
+    kind: evaluate
+    inputs: {reference_frf: truth.frf, candidate_frf: updated.frf, initial_frf: disturbed.frf}
+  same:
+"#,
+        ),
+    );
+    ws.run(&[], 0);
+    let m = metrics(&ws, "score");
+    // The table overrides the `values` param: the updated model is the truth.
+    assert!(
+        (m["frf"]["mean_frac"].as_f64().unwrap() - 1.0).abs() < 1e-12,
+        "{m}"
+    );
+    let initial = m["frf"]["initial_mean_frac"].as_f64().unwrap();
+    assert!(initial < 0.99, "{m}");
+    assert_eq!(
+        initial,
+        metrics(&ws, "off")["frf"]["mean_frac"].as_f64().unwrap()
+    );
+    let svg = ws.read("results/ev/score/plots/frf_0.svg");
+    assert!(
+        svg.contains("initial") && svg.contains("candidate"),
+        "overlay"
+    );
+    // A table naming an unknown parameter is refused with the input named.
+    ws.write("bad.csv", "parameter,value\nk99,1\n");
+    ws.write(
+        "p.yaml",
+        "name: ev\nstages:\n  t:\n    kind: command\n    params: {cmd: \"cp bad.csv out.csv\", deps: [bad.csv], outs: [out.csv]}\n  u:\n    kind: synthesize\n    inputs: {values: t.out.csv}\n    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 0.5}}\n",
+    );
+    let out = ws.cmd(&["run", "p.yaml", "--progress", "none"]);
+    assert_eq!(out.status.code(), Some(1));
+    let err = util::text(&out.stdout) + &util::text(&out.stderr);
+    assert!(
+        err.contains("input `values`: the model has no parameter `k99`"),
+        "{err}"
+    );
+}

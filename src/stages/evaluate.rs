@@ -65,6 +65,12 @@ const INPUTS: &[InputSpec] = &[
         doc: "candidate FRFs on the same lines (e.g. autoema.frf_fit)",
     },
     InputSpec {
+        name: "initial_frf",
+        required: false,
+        list: false,
+        doc: "FRFs before updating (e.g. a synthesize stage at the start values): a third curve in the overlays and their FRAC/CSF as `initial_mean_frac`/`initial_mean_csf`",
+    },
+    InputSpec {
         name: "truth",
         required: false,
         list: false,
@@ -152,7 +158,15 @@ impl Stage for Evaluate {
         if has("reference_frf") && has("candidate_frf") {
             let r = read_frf(ctx.input("reference_frf")?, "reference_frf")?;
             let c = read_frf(ctx.input("candidate_frf")?, "candidate_frf")?;
-            summary.insert("frf".into(), compare_frfs(&r, &c, &tables, &plots)?);
+            let initial = if has("initial_frf") {
+                Some(read_frf(ctx.input("initial_frf")?, "initial_frf")?)
+            } else {
+                None
+            };
+            summary.insert(
+                "frf".into(),
+                compare_frfs(&r, &c, initial.as_deref(), &tables, &plots)?,
+            );
         }
         if has("truth") && has("estimate") {
             let t = read_parameters(ctx.input("truth")?, "truth")?;
@@ -282,15 +296,32 @@ fn compare_modes(
     }))
 }
 
+/// Values of `set`'s channel `like` on the `lines` of the reference, when
+/// the set has that channel and every line.
+fn on_lines(set: &FrfSet, like: &crate::frf::FrfChannel, lines: &[f64]) -> Option<Vec<Complex64>> {
+    let ch = set.channel(like.response, like.reference)?;
+    lines
+        .iter()
+        .map(|f| {
+            set.frequencies_hz
+                .iter()
+                .position(|g| g == f)
+                .map(|j| ch.values[j])
+        })
+        .collect()
+}
+
 fn compare_frfs(
     reference: &[FrfSet],
     candidate: &[FrfSet],
+    initial: Option<&[FrfSet]>,
     tables: &Path,
     plots: &Path,
 ) -> Result<serde_json::Value, StageError> {
     let mut csv = String::from("position,response,reference,FRAC,CSF\n");
     let mut positions = Vec::new();
     let (mut all_frac, mut all_csf) = (Vec::new(), Vec::new());
+    let (mut init_frac, mut init_csf) = (Vec::new(), Vec::new());
     for r in reference {
         let Some(c) = candidate
             .iter()
@@ -336,18 +367,35 @@ fn compare_frfs(
                 "{},{},{},{fr},{cs}",
                 r.position.index, ch.response, ch.reference
             );
-            if plot.series.len() < 6 {
-                let k = plot.series.len() / 2;
-                let f: Vec<f64> = lines.iter().map(|&(i, _)| r.frequencies_hz[i]).collect();
+            let f: Vec<f64> = lines.iter().map(|&(i, _)| r.frequencies_hz[i]).collect();
+            let before = initial
+                .and_then(|sets| sets.iter().find(|s| s.position.index == r.position.index))
+                .and_then(|s| on_lines(s, ch, &f));
+            if let Some(h0) = &before {
+                init_frac.push(metrics::frac(&a, h0));
+                init_csf.push(metrics::csf(&a, h0));
+            }
+            // Up to three channels as reference/candidate pairs, or two as
+            // reference/initial/candidate triples.
+            let per = if initial.is_some() { 3 } else { 2 };
+            if plot.series.len() + per <= 6 {
+                let k = plot.series.len() / per;
+                let curve =
+                    |h: &[Complex64]| f.iter().zip(h).map(|(f, h)| (*f, h.norm())).collect();
+                let name = |what: &str| format!("{}/{} {what}", ch.response, ch.reference);
+                plot.series
+                    .push(Series::line(name("reference"), curve(&a), PALETTE[per * k]));
+                if let Some(h0) = &before {
+                    plot.series.push(Series::line(
+                        name("initial"),
+                        curve(h0),
+                        PALETTE[per * k + 2],
+                    ));
+                }
                 plot.series.push(Series::line(
-                    format!("{}/{} reference", ch.response, ch.reference),
-                    f.iter().zip(&a).map(|(f, h)| (*f, h.norm())).collect(),
-                    PALETTE[2 * k],
-                ));
-                plot.series.push(Series::line(
-                    format!("{}/{} candidate", ch.response, ch.reference),
-                    f.iter().zip(&b).map(|(f, h)| (*f, h.norm())).collect(),
-                    PALETTE[2 * k + 1],
+                    name("candidate"),
+                    curve(&b),
+                    PALETTE[per * k + 1],
                 ));
             }
             fracs.push(fr);
@@ -362,9 +410,12 @@ fn compare_frfs(
         all_csf.extend(csfs);
     }
     write(&tables.join("frac.csv"), &csv)?;
-    Ok(
-        json!({"channels": all_frac.len(), "mean_frac": mean(&all_frac), "mean_csf": mean(&all_csf), "positions": positions}),
-    )
+    let mut summary = json!({"channels": all_frac.len(), "mean_frac": mean(&all_frac), "mean_csf": mean(&all_csf), "positions": positions});
+    if initial.is_some() {
+        summary["initial_mean_frac"] = json!(mean(&init_frac));
+        summary["initial_mean_csf"] = json!(mean(&init_csf));
+    }
+    Ok(summary)
 }
 
 /// `parameter → value` from a parameters.csv (`parameter,value,...`).

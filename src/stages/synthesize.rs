@@ -81,6 +81,29 @@ pub(crate) fn model_file_dependencies(dir: &Path, rel: &str) -> Result<Vec<Strin
     Ok(external_files(&spec, rel))
 }
 
+/// Override `x` with the `value` column of a parameter table (rows named by
+/// `parameter`); every named parameter must exist and lie within its bounds.
+fn override_from_table(model: &Model, x: &mut [f64], path: &Path) -> Result<(), StageError> {
+    let invalid = |message: String| StageError::InvalidInput {
+        input: "values".into(),
+        message,
+    };
+    for (name, v) in super::evaluate::read_parameters(path, "values")? {
+        let k = model
+            .parameter_index(&name)
+            .ok_or_else(|| invalid(format!("the model has no parameter `{name}`")))?;
+        let p = &model.parameters[k];
+        if !(v.is_finite() && p.lower <= v && v <= p.upper) {
+            return Err(invalid(format!(
+                "`{name}` = {v} is outside its bounds [{}, {}]",
+                p.lower, p.upper
+            )));
+        }
+        x[k] = v;
+    }
+    Ok(())
+}
+
 /// Parameter values to use, in model order.
 fn values(model: &Model, spec: Option<&Values>) -> Result<Vec<f64>, String> {
     let mut v = model.true_values();
@@ -202,7 +225,12 @@ impl Stage for Synthesize {
         PARAMS
     }
     fn inputs(&self) -> Option<&'static [InputSpec]> {
-        Some(&[])
+        Some(&[InputSpec {
+            name: "values",
+            required: false,
+            list: false,
+            doc: "a parameter table (`parameter,value,...`: an identify stage's `parameters`, a synthesize `truth`) whose values override the model's, applied after the `values` param: the updated model's FRFs and modes",
+        }])
     }
     fn outputs(&self, _params: &Mapping) -> Vec<String> {
         ["frf", "modes", "model", "truth"]
@@ -263,7 +291,10 @@ impl Stage for Synthesize {
         };
         let (model, text) =
             load_model(ctx.pipeline_dir, &p.model).map_err(|m| invalid("model", m))?;
-        let x = values(&model, p.values.as_ref()).map_err(|m| invalid("values", m))?;
+        let mut x = values(&model, p.values.as_ref()).map_err(|m| invalid("values", m))?;
+        if ctx.inputs.contains_key("values") {
+            override_from_table(&model, &mut x, ctx.input("values")?)?;
+        }
         ctx.progress.set_message("preparing model (reductions)");
         let prepared = PreparedModel::new(&model).map_err(|e| invalid("model", e.to_string()))?;
         let configs =
