@@ -114,6 +114,11 @@ impl Stage for Gsa {
         true
     }
 
+    // Sharding hook (src/stages/shard.rs): a Sobol study's work is its design's batch.
+    fn shardable(&self, params: &Mapping) -> bool {
+        !is_anova(params)
+    }
+
     /// A model file named by `model` is hashed into the key with the files it
     /// references, so editing the model reruns the analysis.
     fn file_dependencies(
@@ -225,7 +230,10 @@ fn run_sobol(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageErr
     ctx.progress.set_length(layout.len() as u64);
     ctx.progress
         .set_message(format!("{} evaluations", layout.len()));
-    let report = sobol::run(model.as_ref(), &params, &|k| ctx.progress.inc(k))
+    // Sharding hook: the design's batch is evaluated through the context
+    // (here, as one shard of a job array, or from the shards' partials).
+    let evaluate = |xs: &[Vec<f64>]| ctx.evaluate_batch(model.as_ref(), xs, params.chunk);
+    let report = sobol::run_with(model.as_ref(), &params, &evaluate)
         .map_err(|e| StageError::Failed(e.to_string()))?;
 
     let mut csv = String::from("output,parameter,S1,S1_conf,ST,ST_conf\n");

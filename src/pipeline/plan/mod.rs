@@ -13,6 +13,7 @@ use inputs::resolve_inputs;
 use params::check_params;
 
 use super::diagnostic::{closest, Diagnostic, Diagnostics, Location};
+use super::executor::ExecutorSpec;
 use super::graph;
 use super::matrix::{self, Combination};
 use super::span::SpanIndex;
@@ -35,6 +36,8 @@ pub struct Plan {
     pub upstream: Vec<Vec<usize>>,
     /// A topological order of all nodes.
     pub order: Vec<usize>,
+    /// The `executor:` block (defaults when absent).
+    pub executor: ExecutorSpec,
 }
 
 /// One expanded stage.
@@ -155,6 +158,7 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
             Some("each key may appear once per mapping; remove or rename one".into()),
         );
     }
+    check_executor(&mut cx, &spec.executor);
     let mut nodes = expand(&mut cx, &spec, dir);
     resolve_inputs(&mut cx, &spec, &mut nodes);
     resolve_files(&mut cx, dir, &mut nodes);
@@ -206,7 +210,34 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
         nodes,
         upstream,
         order,
+        executor: spec.executor,
     })
+}
+
+/// Values and kind names of the `executor:` block (serde checked its shape).
+fn check_executor(cx: &mut Ctx, spec: &ExecutorSpec) {
+    for p in spec.problems() {
+        let path: Vec<&str> = std::iter::once("executor")
+            .chain(p.path.iter().map(String::as_str))
+            .collect();
+        let loc = cx.spans.nearest(&path);
+        cx.at(loc, format!("executor: {}", p.message), Some(p.help));
+    }
+    let known: Vec<&str> = stages::registry().iter().map(|s| s.kind()).collect();
+    for kind in spec.kinds.keys() {
+        if !known.contains(&kind.as_str()) {
+            let mut help = format!("`kinds` are stage kinds: {}", known.join(", "));
+            if let Some(c) = closest(kind, known.iter().copied()) {
+                help = format!("did you mean `{c}`? {help}");
+            }
+            let loc = cx.spans.key(&["executor", "kinds", kind]);
+            cx.at(
+                loc,
+                format!("executor: unknown stage kind `{kind}`"),
+                Some(help),
+            );
+        }
+    }
 }
 
 fn valid_stage_name(name: &str) -> bool {
