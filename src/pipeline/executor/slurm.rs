@@ -70,6 +70,13 @@ impl Slurm {
         progress: &Progress,
     ) -> Result<RunRecord, String> {
         let dir = store.job_dir(&job.key);
+        if finished(store, &job.key) {
+            // A forced recompute: the job and this process could not tell the
+            // old result from the new one, so the old one goes first, with
+            // any shards of earlier attempts.
+            store.remove_record(&job.key);
+            let _ = std::fs::remove_dir_all(&dir);
+        }
         std::fs::create_dir_all(dir.join("log"))
             .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
         if resources.shards > 1 && kind.shardable(params) {
