@@ -69,13 +69,19 @@ fn run(ws: &Workspace, extra: &[&str], env: &[(&str, &str)], code: i32) -> Repor
 
 /// Output name → content hash, from a stage's results manifest.
 fn outputs(ws: &Workspace, stage: &str) -> Vec<(String, String)> {
-    let m: Value = serde_json::from_str(&ws.read(&format!("results/cluster/{stage}/manifest.json")))
-        .expect("manifest");
+    let m: Value =
+        serde_json::from_str(&ws.read(&format!("results/cluster/{stage}/manifest.json")))
+            .expect("manifest");
     let mut out: Vec<(String, String)> = m["outputs"]
         .as_object()
         .expect("outputs")
         .iter()
-        .map(|(k, v)| (k.clone(), v["hash"].as_str().unwrap_or_default().to_string()))
+        .map(|(k, v)| {
+            (
+                k.clone(),
+                v["hash"].as_str().unwrap_or_default().to_string(),
+            )
+        })
         .collect();
     out.sort();
     out
@@ -98,7 +104,9 @@ fn tasks(ws: &Workspace, id: &str) -> Vec<usize> {
             d.flatten()
                 .filter_map(|e| {
                     let name = e.file_name().to_string_lossy().into_owned();
-                    let task = name.strip_prefix(&format!("{id}_"))?.strip_suffix(".state")?;
+                    let task = name
+                        .strip_prefix(&format!("{id}_"))?
+                        .strip_suffix(".state")?;
                     task.parse().ok()
                 })
                 .collect()
@@ -135,7 +143,10 @@ fn sharded_study_through_job_scripts_is_bit_identical_to_a_local_run() {
         .collect();
     scripts.sort();
     assert_eq!(scripts, ["job.sh", "job.sh", "merge.sh", "shards.sh"]);
-    let array = subs.iter().find(|(_, s)| s.ends_with("shards.sh")).map(|(id, _)| id.clone());
+    let array = subs
+        .iter()
+        .find(|(_, s)| s.ends_with("shards.sh"))
+        .map(|(id, _)| id.clone());
     assert_eq!(tasks(&ws, &array.unwrap_or_default()), [0, 1, 2, 3]);
     // The GSA's record counts the whole design, as locally.
     assert_eq!(r.stage("sens")["counters"]["evaluations"], 256 * 5);
@@ -170,13 +181,22 @@ fn failed_and_timed_out_jobs_fail_their_stage_with_the_job_and_its_log() {
     let r = run(&ws, &["--keep-going"], &[("FAKE_SLURM_TIMEOUT", "3")], 1);
     assert_eq!(r.status_of("good"), "ran");
     assert_eq!(ws.read("good.txt"), "fine\n");
-    let bad = r.stage("bad")["error"].as_str().unwrap_or_default().to_string();
+    let bad = r.stage("bad")["error"]
+        .as_str()
+        .unwrap_or_default()
+        .to_string();
     assert_eq!(r.status_of("bad"), "failed");
     assert!(bad.starts_with("slurm job "), "{bad}");
     assert!(bad.contains("FAILED (exit 1:0)"), "{bad}");
     assert!(bad.contains("oops-from-the-job"), "log tail: {bad}");
-    let slow = r.stage("slow")["error"].as_str().unwrap_or_default().to_string();
-    assert!(slow.contains("TIMEOUT") && slow.contains("raise `time`"), "{slow}");
+    let slow = r.stage("slow")["error"]
+        .as_str()
+        .unwrap_or_default()
+        .to_string();
+    assert!(
+        slow.contains("TIMEOUT") && slow.contains("raise `time`"),
+        "{slow}"
+    );
     // Nothing of the failed stages entered the cache; their logs stay.
     assert_eq!(ws.runs_in_cache(), 1);
     let kept = std::fs::read_dir(ws.path().join("cache/jobs")).map_or(0, |d| d.count());
@@ -186,11 +206,23 @@ fn failed_and_timed_out_jobs_fail_their_stage_with_the_job_and_its_log() {
     assert_eq!(stop.status_of("good"), "cached");
     assert_eq!(stop.status_of("bad"), "failed");
     // Fixed, the stage runs; gc clears the failed jobs' directories.
-    ws.write("p.yaml", &FAILING.replace("exit 3", "echo ok > bad.txt").replace("sleep 30; ", ""));
-    assert!(run(&ws, &[], &[], 0).statuses().iter().all(|(_, s)| s != "failed"));
+    ws.write(
+        "p.yaml",
+        &FAILING
+            .replace("exit 3", "echo ok > bad.txt")
+            .replace("sleep 30; ", ""),
+    );
+    assert!(run(&ws, &[], &[], 0)
+        .statuses()
+        .iter()
+        .all(|(_, s)| s != "failed"));
     let gc = ws.cmd(&["gc"]);
     assert_eq!(gc.status.code(), Some(0), "{}", text(&gc.stderr));
-    assert!(!ws.path().join("cache/jobs").read_dir().is_ok_and(|mut d| d.next().is_some()));
+    assert!(!ws
+        .path()
+        .join("cache/jobs")
+        .read_dir()
+        .is_ok_and(|mut d| d.next().is_some()));
 }
 
 #[test]
@@ -199,11 +231,17 @@ fn failed_shards_are_resumed_and_the_result_matches_a_local_run() {
     let ws = Workspace::new();
     ws.write("p.yaml", STUDY);
     let r = run(&ws, &[], &[("FAKE_SLURM_FAIL_TASK", "2")], 1);
-    let error = r.stage("sens")["error"].as_str().unwrap_or_default().to_string();
+    let error = r.stage("sens")["error"]
+        .as_str()
+        .unwrap_or_default()
+        .to_string();
     assert!(error.contains("_2 FAILED"), "{error}");
     assert!(error.contains("task 2 fails on purpose"), "{error}");
     assert_eq!(r.status_of("sums"), "skipped");
-    let key = r.stage("sens")["key"].as_str().unwrap_or_default().to_string();
+    let key = r.stage("sens")["key"]
+        .as_str()
+        .unwrap_or_default()
+        .to_string();
     let shards = ws.path().join("cache/jobs").join(&key).join("shards");
     let mut done: Vec<String> = std::fs::read_dir(&shards)
         .expect("shard records")
@@ -260,7 +298,8 @@ fn an_interrupted_run_cancels_its_jobs() {
     assert_eq!(status.code(), Some(130));
     let cancelled = std::fs::read_to_string(ws.path().join("fake/scancel.log")).unwrap_or_default();
     assert_eq!(cancelled.trim(), id);
-    let state = std::fs::read_to_string(ws.path().join(format!("fake/{id}.state"))).unwrap_or_default();
+    let state =
+        std::fs::read_to_string(ws.path().join(format!("fake/{id}.state"))).unwrap_or_default();
     assert!(state.starts_with("CANCELLED"), "{state}");
     // The job's process group is gone (give the kill a moment to land).
     let gone = (0..50).any(|_| {
@@ -272,4 +311,120 @@ fn an_interrupted_run_cancels_its_jobs() {
     });
     assert!(gone, "task {pid} still running");
     assert_eq!(ws.runs_in_cache(), 0);
+}
+
+#[test]
+fn exec_runs_a_description_without_the_pipeline_and_refuses_a_stale_one() {
+    let ws = Workspace::new();
+    ws.write("in.txt", "input\n");
+    ws.write(
+        "p.yaml",
+        "name: cluster\nexecutor: {kind: slurm, poll: 0.5}\nstages:\n  s:\n    kind: command\n    params: {cmd: \"cat in.txt > out.txt; test -f go\", deps: [in.txt], outs: [out.txt]}\n",
+    );
+    let r = run(&ws, &[], &[], 1);
+    let key = r.stage("s")["key"].as_str().unwrap_or_default().to_string();
+    let job = format!("cache/jobs/{key}/job.json");
+    std::fs::remove_file(ws.path().join("p.yaml")).expect("remove pipeline");
+    let exec = |args: &[&str]| {
+        let mut all = vec!["exec", job.as_str()];
+        all.extend_from_slice(args);
+        let out = ws.cmd(&all);
+        (out.status.code(), text(&out.stderr))
+    };
+    let (code, err) = exec(&["--shard", "0"]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("shard 0 does not exist"), "{err}");
+    // A file the key hashed changed since submission: refused.
+    ws.write("in.txt", "edited\n");
+    let (code, err) = exec(&[]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("`in.txt` differs on this host"), "{err}");
+    ws.write("in.txt", "input\n");
+    // The stage's own failure, as in the job's log.
+    let (code, err) = exec(&[]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("stage failed"), "{err}");
+    // Fixed in the workspace, the same description commits the result.
+    ws.write("go", "");
+    let (code, err) = exec(&[]);
+    assert_eq!(code, Some(0), "{err}");
+    assert!(ws.path().join(format!("cache/runs/{key}.json")).exists());
+    let (code, err) = exec(&[]);
+    assert_eq!(code, Some(0));
+    assert!(err.contains("already in the cache"), "{err}");
+    // An edited description no longer matches its key.
+    let edited = ws.read(&job).replace("test -f go", "true");
+    ws.write(&job, &edited);
+    std::fs::remove_file(ws.path().join(format!("cache/runs/{key}.json"))).expect("remove record");
+    let (code, err) = exec(&[]);
+    assert_eq!(code, Some(1));
+    assert!(err.contains("does not match its key"), "{err}");
+}
+
+#[test]
+fn executor_block_problems_are_located() {
+    let ws = Workspace::new();
+    ws.write(
+        "p.yaml",
+        "name: v\nexecutor:\n  kind: slurm\n  time: one hour\n  kinds:\n    gsx: {cpus: 2}\nstages:\n  a: {kind: command, params: {cmd: \"true\", outs: [a.txt]}}\n",
+    );
+    let err = text(&ws.cmd(&["validate", "p.yaml"]).stderr);
+    assert!(err.contains("2 problems"), "{err}");
+    assert!(
+        err.contains("p.yaml:4:9") && err.contains("not a Slurm time limit"),
+        "{err}"
+    );
+    assert!(
+        err.contains("p.yaml:6:5") && err.contains("did you mean `gsa`?"),
+        "{err}"
+    );
+    ws.write("p.yaml", "name: v\nexecutor: {kind: pbs}\nstages:\n  a: {kind: command, params: {cmd: \"true\", outs: [a.txt]}}\n");
+    let out = ws.cmd(&["validate", "p.yaml"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(
+        text(&out.stderr).contains("unknown variant `pbs`"),
+        "{}",
+        text(&out.stderr)
+    );
+    // The cluster check's study validates.
+    let study = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/slurm/gsa_study.yaml");
+    let out = ws.cmd(&["validate", &study.to_string_lossy()]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+}
+
+#[test]
+fn a_structural_gsa_sharded_three_ways_is_bit_identical_to_a_local_run() {
+    // Reference modes from synthesize, Sobol indices of a model file: the
+    // shards' slices are uneven (64·5 = 320 points in 3), the merge exact.
+    let study = r#"name: cluster
+executor: {poll: 0.5, kinds: {gsa: {shards: 3}}}
+stages:
+  truth:
+    kind: synthesize
+    params: {model: models/two_mass.yaml, frequency: {min: 0, max: 400, step: 1}}
+  sens:
+    kind: gsa
+    inputs: {reference: truth.modes}
+    params: {model: models/two_mass.yaml, samples: 64, bootstrap: 10, window: 0.5}
+"#;
+    let model = include_str!("fixtures/models/two_mass.yaml");
+    let local = Workspace::new();
+    let ws = Workspace::new();
+    for w in [&local, &ws] {
+        w.write("p.yaml", study);
+        w.write("models/two_mass.yaml", model);
+    }
+    assert!(local.run(&[], 0).all("ran"));
+    let r = run(&ws, &["--executor", "slurm"], &[], 0);
+    assert!(r.all("ran"), "{:?}", r.statuses());
+    assert_eq!(r.stage("sens")["counters"]["evaluations"], 64 * 5);
+    for stage in ["truth", "sens"] {
+        assert_eq!(outputs(&ws, stage), outputs(&local, stage), "{stage}");
+    }
+    let array = submissions(&ws)
+        .into_iter()
+        .find(|(_, s)| s.ends_with("shards.sh"))
+        .map(|(id, _)| id)
+        .unwrap_or_default();
+    assert_eq!(tasks(&ws, &array), [0, 1, 2]);
 }

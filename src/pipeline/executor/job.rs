@@ -485,11 +485,19 @@ pub fn exec(store: &Store, path: &Path, shard: Option<usize>) -> Result<ExecOutc
     let (kind, params) = job.check()?;
     let role = match shard {
         None => Role::Whole,
-        Some(i) if i < job.shards => Role::Shard(i),
-        Some(i) => {
+        Some(i) if job.shards > 1 && i < job.shards => Role::Shard(i),
+        Some(i) if job.shards > 1 => {
             return Err(format!(
                 "job {}: shard {i} does not exist (the job has {} shards, 0..{})",
-                job.stage, job.shards, job.shards
+                job.stage,
+                job.shards,
+                job.shards - 1
+            ))
+        }
+        Some(i) => {
+            return Err(format!(
+                "job {}: shard {i} does not exist (the job is not sharded); run it without --shard",
+                job.stage
             ))
         }
     };

@@ -28,7 +28,7 @@ use serde_yaml_ng::Mapping;
 /// The executor of one `modalflow run`.
 pub enum Executor {
     Local,
-    Slurm(slurm::Slurm),
+    Slurm(Box<slurm::Slurm>),
 }
 
 impl Executor {
@@ -36,7 +36,7 @@ impl Executor {
     pub fn new(kind: ExecutorKind, spec: &ExecutorSpec) -> Result<Executor, String> {
         Ok(match kind {
             ExecutorKind::Local => Executor::Local,
-            ExecutorKind::Slurm => Executor::Slurm(slurm::Slurm::new(spec)?),
+            ExecutorKind::Slurm => Executor::Slurm(Box::new(slurm::Slurm::new(spec)?)),
         })
     }
 

@@ -72,12 +72,16 @@ pub fn run(
     })
 }
 
-/// As [`run`], with the model outputs at the sample points (in order, all
-/// finite) coming from `evaluate`, called once with the whole design.
+/// The evaluation step of a study: model outputs at the sample points, in
+/// order, all finite.
+pub type Evaluate<'a> = dyn Fn(&[Vec<f64>]) -> Result<Vec<Vec<f64>>, EvalError> + 'a;
+
+/// As [`run`], with the model outputs coming from `evaluate`, called once
+/// with the whole design.
 pub fn run_with(
     model: &(impl Model + ?Sized),
     params: &SobolParams,
-    evaluate: &dyn Fn(&[Vec<f64>]) -> Result<Vec<Vec<f64>>, EvalError>,
+    evaluate: &Evaluate,
 ) -> Result<SobolReport, SensitivityError> {
     let problem = if params.subset.is_empty() {
         Problem::new(model.parameters().to_vec())
