@@ -11,6 +11,7 @@
 #      stand-in scheduler of tests/slurm/fake (modalflow's own overhead) and
 #      through Slurm (submission to completion), and a batch of 8 such stages.
 # Stops the daemons it started at the end (keep them with --keep).
+# Takes about two minutes once modalflow is built.
 #
 # Needs root (apt-get, daemons) on Debian 12 or later. Not part of CI.
 # Usage: tests/slurm/cluster.sh [--keep]     (WORK defaults to /tmp/modalflow-slurm)
@@ -39,8 +40,10 @@ if [ ! -s /etc/munge/munge.key ]; then
 fi
 mkdir -p /run/munge /var/log/munge /var/lib/munge
 chown munge:munge /run/munge /var/log/munge /var/lib/munge
+started_munge=""
 if ! munge -n > /dev/null 2>&1; then
     runuser -u munge -- /usr/sbin/munged
+    started_munge=1
     sleep 1
 fi
 munge -n | unmunge | grep -q 'STATUS: *Success' && echo "munge works"
@@ -83,6 +86,9 @@ stop() {
             kill "$(cat "$work/run/$d.pid")" 2> /dev/null || true
         fi
     done
+    if [ -n "$started_munge" ] && [ -s /run/munge/munged.pid ]; then
+        kill "$(cat /run/munge/munged.pid)" 2> /dev/null || true
+    fi
 }
 if [ "$keep" != "--keep" ]; then
     trap stop EXIT
