@@ -1,6 +1,6 @@
 //! `modalflow exec`: run one stage job from its description in the cache.
 
-use modalflow::pipeline::executor::job::{self, ExecOutcome, Finished};
+use modalflow::pipeline::executor::exec::{self, ExecOutcome, Finished};
 use modalflow::pipeline::store::Store;
 use std::path::PathBuf;
 
@@ -28,7 +28,7 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
         Some(i) => format!("shard {i} of {}", args.job.display()),
         None => args.job.display().to_string(),
     };
-    match job::exec(&store, &args.job, args.shard) {
+    match exec::exec(&store, &args.job, args.shard) {
         Ok(ExecOutcome::AlreadyDone) => {
             eprintln!("modalflow exec: {what}: already in the cache");
             Ok(crate::cli::exit::SUCCESS)

@@ -5,13 +5,14 @@
 //!   submits `modalflow exec` as a batch job ([`slurm`]); a shardable
 //!   stage's batch is split over a job array and merged by a final job.
 //!
-//! Both end in [`job::run`], the one code path that runs a kind and commits
+//! Both end in [`exec::run`], the one code path that runs a kind and commits
 //! its objects and run record. The engine ([`super::execute`]) keeps the
 //! rest: keys, the key lock, cache lookup, results. Nothing about the
 //! executor enters a key, so a stage computed on a cluster is a cache hit
 //! locally and the other way round.
 
 pub mod config;
+pub mod exec;
 pub mod interrupt;
 pub mod job;
 pub mod queue;
@@ -22,7 +23,8 @@ pub use config::{ExecutorKind, ExecutorSpec};
 use super::progress::Progress;
 use super::store::{RunRecord, Store};
 use crate::stages::Stage;
-use job::{Finished, Job, Role};
+use exec::{Finished, Role, Run};
+use job::Job;
 use serde_yaml_ng::Mapping;
 
 /// The executor of one `modalflow run`.
@@ -71,7 +73,14 @@ pub fn local(
     params: &Mapping,
     progress: &Progress,
 ) -> Result<RunRecord, String> {
-    match job::run(store, job, kind, params, Role::Whole, progress, false)? {
+    let call = Run {
+        job,
+        kind,
+        params,
+        role: Role::Whole,
+        verify_files: false,
+    };
+    match exec::run(store, &call, progress)? {
         Finished::Record(r) => Ok(r),
         Finished::Shard(_) => Err("a whole run ended as a shard (a bug, please report)".into()),
     }
