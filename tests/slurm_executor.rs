@@ -397,7 +397,7 @@ fn a_structural_gsa_sharded_three_ways_is_bit_identical_to_a_local_run() {
     // Reference modes from synthesize, Sobol indices of a model file: the
     // shards' slices are uneven (64·5 = 320 points in 3), the merge exact.
     let study = r#"name: cluster
-executor: {poll: 0.5, kinds: {gsa: {shards: 3}}}
+executor: {poll: 0.5, kinds: {gsa: {shards: 3}, synthesize: {local: true}}}
 stages:
   truth:
     kind: synthesize
@@ -427,4 +427,6 @@ stages:
         .map(|(id, _)| id)
         .unwrap_or_default();
     assert_eq!(tasks(&ws, &array), [0, 1, 2]);
+    // synthesize ran on the submitting machine: only the array and the merge queued.
+    assert_eq!(submissions(&ws).len(), 2);
 }

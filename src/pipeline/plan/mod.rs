@@ -140,7 +140,7 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
                 line: l.line(),
                 column: l.column(),
             });
-            let help = "a pipeline file has `name`, optional `seed` and `description`, and `stages`; \
+            let help = "a pipeline file has `name`, optional `seed`, `description` and `executor`, and `stages`; \
                         each stage has `kind`, and optional `params`, `inputs`, `matrix`, `description`";
             cx.at(
                 loc,
