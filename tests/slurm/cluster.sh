@@ -10,16 +10,26 @@
 #   2. measures what a job costs: a no-op stage run locally, through the
 #      stand-in scheduler of tests/slurm/fake (modalflow's own overhead) and
 #      through Slurm (submission to completion), and a batch of 8 such stages.
+# With --accounting it also installs MariaDB and slurmdbd, so job states come
+# from sacct (as on production clusters); without, from squeue.
 # Stops the daemons it started at the end (keep them with --keep).
 # Takes about two minutes once modalflow is built.
 #
 # Needs root (apt-get, daemons) on Debian 12 or later. Not part of CI.
-# Usage: tests/slurm/cluster.sh [--keep]     (WORK defaults to /tmp/modalflow-slurm)
+# Usage: tests/slurm/cluster.sh [--accounting] [--keep]   (WORK defaults to /tmp/modalflow-slurm)
 set -euo pipefail
 
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 work=${WORK:-/tmp/modalflow-slurm}
-keep=${1:-}
+keep=""
+accounting=""
+for arg in "$@"; do
+    case "$arg" in
+        --keep) keep=--keep ;;
+        --accounting) accounting=1 ;;
+        *) echo "usage: $0 [--accounting] [--keep]" >&2; exit 2 ;;
+    esac
+done
 host=$(hostname -s)
 say() { printf '\n== %s\n' "$*"; }
 
@@ -29,6 +39,10 @@ say "packages"
 if ! command -v slurmctld > /dev/null || ! command -v munged > /dev/null; then
     apt-get update -qq
     DEBIAN_FRONTEND=noninteractive apt-get install -y -qq slurm-wlm munge > /dev/null
+fi
+if [ -n "$accounting" ] && ! command -v slurmdbd > /dev/null; then
+    apt-get update -qq
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq mariadb-server slurmdbd > /dev/null
 fi
 slurmctld -V
 
@@ -54,6 +68,8 @@ mkdir -p "$work/etc" "$work/state/ctld" "$work/state/d" "$work/log" "$work/run"
 cpus=$(nproc)
 memory=$(slurmd -C | sed -n 's/.*RealMemory=\([0-9]*\).*/\1/p')
 export SLURM_CONF="$work/etc/slurm.conf"
+storage=none
+[ -z "$accounting" ] || storage=slurmdbd
 cat > "$SLURM_CONF" <<EOF
 ClusterName=modalflow
 SlurmctldHost=$host(127.0.0.1)
@@ -73,7 +89,8 @@ SelectTypeParameters=CR_Core
 SchedulerType=sched/backfill
 MpiDefault=none
 ReturnToService=2
-AccountingStorageType=accounting_storage/none
+AccountingStorageType=accounting_storage/$storage
+AccountingStorageHost=localhost
 JobAcctGatherType=jobacct_gather/none
 JobCompType=jobcomp/none
 NodeName=$host NodeAddr=127.0.0.1 CPUs=$cpus RealMemory=$memory State=UNKNOWN
@@ -81,7 +98,7 @@ PartitionName=debug Nodes=ALL Default=YES MaxTime=INFINITE State=UP
 EOF
 
 stop() {
-    for d in slurmd slurmctld; do
+    for d in slurmd slurmctld slurmdbd; do
         if [ -s "$work/run/$d.pid" ]; then
             kill "$(cat "$work/run/$d.pid")" 2> /dev/null || true
         fi
@@ -89,9 +106,44 @@ stop() {
     if [ -n "$started_munge" ] && [ -s /run/munge/munged.pid ]; then
         kill "$(cat /run/munge/munged.pid)" 2> /dev/null || true
     fi
+    if [ -n "$started_mariadb" ]; then
+        service mariadb stop > /dev/null 2>&1 || true
+    fi
 }
+started_mariadb=""
 if [ "$keep" != "--keep" ]; then
     trap stop EXIT
+fi
+
+if [ -n "$accounting" ]; then
+    say "accounting: MariaDB and slurmdbd"
+    if ! mysqladmin ping > /dev/null 2>&1; then
+        service mariadb start > /dev/null
+        started_mariadb=1
+    fi
+    # A throwaway database on localhost, new for every run (job ids restart at 1).
+    mysql -e "DROP DATABASE IF EXISTS modalflow_acct; CREATE DATABASE modalflow_acct;
+        CREATE USER IF NOT EXISTS 'modalflow'@'localhost' IDENTIFIED BY 'modalflow';
+        GRANT ALL ON modalflow_acct.* TO 'modalflow'@'localhost';"
+    cat > "$work/etc/slurmdbd.conf" <<EOF
+AuthType=auth/munge
+DbdHost=localhost
+SlurmUser=root
+StorageType=accounting_storage/mysql
+StorageHost=localhost
+StorageUser=modalflow
+StoragePass=modalflow
+StorageLoc=modalflow_acct
+PidFile=$work/run/slurmdbd.pid
+LogFile=$work/log/slurmdbd.log
+EOF
+    chmod 600 "$work/etc/slurmdbd.conf"
+    slurmdbd
+    for _ in $(seq 30); do
+        sacctmgr -n list cluster > /dev/null 2>&1 && break
+        sleep 1
+    done
+    sacctmgr -i add cluster modalflow > /dev/null
 fi
 
 say "start slurmctld and slurmd"
@@ -123,7 +175,12 @@ local_ms=$(ms "$mf" run "$study" --executor local --cache "$work/local/cache" --
 
 say "CI-sized GSA study, --executor slurm (GSA in 4 array tasks)"
 slurm_ms=$(ms "$mf" run "$study" --executor slurm --cache "$work/slurm/cache" --results "$work/slurm/results" --progress lines)
-squeue -h -t all -o '%.12i %.28j %.10T %.8M' | sort -n
+if [ -n "$accounting" ]; then
+    sleep 2
+    sacct -X -o JobID,JobName%28,State,Elapsed,ExitCode
+else
+    squeue -h -t all -o '%.12i %.28j %.10T %.8M' | sort -n
+fi
 
 say "compare results (every file but the manifests, which hold run times)"
 diff -r -x manifest.json "$work/local/results" "$work/slurm/results"
