@@ -386,6 +386,13 @@ fn executor_block_problems_are_located() {
         "{}",
         text(&out.stderr)
     );
+    ws.write("p.yaml", "name: v\nexecutor: {kinds: {command: {shards: 2}}}\nstages:\n  a: {kind: command, params: {cmd: \"true\", outs: [a.txt]}}\n");
+    let err = text(&ws.cmd(&["validate", "p.yaml"]).stderr);
+    assert!(
+        err.contains("p.yaml:2:38")
+            && err.contains("no `command` stage of this pipeline can be sharded"),
+        "{err}"
+    );
     // The cluster check's study validates.
     let study = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/slurm/gsa_study.yaml");
     let out = ws.cmd(&["validate", &study.to_string_lossy()]);

@@ -160,6 +160,7 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
     }
     check_executor(&mut cx, &spec.executor);
     let mut nodes = expand(&mut cx, &spec, dir);
+    check_shards(&mut cx, &spec.executor, &nodes);
     resolve_inputs(&mut cx, &spec, &mut nodes);
     resolve_files(&mut cx, dir, &mut nodes);
     let upstream: Vec<Vec<usize>> = nodes
@@ -212,6 +213,29 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
         order,
         executor: spec.executor,
     })
+}
+
+/// `shards` under `kinds:` must name a kind whose stages here can be split.
+fn check_shards(cx: &mut Ctx, spec: &ExecutorSpec, nodes: &[Node]) {
+    for (kind, resources) in &spec.kinds {
+        if resources.shards.unwrap_or(1) <= 1 {
+            continue;
+        }
+        let mut of_kind = nodes.iter().filter(|n| n.kind.kind() == kind).peekable();
+        if of_kind.peek().is_none() || of_kind.any(|n| n.kind.shardable(&n.params)) {
+            continue;
+        }
+        let loc = cx.spans.nearest(&["executor", "kinds", kind, "shards"]);
+        cx.at(
+            loc,
+            format!("executor: no `{kind}` stage of this pipeline can be sharded"),
+            Some(
+                "`shards` splits a stage's batch of independent model evaluations over a job \
+                 array (a `gsa` stage with method sobol); remove it here"
+                    .into(),
+            ),
+        );
+    }
 }
 
 /// Values and kind names of the `executor:` block (serde checked its shape).
