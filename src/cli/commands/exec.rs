@@ -4,10 +4,11 @@ use modalflow::pipeline::executor::exec::{self, ExecOutcome, Finished};
 use modalflow::pipeline::store::Store;
 use std::path::PathBuf;
 
-/// Run one stage job from a job description in the (shared) cache, as the
-/// Slurm executor's batch scripts do: the stage's outputs and run record, or
-/// one shard's partial result, are committed to the cache with the same
-/// atomic protocol as a local run. The pipeline file is never read.
+/// Run one stage job from its description in the cache (what a cluster job runs).
+///
+/// The Slurm executor's batch scripts call this: the stage's outputs and run
+/// record, or one shard's partial result, are committed to the (shared) cache
+/// with the same atomic protocol as a local run. The pipeline file is never read.
 ///
 /// Exit codes: 0 the result is in the cache, 1 the stage failed, 3 cache error.
 #[derive(clap::Args)]
