@@ -30,6 +30,7 @@ enum Command {
     Validate(commands::validate::Args),
     Gc(commands::gc::Args),
     Kinds(commands::kinds::Args),
+    Exec(commands::exec::Args),
 }
 
 pub fn main() -> ExitCode {
@@ -43,6 +44,7 @@ pub fn main() -> ExitCode {
         Command::Validate(a) => commands::validate::exec(a),
         Command::Gc(a) => commands::gc::exec(a),
         Command::Kinds(a) => commands::kinds::exec(a),
+        Command::Exec(a) => commands::exec::exec(a),
     };
     match result {
         Ok(code) => ExitCode::from(code),

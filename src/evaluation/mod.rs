@@ -68,6 +68,15 @@ pub enum EvalError {
         total: usize,
         first: Box<EvalError>,
     },
+    /// Not a failure: this process evaluated its shard of the batch and wrote
+    /// the partial result; the stage stops here and a merge run goes on
+    /// (`crate::stages::shard`).
+    #[error("shard evaluated; the merge job continues the stage")]
+    Sharded,
+    /// A shard's partial result cannot be used (missing, corrupt, or of
+    /// another batch).
+    #[error("partial result of a shard: {0}")]
+    Partial(String),
 }
 
 impl EvalError {

@@ -1,18 +1,18 @@
 //! Running one stage: compute its key from upstream output hashes, reuse a
-//! verified cache entry or run the kind in a scratch directory, commit the
-//! outputs (objects first, record last), and materialize results.
+//! verified cache entry or have the [`Executor`] run the kind (which commits
+//! the outputs, objects first, record last), and materialize results.
 
+use super::executor::job::Job;
+use super::executor::Executor;
 use super::key::{canonical_params, KeyMaterial};
 use super::plan::{Node, Plan};
 use super::progress::Progress;
 use super::provenance::{self, LastRun, StageProvenance};
 use super::results::{self, InputOrigin, Manifest};
 use super::store::{self, OutputRecord, RunRecord, Store};
-use crate::stages::{InputSource, StageContext, StageError};
 use serde_yaml_ng::Value;
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::path::PathBuf;
 
 /// A finished (ran or cached) stage: its key and outputs.
 #[derive(Clone, Debug)]
@@ -64,6 +64,8 @@ pub struct Engine<'a> {
     /// `results/<pipeline>/`.
     pub results: PathBuf,
     pub forced: Vec<bool>,
+    /// Where stages that have to be computed run.
+    pub executor: Executor,
 }
 
 impl Engine<'_> {
@@ -201,7 +203,7 @@ impl Engine<'_> {
                     ));
                     report.reason = format!("cache entry corrupt ({problem})");
                 }
-                match self.compute(node, &key, done, progress) {
+                match self.compute(node, &key, &material, done, progress) {
                     Ok(rec) => {
                         report.status = Status::Ran;
                         rec
@@ -235,159 +237,18 @@ impl Engine<'_> {
         }
     }
 
-    /// Run the stage kind and commit its outputs to the cache.
+    /// Have the executor run the stage kind and commit its outputs.
     fn compute(
         &self,
         node: &Node,
         key: &str,
+        material: &KeyMaterial,
         done: &dyn Fn(usize) -> Option<Done>,
         progress: &Progress,
     ) -> Result<RunRecord, String> {
-        let inputs_dir = self.store.temp_path("in");
-        let scratch = self.store.temp_path("stage");
-        let result = self.compute_in(node, key, done, progress, &inputs_dir, &scratch);
-        let _ = std::fs::remove_dir_all(&scratch);
-        let _ = std::fs::remove_dir_all(&inputs_dir);
-        result
-    }
-
-    fn compute_in(
-        &self,
-        node: &Node,
-        key: &str,
-        done: &dyn Fn(usize) -> Option<Done>,
-        progress: &Progress,
-        inputs_dir: &Path,
-        scratch: &Path,
-    ) -> Result<RunRecord, String> {
-        std::fs::create_dir_all(scratch)
-            .map_err(|e| format!("cannot create scratch directory: {e}"))?;
-        let mut inputs: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
-        for b in &node.inputs {
-            let mut paths = Vec::new();
-            for (k, (src, out)) in b.sources.iter().enumerate() {
-                let rec = done(*src)
-                    .and_then(|d| d.outputs.get(out).cloned())
-                    .ok_or("upstream result vanished")?;
-                let path = match rec.artifact.kind {
-                    store::ArtifactKind::File => self.store.object_path(&rec.artifact.hash),
-                    store::ArtifactKind::Dir => {
-                        let p = inputs_dir.join(&b.name).join(k.to_string()).join(&rec.file);
-                        self.store
-                            .checkout(&rec.artifact, &p)
-                            .map_err(|e| e.to_string())?;
-                        p
-                    }
-                };
-                paths.push(path);
-            }
-            inputs.insert(b.name.clone(), paths);
-        }
-        self.restore_workspace_deps(node, done)?;
-        let sources: BTreeMap<String, Vec<InputSource>> = node
-            .inputs
-            .iter()
-            .map(|b| {
-                let list = b.sources.iter().map(|(s, o)| InputSource {
-                    stage: self.plan.nodes[*s].name.clone(),
-                    output: o.clone(),
-                });
-                (b.name.clone(), list.collect())
-            })
-            .collect();
-        let ctx = StageContext {
-            stage: &node.name,
-            params: &node.params,
-            seed: node.seed,
-            inputs: &inputs,
-            sources: &sources,
-            pipeline: &self.plan.name,
-            pipeline_dir: &self.plan.dir,
-            scratch,
-            progress,
-        };
-        let start = Instant::now();
-        let run = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| node.kind.run(&ctx)));
-        let produced = match run {
-            Ok(Ok(p)) => p,
-            Ok(Err(e)) => return Err(stage_error_text(&e)),
-            Err(panic) => {
-                let what = panic
-                    .downcast_ref::<String>()
-                    .cloned()
-                    .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
-                    .unwrap_or_default();
-                return Err(format!(
-                    "internal error in kind `{}` (a bug, please report): {what}",
-                    node.kind.kind()
-                ));
-            }
-        };
-        let seconds = start.elapsed().as_secs_f64();
-        let mut outputs = BTreeMap::new();
-        for name in &node.outputs {
-            let Some((_, path)) = produced.files.iter().find(|(n, _)| n == name) else {
-                return Err(format!(
-                    "kind `{}` did not produce its output `{name}`",
-                    node.kind.kind()
-                ));
-            };
-            let full = if path.is_absolute() {
-                path.clone()
-            } else {
-                scratch.join(path)
-            };
-            let file = if node.workspace_outputs.is_empty() {
-                path.file_name()
-                    .map(|f| f.to_string_lossy().into_owned())
-                    .unwrap_or_else(|| name.clone())
-            } else {
-                name.clone()
-            };
-            let artifact = self
-                .store
-                .put(&full)
-                .map_err(|e| format!("output `{name}`: {e}"))?;
-            outputs.insert(name.clone(), OutputRecord { file, artifact });
-        }
-        let record = RunRecord {
-            key: key.to_string(),
-            kind: node.kind.kind().to_string(),
-            version: node.kind.version(),
-            stage: node.name.clone(),
-            outputs,
-            seconds,
-            counters: produced.counters,
-            modalflow_version: env!("CARGO_PKG_VERSION").to_string(),
-        };
-        self.store
-            .write_record(&record)
-            .map_err(|e| e.to_string())?;
-        Ok(record)
-    }
-
-    /// DVC semantics: a dep that another stage writes into the workspace is
-    /// put back from the cache when it is missing or differs.
-    fn restore_workspace_deps(
-        &self,
-        node: &Node,
-        done: &dyn Fn(usize) -> Option<Done>,
-    ) -> Result<(), String> {
-        for f in &node.files {
-            let Some((src, out)) = &f.producer else {
-                continue;
-            };
-            let rec = done(*src)
-                .and_then(|d| d.outputs.get(out).cloned())
-                .ok_or("upstream result vanished")?;
-            let dest = self.plan.dir.join(&f.path);
-            if store::hash_path(&dest).ok().as_deref() != Some(rec.artifact.hash.as_str()) {
-                self.store
-                    .checkout(&rec.artifact, &dest)
-                    .map_err(|e| e.to_string())?;
-            }
-        }
-        Ok(())
+        let job = Job::new(self.plan, node, key, material, done)?;
+        self.executor
+            .compute(&self.store, job, node.kind, &node.params, progress)
     }
 
     /// Materialize results and, for stages that write into the workspace,
@@ -440,18 +301,4 @@ impl Engine<'_> {
         results::materialize(&self.store, &self.results.join(&node.name), &manifest)
             .map_err(|e| e.to_string())
     }
-}
-
-fn stage_error_text(e: &StageError) -> String {
-    let mut s = e.to_string();
-    let mut src = std::error::Error::source(e);
-    while let Some(inner) = src {
-        let t = inner.to_string();
-        if !s.contains(&t) {
-            s.push_str(": ");
-            s.push_str(&t);
-        }
-        src = inner.source();
-    }
-    s
 }

@@ -49,7 +49,9 @@ pub fn collect(store: &Store, dry_run: bool) -> Result<GcReport, StoreError> {
             }
         }
     }
-    for sub in ["runs", "tmp", "locks"] {
+    // `jobs/` holds the descriptions, logs and shard records of cluster jobs
+    // of runs that failed or were interrupted; no run is in flight now.
+    for sub in ["runs", "tmp", "locks", "jobs"] {
         let Ok(dir) = fs::read_dir(store.root().join(sub)) else {
             continue;
         };
@@ -64,7 +66,7 @@ pub fn collect(store: &Store, dry_run: bool) -> Result<GcReport, StoreError> {
             }
             match sub {
                 "runs" => report.removed_records += 1,
-                "tmp" => report.removed_temp += 1,
+                "tmp" | "jobs" => report.removed_temp += 1,
                 _ => {}
             }
             if !dry_run {

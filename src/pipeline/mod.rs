@@ -5,6 +5,7 @@
 
 pub mod diagnostic;
 pub mod execute;
+pub mod executor;
 pub mod gc;
 pub mod graph;
 pub mod key;

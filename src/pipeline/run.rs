@@ -3,6 +3,7 @@
 //! `run --dry-run` that says what would run and why.
 
 use super::execute::{Done, Engine, Outcome, StageReport, Status};
+use super::executor::{Executor, ExecutorKind};
 use super::plan::Plan;
 use super::progress::{ProgressMode, Reporter};
 use super::provenance::{self, StageProvenance};
@@ -24,6 +25,8 @@ pub struct RunOptions {
     /// unless `results_exact` is set.
     pub results: PathBuf,
     pub progress: ProgressMode,
+    /// Executor chosen on the command line; `None`: the pipeline's block.
+    pub executor: Option<ExecutorKind>,
 }
 
 /// Result of a run or a status query.
@@ -46,9 +49,15 @@ pub enum RunError {
     Store(#[from] StoreError),
     #[error("--force {name}: no such stage\n  = help: stages: {known}")]
     UnknownForce { name: String, known: String },
+    #[error("executor: {0}")]
+    Executor(String),
 }
 
-fn engine<'a>(plan: &'a Plan, opts: &RunOptions) -> Result<Engine<'a>, RunError> {
+fn engine<'a>(
+    plan: &'a Plan,
+    opts: &RunOptions,
+    executor: Executor,
+) -> Result<Engine<'a>, RunError> {
     let store = Store::open(&opts.cache)?;
     let last = provenance::load(&store, &plan.name);
     let mut forced = vec![false; plan.nodes.len()];
@@ -74,6 +83,7 @@ fn engine<'a>(plan: &'a Plan, opts: &RunOptions) -> Result<Engine<'a>, RunError>
         last,
         results: opts.results.join(&plan.name),
         forced,
+        executor,
     })
 }
 
@@ -86,7 +96,9 @@ enum State {
 
 /// Run the pipeline.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
-    let engine = engine(plan, opts)?;
+    let kind = opts.executor.unwrap_or(plan.executor.kind);
+    let executor = Executor::new(kind, &plan.executor).map_err(RunError::Executor)?;
+    let engine = engine(plan, opts, executor)?;
     let _cache_lock = engine.store.lock_cache(false)?;
     let n = plan.nodes.len();
     let reporter = Reporter::new(n, opts.progress);
@@ -225,7 +237,7 @@ fn line(r: &StageReport) -> String {
 /// What `run` would do, without running anything: each stage is `cached`
 /// (verified entry for its key) or `will-run` with the reason.
 pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
-    let engine = engine(plan, opts)?;
+    let engine = engine(plan, opts, Executor::Local)?;
     let mut done: Vec<Option<Done>> = vec![None; plan.nodes.len()];
     let mut reports: Vec<Option<StageReport>> = vec![None; plan.nodes.len()];
     for &i in &plan.order {

@@ -4,6 +4,7 @@
 //! kinds, params, references, cycles — is checked by [`super::plan`], which
 //! has the [`super::span::SpanIndex`] to point at the offending token.
 
+use super::executor::ExecutorSpec;
 use indexmap::IndexMap;
 use serde::Deserialize;
 use serde_yaml_ng::{Mapping, Value};
@@ -20,6 +21,10 @@ pub struct PipelineSpec {
     pub seed: u64,
     #[serde(default)]
     pub description: Option<String>,
+    /// Where stages run (`local` by default) and, for a cluster, with which
+    /// resources; not part of any key.
+    #[serde(default)]
+    pub executor: ExecutorSpec,
     pub stages: IndexMap<String, StageSpec>,
 }
 

@@ -9,6 +9,7 @@
 //! pipelines/<n>.json  last run of pipeline <n> (provenance, for status and gc)
 //! locks/              one lock file per stage key being computed
 //! tmp/                staging area; everything is written here, fsynced, renamed
+//! jobs/<key>/         cluster jobs of a stage being computed (description, script, logs)
 //! ```
 //! Every write is atomic (temp file, fsync, rename, fsync of the directory)
 //! and a run record is written only after all its objects, so a killed run
@@ -118,16 +119,20 @@ impl Store {
         &self.root
     }
 
-    /// A fresh path in the staging area (unique within this machine).
+    /// A fresh path in the staging area, unique across the processes and
+    /// hosts sharing the cache (cluster jobs write here too).
     pub fn temp_path(&self, label: &str) -> PathBuf {
         let n = TMP_COUNTER.fetch_add(1, Ordering::Relaxed);
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.subsec_nanos())
-            .unwrap_or(0);
         self.root
             .join("tmp")
-            .join(format!("{label}-{}-{n}-{nanos}", std::process::id()))
+            .join(format!("{label}-{}-{n}", process_nonce()))
+    }
+
+    /// Working directory of the cluster jobs computing stage `key`: job
+    /// descriptions, scripts, logs and shard records (see
+    /// [`super::executor`]). Not created here.
+    pub fn job_dir(&self, key: &str) -> PathBuf {
+        self.root.join("jobs").join(key)
     }
 
     pub fn object_path(&self, hash: &str) -> PathBuf {
@@ -346,6 +351,24 @@ fn lock(path: &Path, exclusive: bool) -> Result<File> {
     Ok(f)
 }
 
+/// A name part unique to this process on any host: the host name, the pid
+/// and the start time, hashed (pids repeat across the nodes of a cluster).
+fn process_nonce() -> &'static str {
+    static NONCE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    NONCE.get_or_init(|| {
+        let host = fs::read_to_string("/proc/sys/kernel/hostname")
+            .or_else(|_| std::env::var("HOSTNAME"))
+            .unwrap_or_default();
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_nanos())
+            .unwrap_or(0);
+        let seed = format!("{}|{}|{nanos}", host.trim(), std::process::id());
+        let hash = blake3::hash(seed.as_bytes()).to_hex();
+        format!("{}-{}", std::process::id(), &hash[..12])
+    })
+}
+
 fn write_synced(path: &Path, data: &[u8]) -> Result<()> {
     let mut f = File::create(path).map_err(err("write", path))?;
     f.write_all(data).map_err(err("write", path))?;
@@ -364,7 +387,7 @@ fn sibling_temp(dest: &Path) -> PathBuf {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let n = TMP_COUNTER.fetch_add(1, Ordering::Relaxed);
-    dest.with_file_name(format!(".{name}.modalflow-tmp-{}-{n}", std::process::id()))
+    dest.with_file_name(format!(".{name}.modalflow-tmp-{}-{n}", process_nonce()))
 }
 
 /// blake3 of a file's content, hex.

@@ -186,6 +186,11 @@ impl Stage for Gsa {
         Ok(())
     }
 
+    // Sharding hook (src/stages/shard.rs): a Sobol study's work is its design's batch.
+    fn shardable(&self, params: &Mapping) -> bool {
+        !is_anova(params)
+    }
+
     /// A model file named by `model` is hashed into the key with the files it
     /// references, so editing the model reruns the analysis.
     fn file_dependencies(

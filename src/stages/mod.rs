@@ -15,9 +15,11 @@ pub mod gsa;
 pub mod identify;
 pub mod import;
 pub mod report;
+pub mod shard;
 pub mod synthesize;
 pub mod synthesize_params;
 
+use crate::evaluation::{EvalError, Model};
 use crate::pipeline::progress::Progress;
 use serde_yaml_ng::{Mapping, Value};
 use std::collections::BTreeMap;
@@ -150,9 +152,25 @@ pub struct StageContext<'a> {
     /// Empty directory owned by this run of the stage.
     pub scratch: &'a Path,
     pub progress: &'a Progress,
+    /// How [`StageContext::evaluate_batch`] treats the run's batch: whole,
+    /// one shard of a job array, or merged from the shards' partials.
+    pub batch: &'a shard::Batch,
 }
 
 impl StageContext<'_> {
+    /// Evaluate a batch of independent points (outputs in input order) the
+    /// way the executor asked: here, one shard of it, or from the shards'
+    /// partial results ([`shard`]). Shardable kinds evaluate through this.
+    pub fn evaluate_batch(
+        &self,
+        model: &(impl Model + ?Sized),
+        xs: &[Vec<f64>],
+        chunk: usize,
+    ) -> Result<Vec<Vec<f64>>, EvalError> {
+        self.batch
+            .evaluate(model, xs, chunk, &|k| self.progress.inc(k))
+    }
+
     /// Deserialize the params into the kind's typed parameter struct.
     pub fn params_as<T: serde::de::DeserializeOwned>(&self) -> Result<T, StageError> {
         serde_yaml_ng::from_value(Value::Mapping(self.params.clone()))
@@ -275,6 +293,12 @@ pub trait Stage: Sync + Send {
     /// depends on this stage.
     fn workspace_outputs(&self, _params: &Mapping) -> Vec<String> {
         Vec::new()
+    }
+    /// Whether, with these params, the run's work is one batch of independent
+    /// model evaluations handed to [`StageContext::evaluate_batch`], so an
+    /// executor may split it over the tasks of a job array ([`shard`]).
+    fn shardable(&self, _params: &Mapping) -> bool {
+        false
     }
     fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError>;
 }

@@ -2,6 +2,7 @@
 
 pub mod compare;
 pub mod dag;
+pub mod exec;
 pub mod gc;
 pub mod kinds;
 pub mod run;

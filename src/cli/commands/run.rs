@@ -3,6 +3,7 @@
 use crate::cli::exit;
 use crate::cli::output::{print_json, print_text, Locations};
 use modalflow::pipeline::execute::Status;
+use modalflow::pipeline::executor::ExecutorKind;
 use modalflow::pipeline::plan;
 use modalflow::pipeline::progress::ProgressMode;
 use modalflow::pipeline::run::{self, RunOptions, RunReport};
@@ -32,9 +33,24 @@ pub struct Args {
     /// Progress display on stderr.
     #[arg(long, value_enum, default_value_t = Progress::Auto)]
     progress: Progress,
+    /// Where stages run (default: the pipeline's `executor:` block, else local).
+    /// With slurm, `--jobs` defaults to 32 stages in the queue at once.
+    #[arg(long, value_enum)]
+    executor: Option<Executor>,
     #[command(flatten)]
     locations: Locations,
 }
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum Executor {
+    /// In this process.
+    Local,
+    /// As Slurm batch jobs on a cache shared with the compute nodes.
+    Slurm,
+}
+
+/// Stages in the queue at once on a cluster unless `--jobs` says otherwise.
+const SLURM_JOBS: usize = 32;
 
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum Progress {
@@ -58,6 +74,7 @@ pub fn options(
         cache: locations.cache.clone(),
         results: locations.results.clone(),
         progress,
+        executor: None,
     }
 }
 
@@ -69,13 +86,17 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
         Progress::Lines => ProgressMode::Lines,
         Progress::None => ProgressMode::Quiet,
     };
-    let opts = options(
-        &args.locations,
-        args.jobs,
-        args.keep_going,
-        args.force,
-        progress,
-    );
+    let executor = match args.executor {
+        Some(Executor::Local) => ExecutorKind::Local,
+        Some(Executor::Slurm) => ExecutorKind::Slurm,
+        None => plan.executor.kind,
+    };
+    let jobs = match (args.jobs, executor) {
+        (None, ExecutorKind::Slurm) => Some(SLURM_JOBS),
+        (jobs, _) => jobs,
+    };
+    let mut opts = options(&args.locations, jobs, args.keep_going, args.force, progress);
+    opts.executor = Some(executor);
     let report = if args.dry_run {
         run::status(&plan, &opts)?
     } else {

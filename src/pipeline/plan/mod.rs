@@ -13,6 +13,7 @@ use inputs::resolve_inputs;
 use params::check_params;
 
 use super::diagnostic::{closest, Diagnostic, Diagnostics, Location};
+use super::executor::ExecutorSpec;
 use super::graph;
 use super::matrix::{self, Combination};
 use super::span::SpanIndex;
@@ -35,6 +36,8 @@ pub struct Plan {
     pub upstream: Vec<Vec<usize>>,
     /// A topological order of all nodes.
     pub order: Vec<usize>,
+    /// The `executor:` block (defaults when absent).
+    pub executor: ExecutorSpec,
 }
 
 /// One expanded stage.
@@ -137,7 +140,7 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
                 line: l.line(),
                 column: l.column(),
             });
-            let help = "a pipeline file has `name`, optional `seed` and `description`, and `stages`; \
+            let help = "a pipeline file has `name`, optional `seed`, `description` and `executor`, and `stages`; \
                         each stage has `kind`, and optional `params`, `inputs`, `matrix`, `description`";
             cx.at(
                 loc,
@@ -155,7 +158,9 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
             Some("each key may appear once per mapping; remove or rename one".into()),
         );
     }
+    check_executor(&mut cx, &spec.executor);
     let mut nodes = expand(&mut cx, &spec, dir);
+    check_shards(&mut cx, &spec.executor, &nodes);
     resolve_inputs(&mut cx, &spec, &mut nodes);
     resolve_files(&mut cx, dir, &mut nodes);
     let upstream: Vec<Vec<usize>> = nodes
@@ -206,7 +211,57 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
         nodes,
         upstream,
         order,
+        executor: spec.executor,
     })
+}
+
+/// `shards` under `kinds:` must name a kind whose stages here can be split.
+fn check_shards(cx: &mut Ctx, spec: &ExecutorSpec, nodes: &[Node]) {
+    for (kind, resources) in &spec.kinds {
+        if resources.shards.unwrap_or(1) <= 1 {
+            continue;
+        }
+        let mut of_kind = nodes.iter().filter(|n| n.kind.kind() == kind).peekable();
+        if of_kind.peek().is_none() || of_kind.any(|n| n.kind.shardable(&n.params)) {
+            continue;
+        }
+        let loc = cx.spans.nearest(&["executor", "kinds", kind, "shards"]);
+        cx.at(
+            loc,
+            format!("executor: no `{kind}` stage of this pipeline can be sharded"),
+            Some(
+                "`shards` splits a stage's batch of independent model evaluations over a job \
+                 array (a `gsa` stage with method sobol); remove it here"
+                    .into(),
+            ),
+        );
+    }
+}
+
+/// Values and kind names of the `executor:` block (serde checked its shape).
+fn check_executor(cx: &mut Ctx, spec: &ExecutorSpec) {
+    for p in spec.problems() {
+        let path: Vec<&str> = std::iter::once("executor")
+            .chain(p.path.iter().map(String::as_str))
+            .collect();
+        let loc = cx.spans.nearest(&path);
+        cx.at(loc, format!("executor: {}", p.message), Some(p.help));
+    }
+    let known: Vec<&str> = stages::registry().iter().map(|s| s.kind()).collect();
+    for kind in spec.kinds.keys() {
+        if !known.contains(&kind.as_str()) {
+            let mut help = format!("`kinds` are stage kinds: {}", known.join(", "));
+            if let Some(c) = closest(kind, known.iter().copied()) {
+                help = format!("did you mean `{c}`? {help}");
+            }
+            let loc = cx.spans.key(&["executor", "kinds", kind]);
+            cx.at(
+                loc,
+                format!("executor: unknown stage kind `{kind}`"),
+                Some(help),
+            );
+        }
+    }
 }
 
 fn valid_stage_name(name: &str) -> bool {

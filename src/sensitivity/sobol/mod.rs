@@ -2,7 +2,8 @@
 //! sequence ([`sample()`]), first-order (Saltelli 2010) and total (Jansen 1999)
 //! indices with bootstrap confidence intervals ([`analyze()`]), kept separate as
 //! in SALib, and [`run`], which samples, evaluates a [`Model`] and analyzes
-//! every output.
+//! every output ([`run_with`] takes the evaluation step from the caller, e.g.
+//! a pipeline stage that shards the batch over a cluster).
 
 pub mod analyze;
 pub mod sample;
@@ -11,7 +12,7 @@ pub use analyze::{analyze, AnalyzeParams, SobolIndices};
 pub use sample::{sample, Layout, Problem, Samples, MAX_SAMPLES, MAX_VARIED};
 
 use super::SensitivityError;
-use crate::evaluation::{evaluate_all, Model};
+use crate::evaluation::{evaluate_all, EvalError, Model};
 
 /// Settings of a full Sobol study.
 #[derive(Clone, Debug)]
@@ -66,6 +67,22 @@ pub fn run(
     params: &SobolParams,
     progress: &dyn Fn(u64),
 ) -> Result<SobolReport, SensitivityError> {
+    run_with(model, params, &|xs| {
+        evaluate_all(model, xs, params.chunk, progress)
+    })
+}
+
+/// The evaluation step of a study: model outputs at the sample points, in
+/// order, all finite.
+pub type Evaluate<'a> = dyn Fn(&[Vec<f64>]) -> Result<Vec<Vec<f64>>, EvalError> + 'a;
+
+/// As [`run`], with the model outputs coming from `evaluate`, called once
+/// with the whole design.
+pub fn run_with(
+    model: &(impl Model + ?Sized),
+    params: &SobolParams,
+    evaluate: &Evaluate,
+) -> Result<SobolReport, SensitivityError> {
     let problem = if params.subset.is_empty() {
         Problem::new(model.parameters().to_vec())
     } else {
@@ -90,7 +107,7 @@ pub fn run(
             .collect::<Result<_, _>>()?
     };
     let samples = sample(&problem, params.n, params.second_order, params.seed)?;
-    let ys = evaluate_all(model, &samples.points, params.chunk, progress)?;
+    let ys = evaluate(&samples.points)?;
     let analyze_params = AnalyzeParams {
         bootstrap: params.bootstrap,
         confidence: params.confidence,

@@ -48,7 +48,10 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
         .set_length((layout.len() + s.validation) as u64);
     ctx.progress
         .set_message(format!("{} evaluations", layout.len()));
-    let report = sobol::run(model.as_ref(), &params, &|k| ctx.progress.inc(k))
+    // Sharding hook: the design's batch is evaluated through the context
+    // (here, as one shard of a job array, or from the shards' partials).
+    let evaluate = |xs: &[Vec<f64>]| ctx.evaluate_batch(model.as_ref(), xs, params.chunk);
+    let report = sobol::run_with(model.as_ref(), &params, &evaluate)
         .map_err(|e| StageError::Failed(e.to_string()))?;
 
     let mut csv = String::from("output,parameter,S1,S1_conf,ST,ST_conf\n");

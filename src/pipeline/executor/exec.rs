@@ -1,0 +1,339 @@
+//! Running a stage job: [`run`] is the one code path that runs a stage kind
+//! in a scratch directory and commits its outputs and run record (objects
+//! first, record last) — or, for one task of a job array, its shard's
+//! partial result. The local executor calls it in-process; `modalflow exec`
+//! calls it on a cluster node through [`exec`], from a [`Job`] description.
+
+use super::job::{self, Job, ShardRecord};
+use crate::pipeline::progress::Progress;
+use crate::pipeline::store::{self, ArtifactKind, OutputRecord, RunRecord, Store};
+use crate::stages::shard::{Batch, Role as BatchRole};
+use crate::stages::{self, InputSource, Stage, StageContext, StageError};
+use serde_yaml_ng::Mapping;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Which part of the stage this run does.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Role {
+    /// The whole stage (merging `Job::partials` when there are any).
+    Whole,
+    /// Shard `index` of `Job::shards`.
+    Shard(usize),
+}
+
+/// What a run committed.
+#[derive(Debug)]
+pub enum Finished {
+    Record(RunRecord),
+    Shard(ShardRecord),
+}
+
+/// One run of a stage job: what runs, and which part of it.
+pub struct Run<'a> {
+    pub job: &'a Job,
+    pub kind: &'a dyn Stage,
+    pub params: &'a Mapping,
+    pub role: Role,
+    /// Check the files the key hashed before running (a job on another host
+    /// must see the same pipeline directory).
+    pub verify_files: bool,
+}
+
+/// Run (the `role` part of) the stage in a scratch directory and commit the
+/// result: the outputs and run record, or a shard's partial and its record.
+pub fn run(store: &Store, run: &Run, progress: &Progress) -> Result<Finished, String> {
+    let inputs_dir = store.temp_path("in");
+    let scratch = store.temp_path("stage");
+    let result = run_in(store, run, progress, &inputs_dir, &scratch);
+    let _ = std::fs::remove_dir_all(&scratch);
+    let _ = std::fs::remove_dir_all(&inputs_dir);
+    result
+}
+
+fn run_in(
+    store: &Store,
+    run: &Run,
+    progress: &Progress,
+    inputs_dir: &Path,
+    scratch: &Path,
+) -> Result<Finished, String> {
+    let Run {
+        job,
+        kind,
+        params,
+        role,
+        verify_files,
+    } = *run;
+    std::fs::create_dir_all(scratch)
+        .map_err(|e| format!("cannot create scratch directory: {e}"))?;
+    let mut inputs: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
+    let mut sources: BTreeMap<String, Vec<InputSource>> = BTreeMap::new();
+    for (name, list) in &job.inputs {
+        let mut paths = Vec::new();
+        for (k, input) in list.iter().enumerate() {
+            let object = store.object_path(&input.artifact.hash);
+            if !object.exists() {
+                return Err(format!(
+                    "input `{name}` ({}.{}): object {} is not in the cache at {}; \
+                     the cache must be on a file system this host shares",
+                    input.stage,
+                    input.output,
+                    input.artifact.hash,
+                    store.root().display()
+                ));
+            }
+            let path = match input.artifact.kind {
+                ArtifactKind::File => object,
+                ArtifactKind::Dir => {
+                    let p = inputs_dir.join(name).join(k.to_string()).join(&input.file);
+                    store
+                        .checkout(&input.artifact, &p)
+                        .map_err(|e| e.to_string())?;
+                    p
+                }
+            };
+            paths.push(path);
+        }
+        inputs.insert(name.clone(), paths);
+        let labels = list.iter().map(|i| InputSource {
+            stage: i.stage.clone(),
+            output: i.output.clone(),
+        });
+        sources.insert(name.clone(), labels.collect());
+    }
+    restore_workspace(store, job)?;
+    if verify_files {
+        verify_param_files(job)?;
+    }
+    let batch = match role {
+        Role::Whole if job.partials.is_empty() => Batch::whole(),
+        Role::Whole => Batch::new(BatchRole::Merge {
+            partials: job
+                .partials
+                .iter()
+                .map(|a| store.object_path(&a.hash))
+                .collect(),
+        }),
+        Role::Shard(index) => Batch::new(BatchRole::Shard {
+            index,
+            count: job.shards,
+            out: scratch.join(format!("partial-{index}")),
+        }),
+    };
+    let ctx = StageContext {
+        stage: &job.stage,
+        params,
+        seed: job.seed,
+        inputs: &inputs,
+        sources: &sources,
+        pipeline: &job.pipeline,
+        pipeline_dir: &job.pipeline_dir,
+        scratch,
+        progress,
+        batch: &batch,
+    };
+    let start = Instant::now();
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| kind.run(&ctx)));
+    let seconds = start.elapsed().as_secs_f64();
+    if let Role::Shard(index) = role {
+        return commit_shard(store, job, kind, &batch, outcome, index, seconds);
+    }
+    let produced = match outcome {
+        Ok(Ok(p)) => p,
+        Ok(Err(e)) => return Err(stage_error_text(&e)),
+        Err(panic) => return Err(panic_text(kind, panic)),
+    };
+    let mut outputs = BTreeMap::new();
+    for name in &job.outputs {
+        let Some((_, path)) = produced.files.iter().find(|(n, _)| n == name) else {
+            return Err(format!(
+                "kind `{}` did not produce its output `{name}`",
+                kind.kind()
+            ));
+        };
+        let full = if path.is_absolute() {
+            path.clone()
+        } else {
+            scratch.join(path)
+        };
+        let file = if job.workspace_outputs {
+            name.clone()
+        } else {
+            path.file_name()
+                .map(|f| f.to_string_lossy().into_owned())
+                .unwrap_or_else(|| name.clone())
+        };
+        let artifact = store
+            .put(&full)
+            .map_err(|e| format!("output `{name}`: {e}"))?;
+        outputs.insert(name.clone(), OutputRecord { file, artifact });
+    }
+    let record = RunRecord {
+        key: job.key.clone(),
+        kind: kind.kind().to_string(),
+        version: kind.version(),
+        stage: job.stage.clone(),
+        outputs,
+        seconds: seconds + job.partial_seconds,
+        counters: produced.counters,
+        modalflow_version: env!("CARGO_PKG_VERSION").to_string(),
+    };
+    store.write_record(&record).map_err(|e| e.to_string())?;
+    Ok(Finished::Record(record))
+}
+
+type RunResult = std::thread::Result<Result<stages::StageOutputs, StageError>>;
+
+/// A shard succeeded when it wrote its partial, whatever the stage returned
+/// after that (it stops with [`crate::evaluation::EvalError::Sharded`]).
+fn commit_shard(
+    store: &Store,
+    job: &Job,
+    kind: &dyn Stage,
+    batch: &Batch,
+    run: RunResult,
+    index: usize,
+    seconds: f64,
+) -> Result<Finished, String> {
+    let Some(partial) = batch.written() else {
+        return Err(match run {
+            Ok(Err(e)) => stage_error_text(&e),
+            Err(panic) => panic_text(kind, panic),
+            Ok(Ok(_)) => format!(
+                "kind `{}` finished without handing a batch to its shard; it cannot be sharded \
+                 with these params (set `shards: 1`)",
+                kind.kind()
+            ),
+        });
+    };
+    let artifact = store.put(&partial).map_err(|e| e.to_string())?;
+    let rec = ShardRecord {
+        index,
+        count: job.shards,
+        seconds,
+        artifact,
+    };
+    let path = job::shard_record_path(store, &job.key, index, job.shards);
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    }
+    let json = serde_json::to_vec_pretty(&rec).map_err(|e| e.to_string())?;
+    store
+        .write_atomic(&path, &json)
+        .map_err(|e| e.to_string())?;
+    Ok(Finished::Shard(rec))
+}
+
+/// DVC semantics: a dep that another stage writes into the workspace is put
+/// back from the cache when it is missing or differs.
+fn restore_workspace(store: &Store, job: &Job) -> Result<(), String> {
+    for r in &job.restore {
+        let dest = job.pipeline_dir.join(&r.path);
+        if store::hash_path(&dest).ok().as_deref() != Some(r.artifact.hash.as_str()) {
+            store
+                .checkout(&r.artifact, &dest)
+                .map_err(|e| e.to_string())?;
+        }
+    }
+    Ok(())
+}
+
+fn verify_param_files(job: &Job) -> Result<(), String> {
+    for (path, hash) in &job.material.files {
+        let full = job.pipeline_dir.join(path);
+        let seen = store::hash_path(&full)
+            .map_err(|e| format!("cannot read `{path}` at {}: {e}", full.display()))?;
+        if &seen != hash {
+            return Err(format!(
+                "`{path}` differs on this host from what the key hashed: the pipeline \
+                 directory {} must be on a file system shared with the submitting machine, \
+                 and not edited while the run is on",
+                job.pipeline_dir.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// What `modalflow exec` did.
+#[derive(Debug)]
+pub enum ExecOutcome {
+    Ran(Finished),
+    /// The result was already in the cache (a requeued or repeated job).
+    AlreadyDone,
+}
+
+/// `modalflow exec`: read the job description at `path` and run it (or
+/// shard `shard` of it) against `store`. The submitting process holds the
+/// key's lock; the job takes the cache's shared lock against `gc`.
+pub fn exec(store: &Store, path: &Path, shard: Option<usize>) -> Result<ExecOutcome, String> {
+    let _guard = store.lock_cache(false).map_err(|e| e.to_string())?;
+    let job = Job::read(path)?;
+    let (kind, params) = job.check()?;
+    let role = match shard {
+        None => Role::Whole,
+        Some(i) if job.shards > 1 && i < job.shards => Role::Shard(i),
+        Some(i) if job.shards > 1 => {
+            return Err(format!(
+                "job {}: shard {i} does not exist (the job has {} shards, 0..{})",
+                job.stage,
+                job.shards,
+                job.shards - 1
+            ))
+        }
+        Some(i) => {
+            return Err(format!(
+                "job {}: shard {i} does not exist (the job is not sharded); run it without --shard",
+                job.stage
+            ))
+        }
+    };
+    let done = match role {
+        Role::Whole => store.record(&job.key).is_some_and(|r| {
+            r.outputs
+                .values()
+                .all(|o| store.verify(&o.artifact).is_ok())
+        }),
+        Role::Shard(i) => job::shard_record(store, &job.key, i, job.shards).is_some(),
+    };
+    if done {
+        return Ok(ExecOutcome::AlreadyDone);
+    }
+    let call = Run {
+        job: &job,
+        kind,
+        params: &params,
+        role,
+        verify_files: true,
+    };
+    run(store, &call, &Progress::hidden()).map(ExecOutcome::Ran)
+}
+
+fn panic_text(kind: &dyn Stage, panic: Box<dyn std::any::Any + Send>) -> String {
+    let what = panic
+        .downcast_ref::<String>()
+        .cloned()
+        .or_else(|| panic.downcast_ref::<&str>().map(|s| s.to_string()))
+        .unwrap_or_default();
+    format!(
+        "internal error in kind `{}` (a bug, please report): {what}",
+        kind.kind()
+    )
+}
+
+/// A stage error with its sources, each once.
+pub fn stage_error_text(e: &StageError) -> String {
+    let mut s = e.to_string();
+    let mut src = std::error::Error::source(e);
+    while let Some(inner) = src {
+        let t = inner.to_string();
+        if !s.contains(&t) {
+            s.push_str(": ");
+            s.push_str(&t);
+        }
+        src = inner.source();
+    }
+    s
+}

@@ -1,0 +1,214 @@
+//! A stage run as a self-contained job: the [`Job`] description — stage key,
+//! kind and version, params, seed, inputs by content hash — that the local
+//! executor builds in memory and the Slurm executor writes into the shared
+//! cache for `modalflow exec` ([`super::exec`]), which never parses the
+//! pipeline file; and the records shard tasks leave beside it.
+
+use crate::pipeline::execute::Done;
+use crate::pipeline::key::{canonical_params, KeyMaterial};
+use crate::pipeline::plan::{Node, Plan};
+use crate::pipeline::store::{Artifact, Store};
+use crate::stages::{self, Stage};
+use serde::{Deserialize, Serialize};
+use serde_yaml_ng::{Mapping, Value};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Version of the description format.
+pub const FORMAT: u32 = 1;
+
+/// Everything one run of a stage needs.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Job {
+    pub format: u32,
+    pub key: String,
+    /// Expanded stage name (messages, run record).
+    pub stage: String,
+    /// What the key was computed from; `exec` recomputes and compares.
+    pub material: KeyMaterial,
+    /// The params as YAML text (an exact round trip of the mapping).
+    pub params: String,
+    pub seed: u64,
+    pub pipeline: String,
+    /// Absolute directory of the pipeline file; relative params start here.
+    pub pipeline_dir: PathBuf,
+    /// Input name → bound artifacts in order.
+    pub inputs: BTreeMap<String, Vec<JobInput>>,
+    /// Workspace files another stage produced, put back before the run.
+    pub restore: Vec<Restore>,
+    /// Output names the run must produce.
+    pub outputs: Vec<String>,
+    /// Outputs are workspace paths (`command` outs): name records by output.
+    pub workspace_outputs: bool,
+    /// Array tasks the stage's batch is split over (1: not sharded).
+    pub shards: usize,
+    /// For the merge run of a sharded stage: the shards' partial results.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub partials: Vec<Artifact>,
+    /// Seconds the shards spent, added to the merge's record.
+    #[serde(default)]
+    pub partial_seconds: f64,
+}
+
+/// One input artifact, by content hash.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct JobInput {
+    /// Upstream stage and output (labels for reports).
+    pub stage: String,
+    pub output: String,
+    /// File or directory name the upstream stage gave it.
+    pub file: String,
+    #[serde(flatten)]
+    pub artifact: Artifact,
+}
+
+/// A workspace path (relative to the pipeline directory) and its content.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Restore {
+    pub path: String,
+    #[serde(flatten)]
+    pub artifact: Artifact,
+}
+
+/// What one shard task left: its partial result.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ShardRecord {
+    pub index: usize,
+    pub count: usize,
+    pub seconds: f64,
+    #[serde(flatten)]
+    pub artifact: Artifact,
+}
+
+impl Job {
+    /// The description of `node` with key `key`, given finished upstream stages.
+    pub fn new(
+        plan: &Plan,
+        node: &Node,
+        key: &str,
+        material: &KeyMaterial,
+        done: &dyn Fn(usize) -> Option<Done>,
+    ) -> Result<Job, String> {
+        let output = |src: usize, out: &str| {
+            done(src)
+                .and_then(|d| d.outputs.get(out).cloned())
+                .ok_or_else(|| format!("upstream `{}` has no output `{out}`", plan.nodes[src].name))
+        };
+        let mut inputs = BTreeMap::new();
+        for b in &node.inputs {
+            let mut list = Vec::new();
+            for (src, out) in &b.sources {
+                let rec = output(*src, out)?;
+                list.push(JobInput {
+                    stage: plan.nodes[*src].name.clone(),
+                    output: out.clone(),
+                    file: rec.file,
+                    artifact: rec.artifact,
+                });
+            }
+            inputs.insert(b.name.clone(), list);
+        }
+        let mut restore = Vec::new();
+        for f in &node.files {
+            if let Some((src, out)) = &f.producer {
+                restore.push(Restore {
+                    path: f.path.clone(),
+                    artifact: output(*src, out)?.artifact,
+                });
+            }
+        }
+        let params = serde_yaml_ng::to_string(&Value::Mapping(node.params.clone()))
+            .map_err(|e| format!("cannot write the params: {e}"))?;
+        Ok(Job {
+            format: FORMAT,
+            key: key.to_string(),
+            stage: node.name.clone(),
+            material: material.clone(),
+            params,
+            seed: node.seed,
+            pipeline: plan.name.clone(),
+            pipeline_dir: plan.dir.clone(),
+            inputs,
+            restore,
+            outputs: node.outputs.clone(),
+            workspace_outputs: !node.workspace_outputs.is_empty(),
+            shards: 1,
+            partials: Vec::new(),
+            partial_seconds: 0.0,
+        })
+    }
+
+    /// Read a description written by [`Job::write`].
+    pub fn read(path: &Path) -> Result<Job, String> {
+        let bytes = std::fs::read(path)
+            .map_err(|e| format!("cannot read job description {}: {e}", path.display()))?;
+        let job: Job = serde_json::from_slice(&bytes)
+            .map_err(|e| format!("job description {}: {e}", path.display()))?;
+        if job.format != FORMAT {
+            return Err(format!(
+                "job description {} has format {}, this modalflow reads {FORMAT}: \
+                 run the same modalflow version on the submitting machine and the compute nodes",
+                path.display(),
+                job.format
+            ));
+        }
+        Ok(job)
+    }
+
+    /// Write the description atomically to `path`.
+    pub fn write(&self, store: &Store, path: &Path) -> Result<(), String> {
+        let json = serde_json::to_vec_pretty(self).map_err(|e| e.to_string())?;
+        store.write_atomic(path, &json).map_err(|e| e.to_string())
+    }
+
+    /// The kind and params, checked against the key: the description is
+    /// internally consistent and this binary has the same kind version.
+    pub fn check(&self) -> Result<(&'static dyn Stage, Mapping), String> {
+        let kind = stages::find(&self.material.kind).ok_or_else(|| {
+            format!(
+                "job {}: unknown stage kind `{}`; is the job run by an older modalflow?",
+                self.stage, self.material.kind
+            )
+        })?;
+        if kind.version() != self.material.version {
+            return Err(format!(
+                "job {}: kind `{}` is version {} in the job but {} in this modalflow: \
+                 run the same modalflow version on the submitting machine and the compute nodes",
+                self.stage,
+                kind.kind(),
+                self.material.version,
+                kind.version()
+            ));
+        }
+        let params = match serde_yaml_ng::from_str::<Value>(&self.params) {
+            Ok(Value::Mapping(m)) => m,
+            Ok(_) => Mapping::new(),
+            Err(e) => return Err(format!("job {}: params: {e}", self.stage)),
+        };
+        if canonical_params(&Value::Mapping(params.clone())) != self.material.params
+            || self.material.key() != self.key
+        {
+            return Err(format!(
+                "job {}: the description does not match its key {}; it was edited or damaged",
+                self.stage, self.key
+            ));
+        }
+        Ok((kind, params))
+    }
+}
+
+/// Where shard `index` of `count` of stage `key` records its partial.
+pub fn shard_record_path(store: &Store, key: &str, index: usize, count: usize) -> PathBuf {
+    store
+        .job_dir(key)
+        .join("shards")
+        .join(format!("{count}-{index}.json"))
+}
+
+/// The shard's record, if it was written and its object verifies.
+pub fn shard_record(store: &Store, key: &str, index: usize, count: usize) -> Option<ShardRecord> {
+    let bytes = std::fs::read(shard_record_path(store, key, index, count)).ok()?;
+    let rec: ShardRecord = serde_json::from_slice(&bytes).ok()?;
+    store.verify(&rec.artifact).ok()?;
+    Some(rec)
+}

@@ -1,0 +1,87 @@
+//! Executors: where a stage that has to be computed runs.
+//!
+//! - `local` runs the stage kind in the `modalflow run` process;
+//! - `slurm` writes a [`job::Job`] description into the shared cache and
+//!   submits `modalflow exec` as a batch job ([`slurm`]); a shardable
+//!   stage's batch is split over a job array and merged by a final job.
+//!
+//! Both end in [`exec::run`], the one code path that runs a kind and commits
+//! its objects and run record. The engine ([`super::execute`]) keeps the
+//! rest: keys, the key lock, cache lookup, results. Nothing about the
+//! executor enters a key, so a stage computed on a cluster is a cache hit
+//! locally and the other way round.
+
+pub mod config;
+pub mod exec;
+pub mod interrupt;
+pub mod job;
+pub mod queue;
+pub mod slurm;
+
+pub use config::{ExecutorKind, ExecutorSpec};
+
+use super::progress::Progress;
+use super::store::{RunRecord, Store};
+use crate::stages::Stage;
+use exec::{Finished, Role, Run};
+use job::Job;
+use serde_yaml_ng::Mapping;
+
+/// The executor of one `modalflow run`.
+pub enum Executor {
+    Local,
+    Slurm(Box<slurm::Slurm>),
+}
+
+impl Executor {
+    /// The executor `kind` configured by `spec` (the pipeline's block).
+    pub fn new(kind: ExecutorKind, spec: &ExecutorSpec) -> Result<Executor, String> {
+        Ok(match kind {
+            ExecutorKind::Local => Executor::Local,
+            ExecutorKind::Slurm => Executor::Slurm(Box::new(slurm::Slurm::new(spec)?)),
+        })
+    }
+
+    /// Compute the stage described by `job` and return its committed record.
+    pub fn compute(
+        &self,
+        store: &Store,
+        job: Job,
+        kind: &dyn Stage,
+        params: &Mapping,
+        progress: &Progress,
+    ) -> Result<RunRecord, String> {
+        match self {
+            Executor::Slurm(s) => {
+                let resources = s.spec().resources(kind.kind());
+                if resources.local {
+                    local(store, &job, kind, params, progress)
+                } else {
+                    s.compute(store, job, kind, params, &resources, progress)
+                }
+            }
+            Executor::Local => local(store, &job, kind, params, progress),
+        }
+    }
+}
+
+/// Run the whole stage in this process.
+pub fn local(
+    store: &Store,
+    job: &Job,
+    kind: &dyn Stage,
+    params: &Mapping,
+    progress: &Progress,
+) -> Result<RunRecord, String> {
+    let call = Run {
+        job,
+        kind,
+        params,
+        role: Role::Whole,
+        verify_files: false,
+    };
+    match exec::run(store, &call, progress)? {
+        Finished::Record(r) => Ok(r),
+        Finished::Shard(_) => Err("a whole run ended as a shard (a bug, please report)".into()),
+    }
+}
