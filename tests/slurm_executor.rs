@@ -401,8 +401,9 @@ fn executor_block_problems_are_located() {
 
 #[test]
 fn a_structural_gsa_sharded_three_ways_is_bit_identical_to_a_local_run() {
-    // Reference modes from synthesize, Sobol indices of a model file: the
-    // shards' slices are uneven (64·5 = 320 points in 3), the merge exact.
+    // Reference modes from synthesize, Sobol indices of a model file with FRF
+    // bands: the shards' slices are uneven (64·5 = 320 points in 3), the merge
+    // exact; the split's validation (30 + 1 evaluations) runs in the merge job.
     let study = r#"name: cluster
 executor: {poll: 0.5, kinds: {gsa: {shards: 3}, synthesize: {local: true}}}
 stages:
@@ -412,7 +413,7 @@ stages:
   sens:
     kind: gsa
     inputs: {reference: truth.modes}
-    params: {model: models/two_mass.yaml, samples: 64, bootstrap: 10, window: 0.5}
+    params: {model: models/two_mass.yaml, samples: 64, bootstrap: 10, window: 0.5, bands: [[50, 150], [150, 350]], validation: 30}
 "#;
     let model = include_str!("fixtures/models/two_mass.yaml");
     let local = Workspace::new();
@@ -424,7 +425,7 @@ stages:
     assert!(local.run(&[], 0).all("ran"));
     let r = run(&ws, &["--executor", "slurm"], &[], 0);
     assert!(r.all("ran"), "{:?}", r.statuses());
-    assert_eq!(r.stage("sens")["counters"]["evaluations"], 64 * 5);
+    assert_eq!(r.stage("sens")["counters"]["evaluations"], 64 * 5 + 31);
     for stage in ["truth", "sens"] {
         assert_eq!(outputs(&ws, stage), outputs(&local, stage), "{stage}");
     }
