@@ -144,6 +144,7 @@ fn bad_models_and_values_are_rejected_before_running() {
         ("{model: models/three_mass.yaml, frequency: {min: 10, max: 1, step: 1}}", "frequency grid"),
         ("{model: models/three_mass.yaml, frequency: {min: 0, max: 100, step: 1}, values: {k1.k_x: 1.0e9}}", "outside its bounds"),
         ("{model: models/three_mass.yaml, frequency: {min: 0, max: 100, step: 1}, values: {nope: 1.0}}", "no parameter `nope`"),
+        ("{model: models/three_mass.yaml, frequency: {min: 0, max: 100, step: 1}, values: {perturb: {relative: 0.3, parameters: [k1.k_x, nope]}}}", "no parameter `nope`"),
         ("{model: models/three_mass.yaml, frequency: {min: 0, max: 100, step: 1}, sensors: [zz]}", "no sensor `zz`"),
         ("{model: models/three_mass.yaml, frequency: {min: 0, max: 100, step: 1}, noise: {relative: 0.1}, impact_test: {}}", "exclude each other"),
         ("{model: models/three_mass.yaml, frequency: {min: 0, max: 100, step: 1}, impact_test: {sample_rate_hz: 150}}", "sample_rate_hz"),
@@ -204,6 +205,17 @@ fn perturbed_values_stay_in_bounds_and_differ_from_the_truth() {
         );
     }
     assert_eq!(changed, 8);
+    // `parameters` moves only those (same values as without the list: one
+    // stream per parameter); the rest keep the file's values.
+    ws.write("p.yaml", &pipeline("{model: models/three_mass.yaml, frequency: {min: 0, max: 400, step: 1}, values: {perturb: {relative: 0.5, seed: 3, parameters: [k12.k_x, k3.c_x]}}}"));
+    let all = truth;
+    ws.run(&[], 0);
+    let only = ws.read("results/syn/truth/parameters.csv");
+    for (a, o) in all.lines().zip(only.lines()).skip(1) {
+        let name = a.split(',').next().unwrap();
+        let moved = ["k12.k_x", "k3.c_x"].contains(&name);
+        assert_eq!(a == o, moved, "{a} / {o}");
+    }
 }
 
 #[test]

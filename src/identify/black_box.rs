@@ -1,38 +1,56 @@
 //! The `black_box` strategy: one optimizer over all parameters on the global
 //! objective J (see [`super::objective`]). Points of a batch (a swarm, a
 //! generation, a finite-difference stencil) are evaluated in parallel with
-//! rayon; the budget caps the evaluations of J.
+//! rayon; the budget caps the evaluations of J. The history records the
+//! mean MAC of every best-so-far point ([`super::history`]).
 
+use super::history::{HistoryRow, Recorder};
 use super::{IdentifyError, ModalObjective};
 use crate::optimize::{OptimizeResult, Optimizer, Problem};
 use rayon::prelude::*;
 
+/// The optimizer's result and the best-so-far history with the MAC reached.
+pub struct BlackBoxResult {
+    pub result: OptimizeResult,
+    pub history: Vec<HistoryRow>,
+}
+
 /// Minimize J with `optimizer` and at most `budget` evaluations. SLSQP
-/// without an `x0` setting starts at the model file's values; `progress` is
-/// called with the size of every evaluated batch.
+/// without an `x0` setting starts at `start`; `progress` is called with the
+/// size of every evaluated batch.
 pub fn black_box(
     objective: &ModalObjective,
     optimizer: &Optimizer,
+    start: &[f64],
     budget: usize,
     seed: u64,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<OptimizeResult, IdentifyError> {
+) -> Result<BlackBoxResult, IdentifyError> {
     let bounds = objective.bounds()?;
+    let recorder = Recorder::default();
     let batch = |points: &[Vec<f64>]| -> Vec<f64> {
-        let v: Vec<f64> = points.par_iter().map(|x| objective.cost(x)).collect();
+        let v: Vec<(f64, f64)> = points
+            .par_iter()
+            .map(|x| objective.cost_and_mac(x))
+            .collect();
+        recorder.record(&v);
         progress(points.len() as u64);
-        v
+        v.into_iter().map(|(f, _)| f).collect()
     };
     let problem = Problem::new(bounds, &batch, budget);
     let optimizer = match optimizer {
         Optimizer::Slsqp(p) if p.x0.is_none() => {
             let mut p = p.clone();
-            p.x0 = Some(objective.nominal());
+            p.x0 = Some(start.to_vec());
             Optimizer::Slsqp(p)
         }
         other => other.clone(),
     };
-    Ok(optimizer.minimize(&problem, seed)?)
+    let result = optimizer.minimize(&problem, seed)?;
+    Ok(BlackBoxResult {
+        result,
+        history: recorder.rows(),
+    })
 }
 
 #[cfg(test)]
@@ -83,7 +101,9 @@ pub(crate) mod tests {
     fn slsqp_from_the_nominal_start_recovers_the_stiffness() {
         let o = objective();
         let opt = Optimizer::from_settings("slsqp", None).unwrap();
-        let r = black_box(&o, &opt, 3000, 1, &|_| {}).unwrap();
+        let r = black_box(&o, &opt, &o.nominal(), 3000, 1, &|_| {})
+            .unwrap()
+            .result;
         assert!(r.evaluations <= 3000);
         // J uses |·| (NFD, NDD), so SLSQP stalls near, not at, 0; the four
         // dampers are not identifiable from three damping ratios.
@@ -110,10 +130,15 @@ pub(crate) mod tests {
         let settings: serde_yaml_ng::Value = serde_yaml_ng::from_str("swarm_size: 16").unwrap();
         let opt = Optimizer::from_settings("pso", Some(&settings)).unwrap();
         let counted = std::sync::atomic::AtomicU64::new(0);
-        let r = black_box(&o, &opt, 200, 7, &|n| {
+        let out = black_box(&o, &opt, &o.nominal(), 200, 7, &|n| {
             counted.fetch_add(n, std::sync::atomic::Ordering::Relaxed);
         })
         .unwrap();
+        let r = out.result;
+        // The MAC history follows the optimizer's own best-so-far record.
+        let last = out.history.last().unwrap();
+        assert_eq!(last.objective, r.f_best);
+        assert!(last.mean_mac > 0.0 && last.mean_mac <= 1.0);
         assert!(r.evaluations <= 200, "{}", r.evaluations);
         assert_eq!(counted.into_inner(), r.evaluations as u64);
         let first = r.history[0].f_best;
@@ -123,7 +148,7 @@ pub(crate) mod tests {
         );
         assert!(r.f_best < first, "{} !< {first}", r.f_best);
         // Same seed → same result (deterministic whatever the thread count).
-        let again = black_box(&o, &opt, 200, 7, &|_| {}).unwrap();
-        assert_eq!(again.x_best, r.x_best);
+        let again = black_box(&o, &opt, &o.nominal(), 200, 7, &|_| {}).unwrap();
+        assert_eq!(again.result.x_best, r.x_best);
     }
 }

@@ -13,6 +13,22 @@
 //!
 //! Shapes are compared at the DOFs the reference and the model's sensors
 //! share (same node and axis; an opposite direction flips the sign).
+//!
+//! Reference modes can be left out ([`ModalObjective::without_modes`]): a
+//! mode the sensors barely see (a local mode of an unmeasured part) has a
+//! MAC that flips with tiny parameter changes and traps local optimizers;
+//! PUB4 likewise identified with "only a subset of the found modes". Modes
+//! keep their reference numbers (`p0.mode9` stays mode 9), so GSA output
+//! names still apply.
+//!
+//! The stiffness is identified from frequencies and shapes alone (PUB3):
+//! they do not depend on the damping parameters (section 2.3.1), so NDD is
+//! left out of [`ModalObjective::mode_cost`] (a subproblem's criterion for
+//! SLSQP) and of [`ModalObjective::residuals`] (the joint refinement's
+//! least-squares residuals). SLSQP needs a smooth criterion, and |NFD| has a
+//! kink at a perfect match: `mode_cost` uses the pseudo-Huber form
+//! h_δ(t) = √(t² + δ²) − δ of NFD (|t| − δ ≤ h_δ(t) ≤ |t|, quadratic for
+//! |t| ≪ δ).
 
 use super::IdentifyError;
 use crate::dynamics::{self, PreparedModel};
@@ -65,6 +81,8 @@ struct Reference {
     frequencies: Vec<f64>,
     damping: Vec<f64>,
     shapes: Vec<Vec<Complex64>>,
+    /// 1-based number of each mode in the reference as given.
+    numbers: Vec<usize>,
     /// (model sensor row, sign, reference DOF) per shared DOF.
     rows: Vec<(usize, f64, crate::frf::Dof)>,
 }
@@ -132,6 +150,7 @@ impl ModalObjective {
                     .iter()
                     .map(|m| keep.iter().map(|&k| m.shape[k]).collect())
                     .collect(),
+                numbers: (1..=r.modes.len()).collect(),
                 rows,
             });
         }
@@ -152,8 +171,51 @@ impl ModalObjective {
         })
     }
 
+    /// Leave out the reference modes `exclude` = (position index, 1-based
+    /// mode number). Errors name a mode the reference does not have or a
+    /// position left without modes.
+    pub fn without_modes(mut self, exclude: &[(u32, usize)]) -> Result<Self, IdentifyError> {
+        for &(position, number) in exclude {
+            let r = self
+                .references
+                .iter_mut()
+                .find(|r| r.position.index == position)
+                .ok_or_else(|| {
+                    IdentifyError::Invalid(format!(
+                        "exclude_modes: position {position} is not in the reference (or not selected by `positions`)"
+                    ))
+                })?;
+            let k = r.numbers.iter().position(|&n| n == number).ok_or_else(|| {
+                IdentifyError::Invalid(format!(
+                    "exclude_modes: the reference has no mode {number} at position {position}"
+                ))
+            })?;
+            r.frequencies.remove(k);
+            r.damping.remove(k);
+            r.shapes.remove(k);
+            r.numbers.remove(k);
+            if r.numbers.is_empty() {
+                return Err(IdentifyError::Invalid(format!(
+                    "exclude_modes leaves no reference mode at position {position}"
+                )));
+            }
+        }
+        Ok(self)
+    }
+
     pub fn parameters(&self) -> &[dynamics::Parameter] {
         &self.parameters
+    }
+
+    /// Index (into the kept modes of slot `p`) of reference mode `number`
+    /// (1-based, as in the reference); `None` when excluded or absent.
+    pub fn mode_index(&self, p: usize, number: usize) -> Option<usize> {
+        self.references[p].numbers.iter().position(|&n| n == number)
+    }
+
+    /// Number of reference positions (slots).
+    pub fn positions(&self) -> usize {
+        self.references.len()
     }
 
     /// Number of reference modes over all positions (terms of J).
@@ -188,34 +250,35 @@ impl ModalObjective {
     /// Model modes of each reference position at `x`, at the shared DOFs in
     /// the reference's orientation.
     pub fn model_modes(&self, x: &[f64]) -> Result<Vec<ModalModel>, IdentifyError> {
-        self.references
-            .iter()
-            .map(|r| {
-                let sol = self
-                    .prepared
-                    .evaluate(r.config, x, self.modes)
-                    .map_err(|e| IdentifyError::Model(e.to_string()))?;
-                let f = sol.frequencies_hz();
-                let z = sol.damping_ratios();
-                Ok(ModalModel {
-                    position: r.position.clone(),
-                    dofs: r.rows.iter().map(|row| row.2).collect(),
-                    modes: (0..f.len())
-                        .map(|m| Mode {
-                            frequency_hz: f[m],
-                            damping_ratio: z[m],
-                            shape: r
-                                .rows
-                                .iter()
-                                .map(|&(i, s, _)| {
-                                    Complex64::new(s * sol.sensor_shapes[(i, m)], 0.0)
-                                })
-                                .collect(),
-                        })
+        (0..self.references.len())
+            .map(|p| self.model_modes_at(p, x))
+            .collect()
+    }
+
+    /// Model modes of position slot `p` alone (one eigensolution).
+    pub fn model_modes_at(&self, p: usize, x: &[f64]) -> Result<ModalModel, IdentifyError> {
+        let r = &self.references[p];
+        let sol = self
+            .prepared
+            .evaluate(r.config, x, self.modes)
+            .map_err(|e| IdentifyError::Model(e.to_string()))?;
+        let f = sol.frequencies_hz();
+        let z = sol.damping_ratios();
+        Ok(ModalModel {
+            position: r.position.clone(),
+            dofs: r.rows.iter().map(|row| row.2).collect(),
+            modes: (0..f.len())
+                .map(|m| Mode {
+                    frequency_hz: f[m],
+                    damping_ratio: z[m],
+                    shape: r
+                        .rows
+                        .iter()
+                        .map(|&(i, s, _)| Complex64::new(s * sol.sensor_shapes[(i, m)], 0.0))
                         .collect(),
                 })
-            })
-            .collect()
+                .collect(),
+        })
     }
 
     /// Per position and reference mode, the paired model mode (`None` when
@@ -223,25 +286,95 @@ impl ModalObjective {
     pub fn matches(&self, x: &[f64]) -> Result<Vec<Vec<Option<Match>>>, IdentifyError> {
         let models = self.model_modes(x)?;
         Ok(self
-            .references
+            .pairing(&models)
             .iter()
+            .zip(&self.references)
             .zip(&models)
+            .map(|((pairs, r), m)| {
+                pairs
+                    .iter()
+                    .enumerate()
+                    .map(|(k, c)| {
+                        c.map(|c| {
+                            let c = &m.modes[c];
+                            Match {
+                                frequency_hz: c.frequency_hz,
+                                damping_ratio: c.damping_ratio,
+                                mac: mac(&r.shapes[k], &c.shape),
+                            }
+                        })
+                    })
+                    .collect()
+            })
+            .collect())
+    }
+
+    /// Per slot and kept reference mode, the index of the paired model mode.
+    fn pairing(&self, models: &[ModalModel]) -> Vec<Vec<Option<usize>>> {
+        self.references
+            .iter()
+            .zip(models)
             .map(|(r, m)| {
                 let f: Vec<f64> = m.modes.iter().map(|m| m.frequency_hz).collect();
                 let shapes: Vec<Vec<Complex64>> = m.modes.iter().map(|m| m.shape.clone()).collect();
-                let pairs = pair_modes(&r.frequencies, &r.shapes, &f, &shapes, self.window, 0.0);
                 let mut out = vec![None; r.frequencies.len()];
-                for p in pairs {
-                    let c = &m.modes[p.candidate];
-                    out[p.reference] = Some(Match {
-                        frequency_hz: c.frequency_hz,
-                        damping_ratio: c.damping_ratio,
-                        mac: mac(&r.shapes[p.reference], &c.shape),
-                    });
+                for p in pair_modes(&r.frequencies, &r.shapes, &f, &shapes, self.window, 0.0) {
+                    out[p.reference] = Some(p.candidate);
                 }
                 out
             })
-            .collect())
+            .collect()
+    }
+
+    /// The modal residual vector of the joint refinement and the mean MAC,
+    /// or `None` when the model cannot be solved. Per position and kept
+    /// reference mode r, paired with model mode m as in J:
+    ///
+    /// - √w_nfd (f_m − f_r)/f_r (the signed NFD, eq. 2.64);
+    /// - √w_mac (α φ̂_m − ψ̂_r), real and imaginary parts per shared DOF, with
+    ///   unit-normalized shapes and the unit phase factor α that brings them
+    ///   closest; ‖α φ̂ − ψ̂‖² = 2 (1 − √MAC) ≈ 1 − MAC near a match (eq. 2.62).
+    ///
+    /// An unpaired mode gives the constant residuals √w_nfd·window and −ψ̂_r.
+    /// ½‖r‖² ≈ ½ Σ [w_mac (1 − MAC) + w_nfd NFD²]: the least-squares form of
+    /// J's MAC and NFD terms (damping plays no part, see the module docs).
+    pub fn residuals(&self, x: &[f64]) -> Option<(Vec<f64>, f64)> {
+        let models = self.model_modes(x).ok()?;
+        let pairing = self.pairing(&models);
+        let (wf, ws) = (self.weights.nfd.sqrt(), self.weights.mac.sqrt());
+        let mut out = Vec::new();
+        let (mut mac_sum, mut count) = (0.0, 0usize);
+        for ((r, m), pairs) in self.references.iter().zip(&models).zip(&pairing) {
+            for (k, c) in pairs.iter().enumerate() {
+                let psi = &r.shapes[k];
+                let psi_norm = psi.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt();
+                count += 1;
+                let Some(c) = c else {
+                    out.push(wf * self.window);
+                    for v in psi {
+                        out.extend([-ws * v.re / psi_norm, -ws * v.im / psi_norm]);
+                    }
+                    continue;
+                };
+                let mode = &m.modes[*c];
+                mac_sum += mac(psi, &mode.shape);
+                out.push(wf * (mode.frequency_hz - r.frequencies[k]) / r.frequencies[k]);
+                let phi_norm = mode.shape.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt();
+                let dot: Complex64 = mode.shape.iter().zip(psi).map(|(p, q)| p.conj() * q).sum();
+                let alpha = if dot.norm() > 0.0 {
+                    dot / dot.norm()
+                } else {
+                    Complex64::new(1.0, 0.0)
+                };
+                for (p, q) in mode.shape.iter().zip(psi) {
+                    let d = alpha * p / phi_norm - q / psi_norm;
+                    out.extend([ws * d.re, ws * d.im]);
+                }
+            }
+        }
+        out.iter()
+            .all(|v| v.is_finite())
+            .then(|| (out, mac_sum / count.max(1) as f64))
     }
 
     /// Reference damping ratio of mode `r` at position slot `p`.
@@ -290,9 +423,49 @@ impl ModalObjective {
 
     /// J(x); +∞ when the model cannot be solved at x.
     pub fn cost(&self, x: &[f64]) -> f64 {
-        let Ok(all) = self.matches(x) else {
+        match self.matches(x) {
+            Ok(all) => self.sum_terms(&all),
+            Err(_) => f64::INFINITY,
+        }
+    }
+
+    /// The criterion of one mode-shape reference (a PUB3 subproblem): reference
+    /// mode `r` of slot `p` against its best-matching model mode,
+    /// min over model modes m of w_mac (1 − MAC) + w_nfd h_δ(NFD). Taking the
+    /// best match instead of the one-to-one pairing of J keeps the criterion
+    /// continuous (no plateau when the pairing loses the mode); where the
+    /// pairing is unambiguous both agree. Evaluates position `p` only.
+    pub fn mode_cost(&self, p: usize, r: usize, x: &[f64], delta: f64) -> f64 {
+        let Ok(model) = self.model_modes_at(p, x) else {
             return f64::INFINITY;
         };
+        let w = self.weights;
+        let reference = &self.references[p];
+        let (f, shape) = (reference.frequencies[r], &reference.shapes[r]);
+        let best = model
+            .modes
+            .iter()
+            .map(|m| {
+                w.mac * (1.0 - mac(shape, &m.shape)) + w.nfd * huber(nfd(f, m.frequency_hz), delta)
+            })
+            .fold(f64::INFINITY, f64::min);
+        if best.is_finite() {
+            best
+        } else {
+            f64::INFINITY
+        }
+    }
+
+    /// J(x) and the mean MAC over all kept reference modes (an unpaired mode
+    /// counts 0), from one model evaluation; (+∞, 0) when it cannot be solved.
+    pub fn cost_and_mac(&self, x: &[f64]) -> (f64, f64) {
+        let Ok(all) = self.matches(x) else {
+            return (f64::INFINITY, 0.0);
+        };
+        (self.sum_terms(&all), mean_mac(&all))
+    }
+
+    fn sum_terms(&self, all: &[Vec<Option<Match>>]) -> f64 {
         let mut j = 0.0;
         for (p, ms) in all.iter().enumerate() {
             for (r, m) in ms.iter().enumerate() {
@@ -307,10 +480,138 @@ impl ModalObjective {
     }
 }
 
+/// How well the model modes at a point match the kept reference modes.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ModeSummary {
+    pub reference_modes: usize,
+    pub paired: usize,
+    /// Mean MAC over the kept reference modes, an unpaired mode counting 0.
+    pub mean_mac: f64,
+    /// Mean NFD and NDD over the paired modes (eq. 2.64, 2.65).
+    pub mean_nfd: f64,
+    pub mean_ndd: f64,
+}
+
+impl ModalObjective {
+    /// The [`ModeSummary`] at `x`.
+    pub fn summary(&self, x: &[f64]) -> Result<ModeSummary, IdentifyError> {
+        let all = self.matches(x)?;
+        let (mut paired, mut nfd_sum, mut ndd_sum) = (0, 0.0, 0.0);
+        for (p, ms) in all.iter().enumerate() {
+            for (r, m) in ms.iter().enumerate() {
+                if let Some(m) = m {
+                    paired += 1;
+                    nfd_sum += nfd(self.references[p].frequencies[r], m.frequency_hz);
+                    ndd_sum += ndd_guarded(self.references[p].damping[r], m.damping_ratio);
+                }
+            }
+        }
+        let n = paired.max(1) as f64;
+        Ok(ModeSummary {
+            reference_modes: self.reference_modes(),
+            paired,
+            mean_mac: mean_mac(&all),
+            mean_nfd: nfd_sum / n,
+            mean_ndd: ndd_sum / n,
+        })
+    }
+}
+
+/// The pseudo-Huber function h_δ(t) = √(t² + δ²) − δ: smooth, ≈ t²/2δ for
+/// |t| ≪ δ and ≈ |t| − δ for |t| ≫ δ (δ = 0 gives |t|).
+pub fn huber(t: f64, delta: f64) -> f64 {
+    (t * t + delta * delta).sqrt() - delta
+}
+
+/// Mean MAC over all reference modes of `matches`, an unpaired mode counting 0.
+pub fn mean_mac(matches: &[Vec<Option<Match>>]) -> f64 {
+    let n: usize = matches.iter().map(Vec::len).sum();
+    let sum: f64 = matches
+        .iter()
+        .flatten()
+        .map(|m| m.map_or(0.0, |m| m.mac))
+        .sum();
+    sum / n.max(1) as f64
+}
+
 /// One criterion of J.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Term {
     Mac,
     Nfd,
     Ndd,
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::identify::black_box::tests::{objective, truth};
+
+    #[test]
+    fn residuals_vanish_at_the_truth_and_match_mac_and_nfd_near_it() {
+        let o = objective();
+        let t = truth();
+        let (r, mac) = o.residuals(&t).unwrap();
+        // 3 modes × (1 frequency + 2 × 3 shape components).
+        assert_eq!(r.len(), 21);
+        assert!(r.iter().all(|v| v.abs() < 1e-12), "{r:?}");
+        assert!((mac - 1.0).abs() < 1e-12);
+        // Near the truth ½‖r‖² ≈ ½ Σ (1 − MAC) + NFD² (eq. 2.62, 2.64).
+        let mut x = t.clone();
+        x[1] *= 1.002;
+        let (r, _) = o.residuals(&x).unwrap();
+        let half: f64 = 0.5 * r.iter().map(|v| v * v).sum::<f64>();
+        let all = o.matches(&x).unwrap();
+        let expect: f64 = all[0]
+            .iter()
+            .enumerate()
+            .map(|(k, m)| {
+                let m = m.unwrap();
+                let nfd =
+                    (m.frequency_hz - o.reference_frequency(0, k)) / o.reference_frequency(0, k);
+                0.5 * ((1.0 - m.mac) + nfd * nfd)
+            })
+            .sum();
+        assert!(
+            half > 0.0 && (half / expect - 1.0).abs() < 1e-2,
+            "{half} vs {expect}"
+        );
+        let s = o.summary(&x).unwrap();
+        assert_eq!((s.reference_modes, s.paired), (3, 3));
+        assert!(s.mean_mac < 1.0 && s.mean_nfd > 0.0);
+    }
+
+    #[test]
+    fn excluded_modes_leave_the_objective_and_bad_names_are_errors() {
+        let o = objective().without_modes(&[(0, 2)]).unwrap();
+        assert_eq!(o.reference_modes(), 2);
+        assert_eq!(
+            (o.mode_index(0, 1), o.mode_index(0, 2), o.mode_index(0, 3)),
+            (Some(0), None, Some(1))
+        );
+        let (r, _) = o.residuals(&truth()).unwrap();
+        assert_eq!(r.len(), 14);
+        let error = |exclude: &[(u32, usize)]| match objective().without_modes(exclude) {
+            Ok(_) => panic!("{exclude:?} accepted"),
+            Err(e) => e.to_string(),
+        };
+        let e = error(&[(0, 4)]);
+        assert!(e.contains("no mode 4"), "{e}");
+        let e = error(&[(2, 1)]);
+        assert!(e.contains("position 2"), "{e}");
+        let e = error(&[(0, 1), (0, 2), (0, 3)]);
+        assert!(e.contains("leaves no reference mode"), "{e}");
+    }
+
+    #[test]
+    fn the_mode_criterion_uses_the_best_matching_mode() {
+        let o = objective();
+        let t = truth();
+        assert!(o.mode_cost(0, 1, &t, 1e-3).abs() < 1e-12);
+        // Far off, the mode is still compared with some model mode: finite,
+        // positive, and no larger than the worst case 1 + h(NFD).
+        let mut x = t.clone();
+        x[0] *= 3.5;
+        let c = o.mode_cost(0, 0, &x, 1e-3);
+        assert!(c.is_finite() && c > 1e-3, "{c}");
+    }
 }

@@ -2,7 +2,9 @@
 //! the unit box with a batch objective ([`problem`]), SLSQP with
 //! finite-difference gradients ([`slsqp`], [`multistart`]), particle swarm
 //! optimization ([`pso`], eq. 2.25–2.26), a real-coded genetic algorithm
-//! ([`ga`]), selectable by name through [`optimizer::Optimizer`]; and
+//! ([`ga`]), selectable by name through [`optimizer::Optimizer`]; bounded
+//! Levenberg–Marquardt for residual vectors ([`levenberg_marquardt`], the
+//! joint refinement of the guided identification); and
 //! Gaussian-process regression ([`gaussian_process`]) with Bayesian
 //! optimization by expected improvement ([`bayesian`]) for cheap-to-count,
 //! expensive-to-evaluate objectives such as AutoEMA's hyperparameters.
@@ -14,6 +16,7 @@ pub mod bayesian;
 pub mod error;
 pub mod ga;
 pub mod gaussian_process;
+pub mod levenberg_marquardt;
 pub mod multistart;
 pub mod optimizer;
 pub mod problem;

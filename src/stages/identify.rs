@@ -7,17 +7,18 @@
 //! strategy also reads a gsa `subproblems` artifact (subproblems.json).
 //!
 //! Outputs: `parameters` (parameters.csv: `parameter,value,lower,upper,
-//! initial`), `history` (history.csv: `evaluation,best_objective`),
+//! initial`), `history` (history.csv: `evaluation,best_objective,mean_mac`),
 //! `updated_modes` (the model's modes at the identified values, at the
 //! reference DOFs), `cost` (cost.json), and for `sensitivity_guided` also
-//! `subproblems` (per subproblem: repeats, values, CV, chosen source).
+//! `subproblems` (per subproblem: repeats, values, spread; per parameter the
+//! subproblem it came from; refinement and damping fit).
 
 use super::artifacts;
 use super::{
     InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs,
 };
 use crate::dynamics::{self, directory_resolver};
-use crate::identify::{self, ModalObjective, SubproblemSpec, Weights};
+use crate::identify::{self, GuidedParams, ModalObjective, SubproblemSpec, Weights};
 use crate::optimize::Optimizer;
 use serde_yaml_ng::{Mapping, Value};
 use std::collections::BTreeMap;
@@ -35,7 +36,9 @@ const PARAMS: &[ParamSpec] = &[
     ParamSpec { name: "optimizer", ty: ParamType::Enum(&Optimizer::NAMES), required: false, doc: "black_box: slsqp (default), pso or ga" },
     ParamSpec { name: "optimizer_settings", ty: ParamType::Mapping, required: false, doc: "settings of the optimizer (e.g. {swarm_size: 20} for pso, {starts: 4} for slsqp)" },
     ParamSpec { name: "budget", ty: ParamType::Integer, required: false, doc: "maximum objective evaluations (default 2000)" },
-    ParamSpec { name: "repeats", ty: ParamType::Integer, required: false, doc: "sensitivity_guided: random starts per subproblem (default 5)" },
+    ParamSpec { name: "repeats", ty: ParamType::Integer, required: false, doc: "sensitivity_guided: SLSQP runs per subproblem (default 3; 0 skips the subproblem step)" },
+    ParamSpec { name: "guided", ty: ParamType::Mapping, required: false, doc: "sensitivity_guided settings: {subproblem_budget: 200, spread_limit: 0.05, refine: true, smoothing: 1e-3, others: random|fixed}" },
+    ParamSpec { name: "exclude_modes", ty: ParamType::Strings, required: false, doc: "reference modes left out, e.g. [p0.mode7] (modes the sensors barely see); numbers as in the reference" },
     ParamSpec { name: "weights", ty: ParamType::Mapping, required: false, doc: "weights of the criteria {mac, nfd, ndd} (default 1 each)" },
     ParamSpec { name: "window", ty: ParamType::Number, required: false, doc: "relative frequency window for pairing modes (default 0.2)" },
     ParamSpec { name: "seed", ty: ParamType::Integer, required: false, doc: "seed of the random starts (default: the pipeline's seed)" },
@@ -68,10 +71,11 @@ struct Spec {
     guided: bool,
     optimizer: Optimizer,
     budget: usize,
-    repeats: usize,
+    settings: GuidedParams,
     weights: Weights,
     window: f64,
     positions: Option<Vec<u32>>,
+    exclude: Vec<(u32, usize)>,
 }
 
 fn problem(path: &[&str], message: impl Into<String>, help: &str) -> ParamProblem {
@@ -111,13 +115,50 @@ fn parse(params: &Mapping) -> Result<Spec, ParamProblem> {
                 _ => Err(problem(
                     &[key],
                     format!("`{key}` must be an integer ≥ 1"),
-                    "e.g. 2000 for budget, 5 for repeats",
+                    "e.g. budget: 2000",
                 )),
             },
         }
     };
     let budget = int("budget", 2000)?;
-    let repeats = int("repeats", 5)?;
+    let mut settings: GuidedParams = match params.get("guided") {
+        None => GuidedParams::default(),
+        Some(v) => serde_yaml_ng::from_value(v.clone()).map_err(|e| {
+            problem(
+                &["guided"],
+                format!("guided: {e}"),
+                "guided: {subproblem_budget: 200, spread_limit: 0.05, refine: true, smoothing: 0.001, others: random}",
+            )
+        })?,
+    };
+    if params
+        .get("guided")
+        .and_then(|g| g.get("repeats"))
+        .is_some()
+        && params.contains_key("repeats")
+    {
+        return Err(problem(
+            &["guided", "repeats"],
+            "`repeats` is given twice",
+            "give it once, as `repeats` or as `guided.repeats`",
+        ));
+    }
+    if let Some(v) = params.get("repeats") {
+        settings.repeats = v.as_u64().map(|n| n as usize).ok_or_else(|| {
+            problem(
+                &["repeats"],
+                "`repeats` must be an integer ≥ 0",
+                "e.g. 3 (0 skips the subproblem step)",
+            )
+        })?;
+    }
+    settings
+        .check()
+        .map_err(|m| problem(&["guided"], m, "see the guided settings in the README"))?;
+    let exclude = match params.get("exclude_modes") {
+        None => Vec::new(),
+        Some(v) => parse_modes(v)?,
+    };
     let weights: Weights = match params.get("weights") {
         None => Weights::default(),
         Some(v) => serde_yaml_ng::from_value(v.clone()).map_err(|e| {
@@ -192,11 +233,46 @@ fn parse(params: &Mapping) -> Result<Spec, ParamProblem> {
         guided,
         optimizer,
         budget,
-        repeats,
+        settings,
         weights,
         window,
         positions,
+        exclude,
     })
+}
+
+/// `exclude_modes`: names `p{position}.mode{r}` → (position, r).
+fn parse_modes(v: &Value) -> Result<Vec<(u32, usize)>, ParamProblem> {
+    let items = v.as_sequence().ok_or_else(|| {
+        problem(
+            &["exclude_modes"],
+            "`exclude_modes` must be a list of mode names",
+            "e.g. exclude_modes: [p0.mode7, p3.mode8]",
+        )
+    })?;
+    let mut out = Vec::new();
+    for (i, item) in items.iter().enumerate() {
+        let parsed = item.as_str().and_then(|s| {
+            let (p, m) = s.split_once('.')?;
+            let p: u32 = p.strip_prefix('p')?.parse().ok()?;
+            let m: usize = m.strip_prefix("mode")?.parse().ok().filter(|&m| m >= 1)?;
+            Some((p, m))
+        });
+        match parsed {
+            Some(pm) => out.push(pm),
+            None => {
+                return Err(problem(
+                    &["exclude_modes", &i.to_string()],
+                    format!(
+                        "`{}` is not a mode name p<position>.mode<r>",
+                        item.as_str().unwrap_or("?")
+                    ),
+                    "e.g. exclude_modes: [p0.mode7] (the GSA output names without the quantity)",
+                ))
+            }
+        }
+    }
+    Ok(out)
 }
 
 impl Stage for Identify {
@@ -204,7 +280,7 @@ impl Stage for Identify {
         "identify"
     }
     fn version(&self) -> u32 {
-        1
+        2
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems)"
@@ -280,6 +356,7 @@ impl Stage for Identify {
             spec.weights,
             spec.window,
         )
+        .and_then(|o| o.without_modes(&spec.exclude))
         .map_err(|e| StageError::InvalidInput {
             input: "reference".into(),
             message: e.to_string(),
@@ -289,6 +366,7 @@ impl Stage for Identify {
         let progress = |n: u64| ctx.progress.inc(n);
         let initial = objective.nominal();
         let mut files = Vec::new();
+        let mut extra = serde_json::Map::new();
         let (x, history, evaluations, best, optimizer_name) = if spec.guided {
             let Some(path) = ctx.inputs.get("sensitivity").and_then(|v| v.first()) else {
                 return Err(StageError::InvalidInput {
@@ -296,25 +374,31 @@ impl Stage for Identify {
                     message: "strategy sensitivity_guided needs the `sensitivity` input: bind a gsa stage's `subproblems` output".into(),
                 });
             };
-            let subproblems = read_subproblems(path)?;
-            let settings = match &spec.optimizer {
+            let (subproblems, significant) = read_subproblems(path)?;
+            let slsqp = match &spec.optimizer {
                 Optimizer::Slsqp(p) => p.clone(),
                 _ => Default::default(),
             };
             let r = identify::guided(
                 &objective,
                 &subproblems,
-                &settings,
+                significant.as_deref(),
+                &spec.settings,
+                &slsqp,
+                &initial,
                 spec.budget,
-                spec.repeats,
                 ctx.seed,
                 &progress,
             )
             .map_err(failed)?;
             let detail = ctx.scratch.join("subproblems.json");
             let json = serde_json::json!({
+                "settings": spec.settings,
                 "subproblems": r.subproblems,
-                "chosen_from": r.chosen_from.iter().map(|(p, o)| serde_json::json!({"parameter": p, "output": o})).collect::<Vec<_>>(),
+                "skipped": r.skipped.iter().map(|(o, why)| serde_json::json!({"output": o, "reason": why})).collect::<Vec<_>>(),
+                "chosen": r.chosen,
+                "refine": {"start": finite_or_null(r.refine_start), "end": finite_or_null(r.refine_end)},
+                "damping_parameters": r.damping_parameters,
                 "damping_equations": r.damping_equations,
                 "damping_rms_residual": r.damping_rms_residual,
             });
@@ -323,18 +407,30 @@ impl Stage for Identify {
                 &(serde_json::to_string_pretty(&json).unwrap_or_default() + "\n"),
             )?;
             files.push(("subproblems".to_string(), detail));
+            let [s1, s2, s3] = r.phase_evaluations;
+            extra.insert(
+                "phase_evaluations".into(),
+                serde_json::json!({"subproblems": s1, "refine": s2, "damping": s3}),
+            );
             (r.x, r.history, r.evaluations, r.objective, "slsqp")
         } else {
             let r = identify::black_box(
                 &objective,
                 &spec.optimizer,
+                &initial,
                 spec.budget,
                 ctx.seed,
                 &progress,
             )
             .map_err(failed)?;
-            let h = r.history.iter().map(|h| (h.evaluation, h.f_best)).collect();
-            (r.x_best, h, r.evaluations, r.f_best, spec.optimizer.name())
+            let o = r.result;
+            (
+                o.x_best,
+                r.history,
+                o.evaluations,
+                o.f_best,
+                spec.optimizer.name(),
+            )
         };
         let mut csv = String::from("parameter,value,lower,upper,initial\n");
         for ((p, v), x0) in objective.parameters().iter().zip(&x).zip(&initial) {
@@ -342,9 +438,9 @@ impl Stage for Identify {
         }
         let parameters = ctx.scratch.join("parameters.csv");
         write(&parameters, &csv)?;
-        let mut csv = String::from("evaluation,best_objective\n");
-        for (e, f) in &history {
-            let _ = writeln!(csv, "{e},{f:?}");
+        let mut csv = String::from("evaluation,best_objective,mean_mac\n");
+        for h in &history {
+            let _ = writeln!(csv, "{},{:?},{:?}", h.evaluation, h.objective, h.mean_mac);
         }
         let hist = ctx.scratch.join("history.csv");
         write(&hist, &csv)?;
@@ -352,13 +448,18 @@ impl Stage for Identify {
         let updated = ctx.scratch.join(artifacts::MODES_DIR);
         artifacts::write_modes(&updated, &modes)?;
         let cost = ctx.scratch.join("cost.json");
-        let json = serde_json::json!({
+        let modes = objective.summary(&x).map_err(failed)?;
+        let mut json = serde_json::json!({
             "evaluations": evaluations,
             "seconds": started.elapsed().as_secs_f64(),
             "best_objective": best,
+            "modes": modes,
             "strategy": if spec.guided { "sensitivity_guided" } else { "black_box" },
             "optimizer": optimizer_name,
         });
+        if let Some(map) = json.as_object_mut() {
+            map.extend(extra);
+        }
         write(
             &cost,
             &(serde_json::to_string_pretty(&json).unwrap_or_default() + "\n"),
@@ -373,6 +474,15 @@ impl Stage for Identify {
             files,
             counters: [("evaluations".to_string(), evaluations as u64)].into(),
         })
+    }
+}
+
+/// A JSON number, or null for NaN/±∞ (JSON has no such numbers).
+fn finite_or_null(v: f64) -> serde_json::Value {
+    if v.is_finite() {
+        serde_json::json!(v)
+    } else {
+        serde_json::Value::Null
     }
 }
 
@@ -439,8 +549,10 @@ fn load_model(ctx: &StageContext) -> Result<dynamics::Model, StageError> {
     dynamics::Model::from_yaml(yaml, &name, &resolver).map_err(|e| bad(e.to_string()))
 }
 
-/// The `subproblems` of a gsa subproblems.json.
-fn read_subproblems(path: &Path) -> Result<Vec<SubproblemSpec>, StageError> {
+/// The `subproblems` of a gsa subproblems.json and its `significant` list
+/// (absent in hand-written files).
+#[allow(clippy::type_complexity)]
+fn read_subproblems(path: &Path) -> Result<(Vec<SubproblemSpec>, Option<Vec<String>>), StageError> {
     let bad = |message: String| StageError::InvalidInput {
         input: "sensitivity".into(),
         message,
@@ -452,5 +564,12 @@ fn read_subproblems(path: &Path) -> Result<Vec<SubproblemSpec>, StageError> {
     let list = json.get("subproblems").cloned().ok_or_else(|| {
         bad("no `subproblems` list; bind a gsa stage's `subproblems` output".into())
     })?;
-    serde_json::from_value(list).map_err(|e| bad(format!("subproblems: {e}")))
+    let specs = serde_json::from_value(list).map_err(|e| bad(format!("subproblems: {e}")))?;
+    let significant = match json.get("significant") {
+        None => None,
+        Some(v) => {
+            Some(serde_json::from_value(v.clone()).map_err(|e| bad(format!("significant: {e}")))?)
+        }
+    };
+    Ok((specs, significant))
 }

@@ -53,7 +53,7 @@ const INPUTS: &[InputSpec] = &[
         name: "histories",
         required: false,
         list: true,
-        doc: "history.csv files (evaluation,best_objective): convergence curves",
+        doc: "history.csv files (evaluation,best_objective[,mean_mac]): convergence curves",
     },
     InputSpec {
         name: "splits",
@@ -86,7 +86,7 @@ impl Stage for Report {
         "report"
     }
     fn version(&self) -> u32 {
-        1
+        2
     }
     fn summary(&self) -> &'static str {
         "an HTML report (self-contained) and a Markdown twin from metrics, costs, histories and figures"
@@ -225,14 +225,23 @@ fn costs(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageEr
                 c["best_objective"]
                     .as_f64()
                     .map_or("–".into(), |f| format!("{f:.4e}")),
+                c["modes"]["mean_mac"]
+                    .as_f64()
+                    .map_or("–".into(), |f| format!("{f:.6}")),
             ])
         })
         .collect::<Result<Vec<_>, StageError>>()?;
     doc.heading(2, "Cost");
     doc.table(
-        ["stage", "evaluations", "seconds", "best objective"]
-            .map(String::from)
-            .to_vec(),
+        [
+            "stage",
+            "evaluations",
+            "seconds",
+            "best objective",
+            "mean MAC",
+        ]
+        .map(String::from)
+        .to_vec(),
         rows,
     );
     Ok(())
@@ -244,25 +253,33 @@ fn convergence(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), S
     }
     let mut plot = Plot::new("Convergence", "model evaluations", "best objective");
     plot.y_log = true;
+    // 1 − mean MAC of the best point: one scale for criteria that differ
+    // between strategies (J for black-box, the refinement's ½‖r‖² for guided).
+    let mut mac = Plot::new("MAC reached", "model evaluations", "1 − mean MAC");
+    mac.y_log = true;
     for (k, (stage, path)) in inputs.iter().enumerate() {
         let text = std::fs::read_to_string(path)
             .map_err(|e| StageError::io("cannot read input `histories`", e))?;
-        let points: Vec<(f64, f64)> = text
+        let rows: Vec<Vec<f64>> = text
             .lines()
             .skip(1)
-            .filter_map(|l| {
-                let mut f = l.split(',');
-                Some((
-                    f.next()?.trim().parse().ok()?,
-                    f.next()?.trim().parse().ok()?,
-                ))
-            })
+            .filter_map(|l| l.split(',').map(|f| f.trim().parse().ok()).collect())
             .collect();
-        plot.series.push(Series::line(
-            stage.clone(),
-            points,
-            PALETTE[k % PALETTE.len()],
-        ));
+        let column = |c: usize| -> Vec<(f64, f64)> {
+            rows.iter()
+                .filter_map(|r| Some((*r.first()?, *r.get(c)?)))
+                .collect()
+        };
+        let colour = PALETTE[k % PALETTE.len()];
+        plot.series
+            .push(Series::line(stage.clone(), column(1), colour));
+        let gap: Vec<(f64, f64)> = column(2)
+            .into_iter()
+            .map(|(e, m)| (e, (1.0 - m).max(1e-12)))
+            .collect();
+        if !gap.is_empty() {
+            mac.series.push(Series::line(stage.clone(), gap, colour));
+        }
     }
     doc.heading(2, "Convergence");
     doc.figure(
@@ -270,6 +287,13 @@ fn convergence(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), S
         "convergence.svg",
         plot.to_svg(),
     );
+    if !mac.series.is_empty() {
+        doc.figure(
+            "1 − mean MAC of the best point over model evaluations",
+            "mac_convergence.svg",
+            mac.to_svg(),
+        );
+    }
     Ok(())
 }
 

@@ -31,7 +31,7 @@ pub struct Synthesize;
 
 const PARAMS: &[ParamSpec] = &[
     ParamSpec { name: "model", ty: ParamType::Path, required: true, doc: "model file (YAML), relative to the pipeline file" },
-    ParamSpec { name: "values", ty: ParamType::Any, required: false, doc: "`truth` (default), {name: value} overrides, or {perturb: {relative, seed}}" },
+    ParamSpec { name: "values", ty: ParamType::Any, required: false, doc: "`truth` (default), {name: value} overrides, or {perturb: {relative, seed, parameters: [names] (default all)}}" },
     ParamSpec { name: "positions", ty: ParamType::Any, required: false, doc: "axis positions to synthesize, by index or label; default all" },
     ParamSpec { name: "sensors", ty: ParamType::Strings, required: false, doc: "subset of the model's sensors by name; default all" },
     ParamSpec { name: "excitations", ty: ParamType::Strings, required: false, doc: "subset of the model's excitations by name; default all" },
@@ -155,9 +155,25 @@ fn values(model: &Model, spec: Option<&Values>) -> Result<Vec<f64>, String> {
             }
         }
         Some(Values::Perturb { perturb }) => {
+            if let Some(only) = &perturb.parameters {
+                let names: Vec<&str> = model.parameters.iter().map(|p| p.name.as_str()).collect();
+                if let Some(name) = only.iter().find(|n| !names.contains(&n.as_str())) {
+                    return Err(format!(
+                        "values.perturb.parameters: the model has no parameter `{name}` (parameters: {})",
+                        names.join(", ")
+                    ));
+                }
+            }
             // One Gaussian stream per parameter index: adding a parameter
             // leaves the others' perturbations unchanged.
             for (i, p) in model.parameters.iter().enumerate() {
+                if perturb
+                    .parameters
+                    .as_ref()
+                    .is_some_and(|only| !only.contains(&p.name))
+                {
+                    continue;
+                }
                 let g = GaussianStream::new(perturb.seed, i as u64).standard();
                 v[i] = (p.value * (perturb.relative * g).exp()).clamp(p.lower, p.upper);
             }

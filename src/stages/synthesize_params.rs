@@ -54,6 +54,11 @@ pub struct Perturb {
     pub relative: f64,
     #[serde(default)]
     pub seed: u64,
+    /// Only these parameters are perturbed (default all); the others keep
+    /// the model file's values. A model that differs from the truth only in
+    /// the parameters an identification updates (PUB3 scenario 1).
+    #[serde(default)]
+    pub parameters: Option<Vec<String>>,
 }
 
 #[derive(Deserialize, Clone, Copy)]
