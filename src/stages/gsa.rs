@@ -81,8 +81,9 @@ impl Stage for Gsa {
         "gsa"
     }
 
+    /// 2: `significant` output, FRF bands, validation, ANOVA sources.
     fn version(&self) -> u32 {
-        1
+        2
     }
 
     fn summary(&self) -> &'static str {
