@@ -128,3 +128,41 @@ fn dimensionality_reduction_splits_and_validates() {
     let md = ws.read("results/dimensionality_reduction/report/report/report.md");
     assert!(md.contains("Validation of the split"), "{md}");
 }
+
+#[test]
+fn identification_comparison_runs_end_to_end_within_budgets() {
+    // Accuracy is asserted on small models in tests/identify.rs; here the
+    // study's wiring: screening, both scenarios, ablations, black-box runs,
+    // scores and the report, each identification within its budget.
+    let ws = study(
+        "identification_comparison",
+        &[
+            ("samples: 64", "samples: 8"),
+            ("bootstrap: 50", "bootstrap: 5"),
+            ("budget: 6000", "budget: 400"),
+            ("budget: 20000", "budget: 200"),
+            (
+                "matrix: {optimizer: [pso, ga], seed: [1, 2, 3]}",
+                "matrix: {optimizer: [pso, ga], seed: [1]}",
+            ),
+        ],
+    );
+    let report = ws.run(&[], 0);
+    assert!(report.all("ran"), "{:?}", report.statuses());
+    for (stage, budget) in [
+        ("guided[scenario=truth]", 400),
+        ("refine_only", 400),
+        ("black_box[optimizer=pso,seed=1]", 200),
+        ("black_box_slsqp", 200),
+    ] {
+        let c: Value = serde_json::from_str(&ws.read(&format!(
+            "results/identification_comparison/{stage}/cost.json"
+        )))
+        .unwrap();
+        let used = c["evaluations"].as_u64().unwrap();
+        // The damping fit and the final objective may add a few evaluations.
+        assert!(used > 0 && used <= budget + 50, "{stage}: {c}");
+    }
+    let md = ws.read("results/identification_comparison/report/report/report.md");
+    assert!(md.contains("guided[scenario=disturbed]"), "{md}");
+}
