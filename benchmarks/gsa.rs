@@ -6,30 +6,14 @@
 //!
 //! `cargo bench --bench gsa`
 
+mod timing;
+
+use timing::{best, pool};
+
 use modalflow::dynamics::{directory_resolver, Model as Dynamics};
 use modalflow::evaluation::{BandOptions, FrfBands, Model, StructuralModel, StructuralOptions};
 use modalflow::sensitivity::sobol::{self, AnalyzeParams, Layout, Problem};
 use std::path::Path;
-use std::time::Instant;
-
-fn best<T>(reps: usize, mut f: impl FnMut() -> T) -> (f64, T) {
-    let mut best = f64::INFINITY;
-    let mut out = None;
-    for _ in 0..reps {
-        let t = Instant::now();
-        let r = f();
-        best = best.min(t.elapsed().as_secs_f64());
-        out = Some(r);
-    }
-    (best, out.expect("reps >= 1"))
-}
-
-fn pool(threads: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("thread pool")
-}
 
 fn test_bench() -> Dynamics {
     let path =

@@ -6,12 +6,21 @@
 //!
 //! `cargo bench --bench polymax`
 
+mod timing;
+
+use timing::best;
+
+/// [`best`] in milliseconds.
+fn best_ms<T>(n: usize, f: impl FnMut() -> T) -> (f64, T) {
+    let (s, out) = best(n, f);
+    (s * 1e3, out)
+}
+
 use modalflow::ema::synthetic::{lines, modal_superposition, SyntheticMode};
 use modalflow::ema::{
     polymax, polymax_rebuild_per_order, select_modes, FrfData, Hyperparameters, PolymaxParams,
     Weighting,
 };
-use std::time::Instant;
 
 fn system() -> Vec<SyntheticMode> {
     (0..12)
@@ -28,18 +37,6 @@ fn system() -> Vec<SyntheticMode> {
         .collect()
 }
 
-fn best_of<T>(n: usize, mut f: impl FnMut() -> T) -> (f64, T) {
-    let mut best = f64::MAX;
-    let mut out = None;
-    for _ in 0..n {
-        let t = Instant::now();
-        let r = f();
-        best = best.min(t.elapsed().as_secs_f64());
-        out = Some(r);
-    }
-    (best * 1e3, out.expect("at least one run"))
-}
-
 fn main() {
     let set = modal_superposition(&system(), &[0, 11, 22], &lines(10.0, 810.0, 0.5), 0.01, 1);
     let data = FrfData::from_set(&set, None, Weighting::Uniform).expect("synthetic data");
@@ -51,8 +48,8 @@ fn main() {
         data.n_lines(),
         rayon::current_num_threads()
     );
-    let (t_fast, orders) = best_of(3, || polymax(&data, &params).expect("polymax"));
-    let (t_ref, reference) = best_of(1, || {
+    let (t_fast, orders) = best_ms(3, || polymax(&data, &params).expect("polymax"));
+    let (t_ref, reference) = best_ms(1, || {
         polymax_rebuild_per_order(&data, &params).expect("reference")
     });
     let max_dev = orders
@@ -87,7 +84,7 @@ fn main() {
         mac_weight: 0.5,
         max_order: 60,
     };
-    let (t_step, sel) = best_of(10, || {
+    let (t_step, sel) = best_ms(10, || {
         select_modes(&data, &orders, &h, 0.002).expect("selection")
     });
     println!(
@@ -105,7 +102,7 @@ fn main() {
         cluster_distance: 0.1,
         ..h
     };
-    let (t_loose, sel) = best_of(3, || {
+    let (t_loose, sel) = best_ms(3, || {
         select_modes(&data, &orders, &loose, 0.002).expect("selection")
     });
     let stable = sel.flags.iter().flatten().filter(|f| f.stable()).count();

@@ -4,29 +4,12 @@
 //!
 //! `cargo bench --bench sobol`
 
+mod timing;
+
+use timing::{best, pool};
+
 use modalflow::evaluation::{evaluate_all, EvalError, Ishigami, Model, Parameter, Scale, SobolG};
 use modalflow::sensitivity::sobol::{self, AnalyzeParams, Problem, SobolParams};
-use std::time::Instant;
-
-/// Best wall time of `reps` runs, in seconds.
-fn best<T>(reps: usize, mut f: impl FnMut() -> T) -> (f64, T) {
-    let mut best = f64::INFINITY;
-    let mut out = None;
-    for _ in 0..reps {
-        let t = Instant::now();
-        let r = f();
-        best = best.min(t.elapsed().as_secs_f64());
-        out = Some(r);
-    }
-    (best, out.expect("reps >= 1"))
-}
-
-fn pool(threads: usize) -> rayon::ThreadPool {
-    rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("thread pool")
-}
 
 /// A moderately expensive model (~20 µs per point): a damped oscillator chain
 /// integrated with 2000 explicit steps; outputs the final displacement.

@@ -10,14 +10,16 @@
 //!
 //! Run: `cargo bench --bench uff`.
 
+mod timing;
+
+use timing::best;
+
 use modalflow::frf::{Dof, FrfChannel, FrfQuantity, FrfSet, Position};
 use modalflow::io::{
     read_frf_artifact, read_uff, uff58_from_frf_sets, write_frf_artifact, write_uff58, NumberText,
     Precision, Storage, Uff58Format,
 };
 use num_complex::Complex64;
-use std::hint::black_box;
-use std::time::Instant;
 
 const CHANNELS: usize = 1000;
 const LINES: usize = 4000;
@@ -47,17 +49,6 @@ fn frf_set() -> FrfSet {
         frequencies_hz: f,
         channels,
     }
-}
-
-/// Best wall time of `runs` calls, in seconds.
-fn best<T>(runs: usize, mut f: impl FnMut() -> T) -> f64 {
-    (0..runs)
-        .map(|_| {
-            let t = Instant::now();
-            black_box(f());
-            t.elapsed().as_secs_f64()
-        })
-        .fold(f64::INFINITY, f64::min)
 }
 
 fn reference_binary(bytes: &[u8]) -> f64 {
@@ -110,11 +101,11 @@ fn main() {
             .unwrap_or(0);
         assert_eq!(n, CHANNELS, "{name}: all datasets read");
         let mb = bytes.len() as f64 / 1e6;
-        let t = best(3, || read_uff(bytes, name));
+        let t = best(3, || read_uff(bytes, name)).0;
         let t_ref = if is_binary {
-            best(3, || reference_binary(bytes))
+            best(3, || reference_binary(bytes)).0
         } else {
-            best(3, || reference_ascii(bytes))
+            best(3, || reference_ascii(bytes)).0
         };
         println!(
             "{:<28} {:>9.1} {:>10.1} {:>10.0} {:>14.0} {:>7.2}",
@@ -126,7 +117,7 @@ fn main() {
             t_ref / t
         );
     }
-    let t = best(3, || read_frf_artifact(&binary, "artifact"));
+    let t = best(3, || read_frf_artifact(&binary, "artifact")).0;
     let mb = binary.len() as f64 / 1e6;
     println!(
         "{:<28} {:>9.1} {:>10.1} {:>10.0} {:>14} {:>7}",
