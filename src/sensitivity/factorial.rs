@@ -55,22 +55,7 @@ pub fn factorial_anova(
         index.push(i);
     }
     let names = model.outputs();
-    let selected: Vec<usize> = if outputs.is_empty() {
-        (0..names.len()).collect()
-    } else {
-        outputs
-            .iter()
-            .map(|o| {
-                names
-                    .iter()
-                    .position(|n| n == o)
-                    .ok_or_else(|| SensitivityError::UnknownOutput {
-                        name: o.clone(),
-                        known: names.to_vec(),
-                    })
-            })
-            .collect::<Result<_, _>>()?
-    };
+    let selected = super::select_outputs(names, outputs)?;
 
     // Level codes of every run, first factor slowest.
     let total: usize = levels.iter().map(|(_, v)| v.len()).product();

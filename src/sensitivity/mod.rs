@@ -47,3 +47,26 @@ pub enum SensitivityError {
     #[error("unbalanced design: {0}")]
     Unbalanced(String),
 }
+
+/// Indices of the `requested` outputs among `names` (all of them when
+/// `requested` is empty), in the requested order.
+pub fn select_outputs(
+    names: &[String],
+    requested: &[String],
+) -> Result<Vec<usize>, SensitivityError> {
+    if requested.is_empty() {
+        return Ok((0..names.len()).collect());
+    }
+    requested
+        .iter()
+        .map(|o| {
+            names
+                .iter()
+                .position(|n| n == o)
+                .ok_or_else(|| SensitivityError::UnknownOutput {
+                    name: o.clone(),
+                    known: names.to_vec(),
+                })
+        })
+        .collect()
+}

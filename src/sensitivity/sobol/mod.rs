@@ -89,23 +89,7 @@ pub fn run_with(
         Problem::subset(model.parameters().to_vec(), &params.subset)?
     };
     let names = model.outputs();
-    let selected: Vec<usize> = if params.outputs.is_empty() {
-        (0..names.len()).collect()
-    } else {
-        params
-            .outputs
-            .iter()
-            .map(|o| {
-                names
-                    .iter()
-                    .position(|n| n == o)
-                    .ok_or_else(|| SensitivityError::UnknownOutput {
-                        name: o.clone(),
-                        known: names.to_vec(),
-                    })
-            })
-            .collect::<Result<_, _>>()?
-    };
+    let selected = super::select_outputs(names, &params.outputs)?;
     let samples = sample(&problem, params.n, params.second_order, params.seed)?;
     let ys = evaluate(&samples.points)?;
     let analyze_params = AnalyzeParams {

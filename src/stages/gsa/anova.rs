@@ -60,6 +60,20 @@ pub fn run(ctx: &StageContext, a: &AnovaSpec) -> Result<StageOutputs, StageError
     }
 }
 
+/// The responses [`track`] yields, in its order: frequency and damping of
+/// each reference mode, `p{position}.mode{r}.frequency|damping`.
+fn tracked_outputs(reference: &[ModalModel]) -> Vec<String> {
+    let mut names = Vec::new();
+    for r in reference {
+        for m in 1..=r.modes.len() {
+            let pos = r.position.index;
+            names.push(format!("p{pos}.mode{m}.frequency"));
+            names.push(format!("p{pos}.mode{m}.damping"));
+        }
+    }
+    names
+}
+
 /// Frequency and damping of every reference mode in one run, `None` where
 /// no mode of the run pairs with it (MAC on shared DOFs, Hungarian pairing
 /// within the window, eq. 2.62/2.64).
@@ -68,8 +82,8 @@ fn track(
     run: &[ModalModel],
     window: f64,
     min_mac: f64,
-) -> (Vec<String>, Vec<Option<f64>>) {
-    let (mut names, mut values) = (Vec::new(), Vec::new());
+) -> Vec<Option<f64>> {
+    let mut values = Vec::new();
     for r in reference {
         let c = run.iter().find(|c| c.position.index == r.position.index);
         let mut partner = vec![None; r.modes.len()];
@@ -91,15 +105,12 @@ fn track(
                 }
             }
         }
-        for (m, p) in partner.iter().enumerate() {
-            let pos = r.position.index;
-            names.push(format!("p{pos}.mode{}.frequency", m + 1));
-            names.push(format!("p{pos}.mode{}.damping", m + 1));
+        for p in partner {
             values.push(p.map(|p| p.frequency_hz));
             values.push(p.map(|p| p.damping_ratio));
         }
     }
-    (names, values)
+    values
 }
 
 fn run_modes(
@@ -161,20 +172,18 @@ fn run_modes(
         }
     }
 
-    let mut names = Vec::new();
-    let mut table: Vec<Vec<Option<f64>>> = Vec::new();
-    for path in &paths {
-        let run = artifacts::read_modes(path, "modes")?;
-        let (n, v) = track(&reference, &run, window, min_mac);
-        names = n;
-        table.push(v);
-    }
-    if let Some(o) = selected.iter().find(|o| !names.contains(o)) {
-        return Err(StageError::InvalidParam {
+    let table: Vec<Vec<Option<f64>>> = paths
+        .iter()
+        .map(|path| {
+            artifacts::read_modes(path, "modes").map(|run| track(&reference, &run, window, min_mac))
+        })
+        .collect::<Result<_, _>>()?;
+    let names = tracked_outputs(&reference);
+    let chosen =
+        sensitivity::select_outputs(&names, selected).map_err(|e| StageError::InvalidParam {
             param: "outputs".into(),
-            message: format!("unknown output `{o}`; outputs: {}", names.join(", ")),
-        });
-    }
+            message: e.to_string(),
+        })?;
     let design_factors: Vec<Factor> = factors
         .iter()
         .zip(&labels)
@@ -188,10 +197,8 @@ fn run_modes(
         tables: Vec::new(),
     };
     let mut skipped = Vec::new();
-    for (o, name) in names.iter().enumerate() {
-        if !selected.is_empty() && !selected.contains(name) {
-            continue;
-        }
+    for o in chosen {
+        let name = &names[o];
         let column: Option<Vec<f64>> = table.iter().map(|row| row[o]).collect();
         let Some(column) = column else {
             let missing = table.iter().filter(|row| row[o].is_none()).count();
