@@ -79,7 +79,8 @@ impl Slurm {
         }
         std::fs::create_dir_all(dir.join("log"))
             .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-        if resources.shards > 1 && kind.shardable(params) {
+        let sharded = resources.shards > 1 && kind.shardable(params);
+        if sharded {
             job.shards = resources.shards;
             let description = dir.join("job.json");
             job.write(store, &description)?;
@@ -104,38 +105,24 @@ impl Slurm {
                 job.partial_seconds += rec.seconds;
                 job.partials.push(rec.artifact);
             }
-            let description = dir.join("merge.json");
-            job.write(store, &description)?;
-            let submission = Submission {
-                description: &description,
-                script: dir.join("merge.sh"),
-                tasks: None,
-            };
-            self.run_job(
-                store,
-                &job,
-                resources,
-                &submission,
-                &|| finished(store, &job.key),
-                progress,
-            )?;
-        } else {
-            let description = dir.join("job.json");
-            job.write(store, &description)?;
-            let submission = Submission {
-                description: &description,
-                script: dir.join("job.sh"),
-                tasks: None,
-            };
-            self.run_job(
-                store,
-                &job,
-                resources,
-                &submission,
-                &|| finished(store, &job.key),
-                progress,
-            )?;
         }
+        // One job runs the stage: the whole of it, or the merge of the shards.
+        let name = if sharded { "merge" } else { "job" };
+        let description = dir.join(format!("{name}.json"));
+        job.write(store, &description)?;
+        let submission = Submission {
+            description: &description,
+            script: dir.join(format!("{name}.sh")),
+            tasks: None,
+        };
+        self.run_job(
+            store,
+            &job,
+            resources,
+            &submission,
+            &|| finished(store, &job.key),
+            progress,
+        )?;
         let record = store
             .record(&job.key)
             .ok_or_else(|| format!("the run record of {} vanished from the cache", job.key))?;
