@@ -7,8 +7,9 @@
 //!
 //! The reference is either measured/synthesized FRFs (an `frf` artifact:
 //! lines inside each band are used as they are, channels matched to the
-//! model's sensor × excitation pairs by node and axis, an opposite direction
-//! flipping the sign) or the model's own FRFs at its true parameter values on
+//! model's sensor × excitation pairs by node and axis; FRAC and CSF are
+//! blind to a channel's sign, so a DOF measured in the opposite direction
+//! needs no flip) or the model's own FRFs at its true parameter values on
 //! an even grid. The model side is computed by modal superposition of the
 //! evaluated modes ([`crate::dynamics::frf::superposition`]), so a band costs
 //! lines × channels × modes complex products on top of the eigensolution.
@@ -41,8 +42,8 @@ struct PositionBands {
     position: u32,
     config: usize,
     quantity: FrfQuantity,
-    /// Per matched channel: (sensor row, excitation row, sign).
-    pairs: Vec<(usize, usize, f64)>,
+    /// Per matched channel: (sensor row, excitation row).
+    pairs: Vec<(usize, usize)>,
     bands: Vec<Band>,
 }
 
@@ -86,15 +87,14 @@ impl FrfBands {
             )));
         }
         let ne = prepared.excitations.len();
-        let pairs: Vec<(usize, usize, f64)> = (0..prepared.sensors.len())
-            .flat_map(|j| (0..ne).map(move |k| (j, k, 1.0)))
+        let pairs: Vec<(usize, usize)> = (0..prepared.sensors.len())
+            .flat_map(|j| (0..ne).map(move |k| (j, k)))
             .collect();
         let mut positions = Vec::new();
         for &config in configs {
             let sol = prepared
                 .evaluate(config, true_values, modes)
                 .map_err(|e| EvalError::Domain(e.to_string()))?;
-            let plain: Vec<(usize, usize)> = pairs.iter().map(|&(j, k, _)| (j, k)).collect();
             let bands = options
                 .bands
                 .iter()
@@ -102,7 +102,7 @@ impl FrfBands {
                     let count = ((hi - lo) / options.step).floor() as usize + 1;
                     let lines: Vec<f64> =
                         (0..count).map(|i| lo + i as f64 * options.step).collect();
-                    let reference = superposition(&sol, FrfQuantity::Receptance, &lines, &plain);
+                    let reference = superposition(&sol, FrfQuantity::Receptance, &lines, &pairs);
                     Band { lines, reference }
                 })
                 .collect();
@@ -144,25 +144,15 @@ impl FrfBands {
             let row = |dofs: &[(String, crate::frf::Dof)], d: crate::frf::Dof| {
                 dofs.iter()
                     .position(|(_, s)| s.node == d.node && s.direction.abs() == d.direction.abs())
-                    .map(|i| {
-                        (
-                            i,
-                            if dofs[i].1.direction == d.direction {
-                                1.0
-                            } else {
-                                -1.0
-                            },
-                        )
-                    })
             };
             let mut pairs = Vec::new();
             let mut channels = Vec::new();
             for (c, ch) in set.channels.iter().enumerate() {
-                if let (Some((j, sj)), Some((k, sk))) = (
+                if let (Some(j), Some(k)) = (
                     row(&prepared.sensors, ch.response),
                     row(&prepared.excitations, ch.reference),
                 ) {
-                    pairs.push((j, k, sj * sk));
+                    pairs.push((j, k));
                     channels.push(c);
                 }
             }
@@ -225,15 +215,13 @@ impl FrfBands {
     /// `slot` for the solution `sol` of its configuration.
     pub fn criteria(&self, slot: usize, sol: &ModalSolution, out: &mut Vec<f64>) {
         let p = &self.positions[slot];
-        let pairs: Vec<(usize, usize)> = p.pairs.iter().map(|&(j, k, _)| (j, k)).collect();
         for band in &p.bands {
-            let model = superposition(sol, p.quantity, &band.lines, &pairs);
+            let model = superposition(sol, p.quantity, &band.lines, &p.pairs);
             let n = model.len() as f64;
             let (mut fr, mut cs) = (0.0, 0.0);
-            for ((h, r), &(_, _, sign)) in model.iter().zip(&band.reference).zip(&p.pairs) {
-                let h: Vec<Complex64> = h.iter().map(|v| v * sign).collect();
-                fr += frac(r, &h);
-                cs += csf(r, &h);
+            for (h, r) in model.iter().zip(&band.reference) {
+                fr += frac(r, h);
+                cs += csf(r, h);
             }
             out.push(fr / n);
             out.push(cs / n);
@@ -298,7 +286,8 @@ mod tests {
         let mut set = p
             .frf_superposition(&sol, FrfQuantity::Accelerance, &lines)
             .expect("frf");
-        // Twice the amplitude, and the second sensor measured in −x.
+        // Twice the amplitude, and the second sensor measured in −x (matched by
+        // axis; FRAC and CSF do not see the sign).
         for ch in &mut set.channels {
             let flip = if ch.response.node == 2 { -1.0 } else { 1.0 };
             ch.response.direction *= flip as i8;

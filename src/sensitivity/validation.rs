@@ -142,7 +142,7 @@ pub fn validate(
                 .collect()
         })
         .collect();
-    let y0 = evaluate_all(model, std::slice::from_ref(&reference.to_vec()), 1, &|_| {})?
+    let y0 = evaluate_all(model, &[reference.to_vec()], 1, &|_| {})?
         .pop()
         .ok_or_else(|| SensitivityError::Invalid("the model returned no outputs".into()))?;
     let ys = evaluate_all(model, &points, 256, progress)?;

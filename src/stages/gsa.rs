@@ -87,7 +87,7 @@ impl Stage for Gsa {
     }
 
     fn summary(&self) -> &'static str {
-        "global sensitivity analysis: Sobol indices of a model, or ANOVA of a factorial data set"
+        "global sensitivity analysis: Sobol indices of a model with the PUB2 split and its validation, or ANOVA of a table, a factorial design on a model, or modal models of matrix runs"
     }
 
     fn params(&self) -> &'static [ParamSpec] {

@@ -111,33 +111,32 @@ impl Stage for Report {
         if let Some(d) = ctx.params.get("description").and_then(Value::as_str) {
             doc.paragraph(d);
         }
-        let bound = |name: &str| -> Vec<(String, PathBuf)> {
+        // Each bound artifact with a label: its stage (one row per stage in
+        // the summary tables) or `stage.output` (tables and figures, whose
+        // cached files carry hashes, not names).
+        let bound = |name: &str, with_output: bool| -> Vec<(String, PathBuf)> {
             let labels = ctx.sources.get(name).cloned().unwrap_or_default();
             let paths = ctx.inputs.get(name).cloned().unwrap_or_default();
             labels
                 .into_iter()
-                .map(|source| source.stage)
+                .map(|s| {
+                    if with_output {
+                        format!("{}.{}", s.stage, s.output)
+                    } else {
+                        s.stage
+                    }
+                })
                 .zip(paths)
                 .collect()
         };
-        accuracy(&mut doc, &bound("metrics"))?;
-        costs(&mut doc, &bound("costs"))?;
-        convergence(&mut doc, &bound("histories"))?;
-        parameter_errors(&mut doc, &bound("tables"))?;
-        screening::splits(&mut doc, &bound("splits"))?;
-        screening::validations(&mut doc, &bound("validations"))?;
-        // Inputs labelled `stage.output`: cached files carry hashes, not names.
-        let named = |name: &str| -> Vec<(String, PathBuf)> {
-            let labels = ctx.sources.get(name).cloned().unwrap_or_default();
-            let paths = ctx.inputs.get(name).cloned().unwrap_or_default();
-            labels
-                .into_iter()
-                .map(|s| format!("{}.{}", s.stage, s.output))
-                .zip(paths)
-                .collect()
-        };
-        tables(&mut doc, &named("csv"))?;
-        figures(&mut doc, &named("figures"))?;
+        accuracy(&mut doc, &bound("metrics", false))?;
+        costs(&mut doc, &bound("costs", false))?;
+        convergence(&mut doc, &bound("histories", false))?;
+        parameter_errors(&mut doc, &bound("tables", false))?;
+        screening::splits(&mut doc, &bound("splits", false))?;
+        screening::validations(&mut doc, &bound("validations", false))?;
+        tables(&mut doc, &bound("csv", true))?;
+        figures(&mut doc, &bound("figures", true))?;
         let dir = ctx.scratch.join("report");
         let fig_dir = dir.join("figures");
         std::fs::create_dir_all(&fig_dir)
