@@ -296,18 +296,12 @@ fn compare_modes(
     }))
 }
 
-/// Values of `set`'s channel `like` on the `lines` of the reference, when
-/// the set has that channel and every line.
-fn on_lines(set: &FrfSet, like: &crate::frf::FrfChannel, lines: &[f64]) -> Option<Vec<Complex64>> {
-    let ch = set.channel(like.response, like.reference)?;
+/// Index in `of` of each of the `lines` (exact match), or `None` when one
+/// is missing.
+fn line_indices(of: &[f64], lines: &[f64]) -> Option<Vec<usize>> {
     lines
         .iter()
-        .map(|f| {
-            set.frequencies_hz
-                .iter()
-                .position(|g| g == f)
-                .map(|j| ch.values[j])
-        })
+        .map(|f| of.iter().position(|g| g == f))
         .collect()
 }
 
@@ -355,6 +349,11 @@ fn compare_frfs(
             "|H|",
         );
         plot.y_log = true;
+        let f: Vec<f64> = lines.iter().map(|&(i, _)| r.frequencies_hz[i]).collect();
+        // The initial model's FRFs of this position, on the compared lines.
+        let initial_set = initial
+            .and_then(|sets| sets.iter().find(|s| s.position.index == r.position.index))
+            .and_then(|s| line_indices(&s.frequencies_hz, &f).map(|idx| (s, idx)));
         for ch in &r.channels {
             let Some(cc) = c.channel(ch.response, ch.reference) else {
                 continue;
@@ -367,10 +366,10 @@ fn compare_frfs(
                 "{},{},{},{fr},{cs}",
                 r.position.index, ch.response, ch.reference
             );
-            let f: Vec<f64> = lines.iter().map(|&(i, _)| r.frequencies_hz[i]).collect();
-            let before = initial
-                .and_then(|sets| sets.iter().find(|s| s.position.index == r.position.index))
-                .and_then(|s| on_lines(s, ch, &f));
+            let before: Option<Vec<Complex64>> = initial_set.as_ref().and_then(|(s, idx)| {
+                let c0 = s.channel(ch.response, ch.reference)?;
+                Some(idx.iter().map(|&j| c0.values[j]).collect())
+            });
             if let Some(h0) = &before {
                 init_frac.push(metrics::frac(&a, h0));
                 init_csf.push(metrics::csf(&a, h0));
