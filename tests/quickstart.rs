@@ -4,24 +4,11 @@
 
 mod util;
 
-use util::Workspace;
-
-fn copy_pipelines(ws: &Workspace) {
-    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines");
-    std::fs::create_dir_all(ws.path().join("models")).unwrap();
-    for m in std::fs::read_dir(format!("{root}/models"))
-        .unwrap()
-        .flatten()
-    {
-        std::fs::copy(m.path(), ws.path().join("models").join(m.file_name())).unwrap();
-    }
-    std::fs::copy(format!("{root}/quickstart.yaml"), ws.path().join("p.yaml")).unwrap();
-}
+use util::study;
 
 #[test]
 fn quickstart_runs_reports_and_caches() {
-    let ws = Workspace::new();
-    copy_pipelines(&ws);
+    let ws = study("quickstart", &[]);
     let r = ws.run(&[], 0);
     assert!(r.all("ran"), "{:?}", r.statuses());
     let html = ws.read("results/quickstart/report/report/index.html");

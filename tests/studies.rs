@@ -7,34 +7,7 @@
 mod util;
 
 use serde_json::Value;
-use util::Workspace;
-
-/// A workspace holding `pipelines/models` and the study `name` as `p.yaml`,
-/// with each (from, to) edit applied exactly as written.
-fn study(name: &str, edits: &[(&str, &str)]) -> Workspace {
-    let root = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines");
-    let ws = Workspace::new();
-    for entry in std::fs::read_dir(format!("{root}/models"))
-        .unwrap()
-        .flatten()
-    {
-        let text = std::fs::read_to_string(entry.path()).unwrap();
-        ws.write(
-            &format!("models/{}", entry.file_name().to_string_lossy()),
-            &text,
-        );
-    }
-    let mut text = std::fs::read_to_string(format!("{root}/{name}.yaml")).unwrap();
-    for (from, to) in edits {
-        assert!(
-            text.contains(from),
-            "{name}.yaml no longer contains `{from}`"
-        );
-        text = text.replace(from, to);
-    }
-    ws.write("p.yaml", &text);
-    ws
-}
+use util::study;
 
 fn csv_rows(text: &str) -> Vec<Vec<String>> {
     text.lines()
