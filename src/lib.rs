@@ -15,6 +15,7 @@ pub mod io;
 pub mod metrics;
 pub mod modal;
 pub mod optimize;
+pub mod pairing;
 pub mod pipeline;
 pub mod report;
 pub mod sensitivity;

@@ -81,9 +81,30 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
     assert!(cost["best_objective"].as_f64().unwrap() < 1e-4);
     assert_eq!(cost["optimizer"], "slsqp");
     let params = ws.read("results/id/fit/parameters.csv");
-    assert!(params.starts_with("parameter,value,lower,upper,initial\n"));
-    // The start is the model file's nominal value.
-    assert!(params.contains("k1.k_x,") && params.contains(",2000000.0\n"));
+    assert!(params.starts_with(
+        "parameter,value,lower,upper,initial,identified,identifiable,std_error,ci_low,ci_high\n"
+    ));
+    // The start is the model file's nominal value; exact data determine
+    // every stiffness: a standard error and an interval around the value.
+    let k1: Vec<&str> = params
+        .lines()
+        .find(|l| l.starts_with("k1.k_x,"))
+        .unwrap()
+        .split(',')
+        .collect();
+    assert_eq!(k1[4], "2000000.0");
+    assert_eq!((k1[5], k1[6]), ("true", "true"));
+    let (v, lo, hi): (f64, f64, f64) = (k1[1].parse().unwrap(), k1[8].parse().unwrap(), k1[9].parse().unwrap());
+    assert!(lo <= v && v <= hi && (hi - lo) < 0.01 * v, "{k1:?}");
+    // The verdict: converged, within the noise, every mode paired.
+    assert_eq!(cost["verdict"]["ok"], true, "{}", cost["verdict"]);
+    assert_eq!(cost["verdict"]["modes"]["unpaired"], 0);
+    let correlation = ws.read("results/id/fit/correlation.csv");
+    assert_eq!(correlation.lines().count(), 4, "{correlation}");
+    assert!(correlation.lines().skip(1).all(|l| l.contains(",true,")), "{correlation}");
+    let id: serde_json::Value =
+        serde_json::from_str(&ws.read("results/id/fit/identifiability.json")).unwrap();
+    assert!(id["parameters"].as_array().unwrap().len() == 8, "{id}");
     let history = ws.read("results/id/fit/history.csv");
     assert!(
         history.starts_with("evaluation,best_objective,mean_mac\n") && history.lines().count() > 2
@@ -97,13 +118,14 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
     let detail: serde_json::Value =
         serde_json::from_str(&ws.read("results/id/guided/subproblems.json")).unwrap();
     assert!(!detail["subproblems"].as_array().unwrap().is_empty());
-    assert!(detail["refine"]["end"].as_f64().unwrap() < 1e-12);
+    assert!(detail["refinement"][0]["end"].as_f64().unwrap() < 1e-12);
     let guided: serde_json::Value =
         serde_json::from_str(&ws.read("results/id/guided/cost.json")).unwrap();
     assert_eq!(guided["strategy"], "sensitivity_guided");
     assert!(guided["evaluations"].as_u64().unwrap() <= 600);
     assert!(guided["modes"]["mean_mac"].as_f64().unwrap() > 1.0 - 1e-9);
     assert!(guided["modes"]["mean_nfd"].as_f64().unwrap() < 1e-6);
+    assert_eq!(guided["verdict"]["ok"], true, "{}", guided["verdict"]);
     let history = ws.read("results/id/guided/history.csv");
     assert!(history.starts_with("evaluation,best_objective,mean_mac\n"));
     // Cached: a second run executes nothing.

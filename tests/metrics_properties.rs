@@ -1,7 +1,8 @@
 //! Property tests of the model evaluation criteria (eq. 2.62–2.67) on random
 //! shapes, FRFs and cost matrices, plus small cases computed by hand.
 
-use modalflow::metrics::{csf, frac, hungarian, mac, macxp, ndd, nfd, pair_modes, pole};
+use modalflow::metrics::{csf, frac, mac, macxp, ndd, nfd, pole};
+use modalflow::pairing::{hungarian, pair_modes, Pairing};
 use num_complex::Complex64;
 use proptest::prelude::*;
 
@@ -112,8 +113,11 @@ fn hand_computed_cases() {
         &[re(&[1.0, 0.0]), re(&[0.0, 1.0])],
         &[10.2, 10.9],
         &[re(&[0.0, 1.0]), re(&[1.0, 0.1])],
-        0.2,
-        0.3,
+        &Pairing {
+            window: 0.2,
+            min_mac: 0.3,
+            ..Pairing::default()
+        },
     );
     assert_eq!(pairs.len(), 2);
     assert_eq!((pairs[0].candidate, pairs[1].candidate), (1, 0));

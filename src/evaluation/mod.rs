@@ -118,6 +118,12 @@ pub trait Model: Sync {
     fn outputs(&self) -> &[String];
     /// Outputs at one point (physical parameter values).
     fn evaluate(&self, x: &[f64]) -> Result<Vec<f64>, EvalError>;
+    /// The modes the outputs name (`p<i>.mode<r>`, frequency in Hz), for a
+    /// model with modal outputs; an identification finds them again by
+    /// frequency when its reference is numbered differently.
+    fn named_modes(&self) -> Vec<(String, f64)> {
+        Vec::new()
+    }
     /// Outputs at many points, in input order; each error carries its sample
     /// index ([`EvalError::Sample`]). The default evaluates in parallel on the
     /// current rayon pool.

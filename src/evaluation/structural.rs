@@ -22,7 +22,8 @@
 use super::frf_bands::FrfBands;
 use super::{check_dimension, EvalError, Model, Parameter, Scale};
 use crate::dynamics::{self, DynamicsError, ModalSolution, PreparedModel};
-use crate::metrics::{mac, pair_modes};
+use crate::metrics::mac;
+use crate::pairing::{pair_modes, Pairing};
 use crate::modal::ModalModel;
 use num_complex::Complex64;
 
@@ -59,6 +60,8 @@ pub struct StructuralModel {
     parameters: Vec<Parameter>,
     outputs: Vec<String>,
     references: Vec<Reference>,
+    /// Position index of each reference.
+    positions: Vec<u32>,
     modes: usize,
     window: f64,
     bands: Option<FrfBands>,
@@ -118,6 +121,7 @@ impl StructuralModel {
             }
         };
         let mut references = Vec::new();
+        let mut positions = Vec::new();
         let mut outputs = Vec::new();
         let mut most = 0;
         for r in reference {
@@ -129,6 +133,7 @@ impl StructuralModel {
                 }
             }
             most = most.max(r.modes.len());
+            positions.push(r.position.index);
             references.push(Reference {
                 config,
                 frequencies: r.modes.iter().map(|m| m.frequency_hz).collect(),
@@ -148,6 +153,7 @@ impl StructuralModel {
             parameters,
             outputs,
             references,
+            positions,
             modes: options.modes.max(most),
             window: options.window,
             bands: None,
@@ -206,6 +212,18 @@ impl Model for StructuralModel {
     fn outputs(&self) -> &[String] {
         &self.outputs
     }
+    fn named_modes(&self) -> Vec<(String, f64)> {
+        self.references
+            .iter()
+            .zip(&self.positions)
+            .flat_map(|(r, p)| {
+                r.frequencies
+                    .iter()
+                    .enumerate()
+                    .map(move |(k, f)| (format!("p{p}.mode{}", k + 1), *f))
+            })
+            .collect()
+    }
     fn evaluate(&self, x: &[f64]) -> Result<Vec<f64>, EvalError> {
         check_dimension(self, x)?;
         let mut out = Vec::with_capacity(self.outputs.len());
@@ -222,7 +240,13 @@ impl Model for StructuralModel {
                         .collect()
                 })
                 .collect();
-            let pairs = pair_modes(&r.frequencies, &r.shapes, &f, &shapes, self.window, 0.0);
+            let pairs = pair_modes(
+                &r.frequencies,
+                &r.shapes,
+                &f,
+                &shapes,
+                &Pairing::within(self.window),
+            );
             let mut partner: Vec<Option<usize>> = vec![None; r.frequencies.len()];
             let mut used = vec![false; f.len()];
             for p in &pairs {

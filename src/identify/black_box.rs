@@ -85,7 +85,7 @@ pub(crate) mod tests {
             &reference(&truth()),
             None,
             Weights::default(),
-            0.3,
+            crate::pairing::Pairing::within(0.3),
         )
         .unwrap()
     }

@@ -2,34 +2,49 @@
 //! PUB4 section 5.3): find the parameter values at which a model's modes
 //! match reference modes.
 //!
+//! - [`updating`]: the whole update, whatever the strategy: reference and
+//!   model paired by physics at the start ([`correspondence`], with the
+//!   observability criterion), the strategy, then the assessment at the
+//!   result: [`identifiability`] with standard errors, and a [`verdict`].
 //! - [`objective`]: J(x), the weighted (1 − MAC) + NFD + NDD mismatch of
-//!   paired modes over all axis positions (eq. 2.62, 2.64, 2.65).
+//!   paired modes over all axis positions (eq. 2.62, 2.64, 2.65), and the
+//!   least-squares residuals weighted by the reference's uncertainty.
 //! - [`black_box`]: one optimizer (PSO, GA, SLSQP) over all parameters on J,
 //!   evaluated in parallel batches.
 //! - [`guided`]: the sensitivity-guided strategy of PUB3 — per GSA
 //!   mode-shape subproblem ([`subproblem`]) SLSQP over its significant
 //!   stiffness parameters from several random starts, each parameter taken
 //!   from the subproblem where it varied least, a joint refinement of those
-//!   parameters, then the damping by bounded linear least squares
-//!   ([`damping`]).
+//!   parameters by the mode-set [`continuation`], then the damping by
+//!   bounded linear least squares ([`damping`]).
 //! - [`history`]: best-so-far records with the mean MAC reached.
 //!
 //! Results are deterministic for a seed whatever the thread count: the only
 //! parallel part is the evaluation of a batch of points.
 
 pub mod black_box;
+pub mod continuation;
+pub mod correspondence;
 pub mod damping;
 pub mod guided;
 pub mod history;
+pub mod identifiability;
 pub mod objective;
 pub mod subproblem;
+pub mod updating;
+pub mod verdict;
 
 pub use black_box::{black_box, BlackBoxResult};
+pub use continuation::ContinuationParams;
+pub use correspondence::{Correspondence, NamedMode};
 pub use damping::{bvls, identify_damping, DampingFit};
-pub use guided::{guided, GuidedParams, GuidedResult};
+pub use guided::{guided, GuidedParams, GuidedResult, Screening};
 pub use history::{HistoryRow, Recorder};
-pub use objective::{ModalObjective, Term, Weights};
+pub use identifiability::Identifiability;
+pub use objective::{ModalObjective, ModeSet, Term, Uncertainty, Weights};
 pub use subproblem::{Starts, SubproblemRun, SubproblemSpec};
+pub use updating::{update, Plan, Strategy, Update};
+pub use verdict::Verdict;
 
 /// Why an identification failed.
 #[derive(Debug, thiserror::Error)]

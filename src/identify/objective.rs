@@ -1,46 +1,48 @@
-//! The identification objective (seed section 2.3.4, PUB3/PUB4): model modes
-//! are paired with reference modes per axis position and the mismatch is
+//! The identification objective (seed section 2.3.4, PUB3/PUB4): a model
+//! and reference modes per axis position, compared pair by pair.
 //!
-//! J(x) = Σ_positions Σ_r [ w_mac (1 − MAC_r) + w_nfd NFD_r + w_ndd NDD_r ]
+//! Model modes are paired with reference modes per position by
+//! [`crate::pairing`] (one assignment on (1 − MAC) + NFD/s_f within a
+//! window): by physics, never by number. Shapes are compared at the DOFs the
+//! reference and the model's sensors share (same node and axis; an opposite
+//! direction flips the sign).
 //!
-//! with MAC (eq. 2.62), NFD (eq. 2.64) and NDD (eq. 2.65) of the pair. Modes
-//! are paired by [`crate::metrics::pair_modes`] (optimal MAC assignment within
-//! a relative frequency window, as the GSA pairs them); a reference mode left
-//! unpaired costs the fixed penalty [`Weights::penalty`] =
-//! `w_mac + w_nfd · window + w_ndd`, i.e. as much as a pair at the edge of the
-//! window with MAC 0 and 100 % damping difference, so losing a mode is never
-//! cheaper than keeping a bad pair.
+//! Which reference modes take part is a [`ModeSet`]: modes excluded for a
+//! stated reason (not observable, named by `exclude_modes`, not in any
+//! pairing) are never used; the guided strategy's continuation activates
+//! the rest stage by stage.
 //!
-//! Shapes are compared at the DOFs the reference and the model's sensors
-//! share (same node and axis; an opposite direction flips the sign).
+//! Two views of the mismatch:
+//! - J(x) = Σ_positions Σ_r [ w_mac (1 − MAC_r) + w_nfd NFD_r + w_ndd NDD_r ]
+//!   over the used modes (MAC eq. 2.62, NFD eq. 2.64, NDD eq. 2.65), the
+//!   black-box objective of PUB4. An unpaired reference mode costs the fixed
+//!   penalty [`Weights::penalty`] = `w_mac + w_nfd · window + w_ndd`, as much
+//!   as a pair at the edge of the window with MAC 0 and 100 % damping
+//!   difference, so losing a mode is never cheaper than keeping a bad pair.
+//! - the residual vector of least squares ([`residuals`]): frequency and
+//!   shape differences, each divided by the reference's uncertainty
+//!   ([`Uncertainty`]), so a noisy shape cannot outweigh an exact frequency.
 //!
-//! Reference modes can be left out ([`ModalObjective::without_modes`]): a
-//! mode the sensors barely see (a local mode of an unmeasured part) has a
-//! MAC that flips with tiny parameter changes and traps local optimizers;
-//! PUB4 likewise identified with "only a subset of the found modes". Modes
-//! keep their reference numbers (`p0.mode9` stays mode 9), so GSA output
-//! names still apply.
-//!
-//! The stiffness is identified from frequencies and shapes alone (PUB3):
-//! they do not depend on the damping parameters (section 2.3.1), so NDD is
-//! left out of [`ModalObjective::mode_cost`] (a subproblem's criterion for
-//! SLSQP) and of [`ModalObjective::residuals`] (the joint refinement's
-//! least-squares residuals). SLSQP needs a smooth criterion, and |NFD| has a
-//! kink at a perfect match: `mode_cost` uses the pseudo-Huber form
-//! h_δ(t) = √(t² + δ²) − δ of NFD (|t| − δ ≤ h_δ(t) ≤ |t|, quadratic for
-//! |t| ≪ δ).
+//! The stiffness is identified from frequencies and shapes alone (PUB3): they
+//! do not depend on the damping parameters (section 2.3.1), so NDD is left
+//! out of the residuals and of a subproblem's criterion.
 
 mod residuals;
+mod uncertainty;
+
+pub use residuals::Evaluation;
+pub use uncertainty::Uncertainty;
 
 use super::IdentifyError;
 use crate::dynamics::{self, PreparedModel};
-use crate::metrics::{mac, nfd, pair_modes};
+use crate::metrics::nfd;
 use crate::modal::{ModalModel, Mode};
 use crate::optimize::{Bounds, Scale};
+use crate::pairing::{pair_modes, Pairing};
 use num_complex::Complex64;
 
-/// Weights of the three terms of J.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]
+/// Weights of the three terms of J (and of the residuals' two kinds).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct Weights {
     pub mac: f64,
@@ -77,53 +79,64 @@ pub fn ndd_guarded(z1: f64, z2: f64) -> f64 {
 }
 
 /// Reference modes of one position reduced to the shared DOFs.
-struct Reference {
-    config: usize,
-    position: crate::frf::Position,
-    frequencies: Vec<f64>,
-    damping: Vec<f64>,
-    shapes: Vec<Vec<Complex64>>,
-    /// 1-based number of each mode in the reference as given.
-    numbers: Vec<usize>,
+pub(crate) struct Reference {
+    pub(crate) config: usize,
+    pub(crate) position: crate::frf::Position,
+    pub(crate) frequencies: Vec<f64>,
+    pub(crate) damping: Vec<f64>,
+    pub(crate) shapes: Vec<Vec<Complex64>>,
+    /// Relative standard deviation of each frequency and of each shape
+    /// component (unit-normalized shape).
+    pub(crate) sigma_f: Vec<f64>,
+    pub(crate) sigma_s: Vec<f64>,
+    /// Relative standard deviation of each damping ratio.
+    pub(crate) sigma_z: Vec<f64>,
+    /// Why a mode is left out (`None`: usable).
+    pub(crate) excluded: Vec<Option<String>>,
     /// (model sensor row, sign, reference DOF) per shared DOF.
-    rows: Vec<(usize, f64, crate::frf::Dof)>,
+    pub(crate) rows: Vec<(usize, f64, crate::frf::Dof)>,
 }
+
+/// Which reference modes take part, per position slot and mode.
+pub type ModeSet = Vec<Vec<bool>>;
 
 /// The model mode paired with one reference mode.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Match {
+    /// Index of the model mode (ascending frequency) at that point.
+    pub model_mode: usize,
     pub frequency_hz: f64,
     pub damping_ratio: f64,
     pub mac: f64,
 }
 
-/// A prepared model with reference modes: J(x) and its parts.
+/// A prepared model with reference modes: J(x), residuals and their parts.
 pub struct ModalObjective {
     prepared: PreparedModel,
     parameters: Vec<dynamics::Parameter>,
-    references: Vec<Reference>,
+    pub(crate) references: Vec<Reference>,
     modes: usize,
     pub weights: Weights,
-    pub window: f64,
+    pub pairing: Pairing,
 }
 
 impl ModalObjective {
     /// Pair `model` with `reference` (matched by position index); `positions`
-    /// keeps only those reference positions (all when `None`).
+    /// keeps only those reference positions (all when `None`). Every mode
+    /// gets the uncertainty `uncertainty` (see [`Self::with_uncertainty`]).
     pub fn new(
         model: &dynamics::Model,
         reference: &[ModalModel],
         positions: Option<&[u32]>,
         weights: Weights,
-        window: f64,
+        pairing: Pairing,
     ) -> Result<ModalObjective, IdentifyError> {
-        if !(window > 0.0 && window.is_finite()) {
-            return Err(IdentifyError::Invalid(format!(
-                "pairing window {window} must be a positive fraction such as 0.2"
-            )));
-        }
+        pairing
+            .check()
+            .map_err(|m| IdentifyError::Invalid(format!("pairing: {m}")))?;
         let prepared =
             PreparedModel::new(model).map_err(|e| IdentifyError::Model(e.to_string()))?;
+        let defaults = Uncertainty::default();
         let mut references = Vec::new();
         let mut most = 0;
         for r in reference {
@@ -133,7 +146,12 @@ impl ModalObjective {
             let matched = prepared
                 .match_reference(r)
                 .map_err(IdentifyError::Invalid)?;
-            let config = matched.config;
+            if matched.keep.is_empty() {
+                return Err(IdentifyError::Invalid(format!(
+                    "reference position {} shares no DOF (node and axis) with the model's sensors",
+                    r.position.index
+                )));
+            }
             let rows: Vec<_> = matched
                 .rows
                 .iter()
@@ -141,9 +159,10 @@ impl ModalObjective {
                 .map(|(&(i, sign), &k)| (i, sign, r.dofs[k]))
                 .collect();
             let keep = matched.keep;
-            most = most.max(r.modes.len());
+            let n = r.modes.len();
+            most = most.max(n);
             references.push(Reference {
-                config,
+                config: matched.config,
                 position: r.position.clone(),
                 frequencies: r.modes.iter().map(|m| m.frequency_hz).collect(),
                 damping: r.modes.iter().map(|m| m.damping_ratio).collect(),
@@ -152,7 +171,10 @@ impl ModalObjective {
                     .iter()
                     .map(|m| keep.iter().map(|&k| m.shape[k]).collect())
                     .collect(),
-                numbers: (1..=r.modes.len()).collect(),
+                sigma_f: vec![defaults.frequency; n],
+                sigma_s: vec![defaults.shape; n],
+                sigma_z: vec![defaults.damping; n],
+                excluded: vec![None; n],
                 rows,
             });
         }
@@ -161,58 +183,68 @@ impl ModalObjective {
                 "the reference has no modes at the selected positions".into(),
             ));
         }
-        // Two spare model modes let the pairing skip a mode that moved in.
-        let modes = (most + 2).min(prepared.n_dofs()).max(1);
+        // Spare model modes let the pairing skip modes that moved in or that
+        // the reference lacks.
+        let modes = (most + 4).min(prepared.n_dofs()).max(1);
         Ok(ModalObjective {
             prepared,
             parameters: model.parameters.clone(),
             references,
             modes,
             weights,
-            window,
+            pairing,
         })
     }
 
-    /// Leave out the reference modes `exclude` = (position index, 1-based
-    /// mode number). Errors name a mode the reference does not have or a
-    /// position left without modes.
-    pub fn without_modes(mut self, exclude: &[(u32, usize)]) -> Result<Self, IdentifyError> {
-        for &(position, number) in exclude {
-            let r = self
-                .references
-                .iter_mut()
-                .find(|r| r.position.index == position)
-                .ok_or_else(|| {
-                    IdentifyError::Invalid(format!(
-                        "exclude_modes: position {position} is not in the reference (or not selected by `positions`)"
-                    ))
-                })?;
-            let k = r.numbers.iter().position(|&n| n == number).ok_or_else(|| {
-                IdentifyError::Invalid(format!(
-                    "exclude_modes: the reference has no mode {number} at position {position}"
-                ))
-            })?;
-            r.frequencies.remove(k);
-            r.damping.remove(k);
-            r.shapes.remove(k);
-            r.numbers.remove(k);
-            if r.numbers.is_empty() {
-                return Err(IdentifyError::Invalid(format!(
-                    "exclude_modes leaves no reference mode at position {position}"
-                )));
+    /// Give every reference mode the uncertainty `u`, raised per mode by its
+    /// shape's complexity when `u.from_complexity` (see [`Uncertainty`]).
+    pub fn set_uncertainty(&mut self, u: Uncertainty) {
+        for r in &mut self.references {
+            for k in 0..r.frequencies.len() {
+                let c = if u.from_complexity {
+                    uncertainty::complexity(&r.shapes[k])
+                } else {
+                    0.0
+                };
+                r.sigma_s[k] = u.shape.max(c);
+                r.sigma_f[k] = u.frequency * (c / u.shape).max(1.0);
+                r.sigma_z[k] = u.damping;
             }
         }
-        Ok(self)
+    }
+
+    /// The standard deviations (relative frequency, shape component) of
+    /// reference mode `r` at slot `p`.
+    pub fn uncertainty_of(&self, p: usize, r: usize) -> (f64, f64) {
+        (self.references[p].sigma_f[r], self.references[p].sigma_s[r])
+    }
+
+    /// Leave reference mode `r` of slot `p` out, saying why.
+    pub fn exclude(&mut self, p: usize, r: usize, reason: impl Into<String>) {
+        if self.references[p].excluded[r].is_none() {
+            self.references[p].excluded[r] = Some(reason.into());
+        }
+    }
+
+    /// Why reference mode `r` of slot `p` is left out, if it is.
+    pub fn exclusion(&self, p: usize, r: usize) -> Option<&str> {
+        self.references[p].excluded[r].as_deref()
+    }
+
+    /// The modes not excluded.
+    pub fn usable(&self) -> ModeSet {
+        self.references
+            .iter()
+            .map(|r| r.excluded.iter().map(Option::is_none).collect())
+            .collect()
     }
 
     pub fn parameters(&self) -> &[dynamics::Parameter] {
         &self.parameters
     }
 
-    /// Index (into the kept modes of slot `p`) of reference mode `number`
-    /// (1-based, as in the reference); `None` when excluded or absent.
-    pub fn mode_index(&self, p: usize, number: usize) -> Option<usize> {
-        self.references[p].numbers.iter().position(|&n| n == number)
+    pub fn prepared(&self) -> &PreparedModel {
+        &self.prepared
     }
 
     /// Number of reference positions (slots).
@@ -220,9 +252,19 @@ impl ModalObjective {
         self.references.len()
     }
 
-    /// Number of reference modes over all positions (terms of J).
+    /// Number of reference modes at slot `p` (used or not).
+    pub fn modes_at(&self, p: usize) -> usize {
+        self.references[p].frequencies.len()
+    }
+
+    /// Number of usable reference modes over all positions.
     pub fn reference_modes(&self) -> usize {
-        self.references.iter().map(|r| r.frequencies.len()).sum()
+        self.usable().iter().flatten().filter(|&&u| u).count()
+    }
+
+    /// The reference position of slot `p`.
+    pub fn position(&self, p: usize) -> &crate::frf::Position {
+        &self.references[p].position
     }
 
     /// Box bounds of all parameters (log10 for `scale: log`).
@@ -283,49 +325,38 @@ impl ModalObjective {
         })
     }
 
-    /// Per position and reference mode, the paired model mode (`None` when
-    /// unpaired).
-    pub fn matches(&self, x: &[f64]) -> Result<Vec<Vec<Option<Match>>>, IdentifyError> {
-        let models = self.model_modes(x)?;
-        Ok(self
-            .pairing(&models)
-            .iter()
-            .zip(&self.references)
-            .zip(&models)
-            .map(|((pairs, r), m)| {
-                pairs
-                    .iter()
-                    .enumerate()
-                    .map(|(k, c)| {
-                        c.map(|c| {
-                            let c = &m.modes[c];
-                            Match {
-                                frequency_hz: c.frequency_hz,
-                                damping_ratio: c.damping_ratio,
-                                mac: mac(&r.shapes[k], &c.shape),
-                            }
-                        })
-                    })
-                    .collect()
-            })
-            .collect())
-    }
-
-    /// Per slot and kept reference mode, the index of the paired model mode.
-    fn pairing(&self, models: &[ModalModel]) -> Vec<Vec<Option<usize>>> {
+    /// Per slot and reference mode of `set`, the paired model mode of
+    /// `models` (`None` when not in the set or unpaired).
+    pub fn pair(&self, models: &[ModalModel], set: &ModeSet) -> Vec<Vec<Option<Match>>> {
         self.references
             .iter()
             .zip(models)
-            .map(|(r, m)| {
+            .zip(set)
+            .map(|((r, m), used)| {
+                let idx: Vec<usize> = (0..r.frequencies.len()).filter(|&k| used[k]).collect();
+                let rf: Vec<f64> = idx.iter().map(|&k| r.frequencies[k]).collect();
+                let rs: Vec<Vec<Complex64>> = idx.iter().map(|&k| r.shapes[k].clone()).collect();
                 let f: Vec<f64> = m.modes.iter().map(|m| m.frequency_hz).collect();
                 let shapes: Vec<Vec<Complex64>> = m.modes.iter().map(|m| m.shape.clone()).collect();
                 let mut out = vec![None; r.frequencies.len()];
-                for p in pair_modes(&r.frequencies, &r.shapes, &f, &shapes, self.window, 0.0) {
-                    out[p.reference] = Some(p.candidate);
+                for p in pair_modes(&rf, &rs, &f, &shapes, &self.pairing) {
+                    let c = &m.modes[p.candidate];
+                    out[idx[p.reference]] = Some(Match {
+                        model_mode: p.candidate,
+                        frequency_hz: c.frequency_hz,
+                        damping_ratio: c.damping_ratio,
+                        mac: p.mac,
+                    });
                 }
                 out
             })
             .collect()
+    }
+
+    /// Per position and usable reference mode, the paired model mode at `x`.
+    pub fn matches(&self, x: &[f64]) -> Result<Vec<Vec<Option<Match>>>, IdentifyError> {
+        let models = self.model_modes(x)?;
+        Ok(self.pair(&models, &self.usable()))
     }
 
     /// Reference damping ratio of mode `r` at position slot `p`.
@@ -336,6 +367,11 @@ impl ModalObjective {
     /// Reference frequency of mode `r` at position slot `p`.
     pub fn reference_frequency(&self, p: usize, r: usize) -> f64 {
         self.references[p].frequencies[r]
+    }
+
+    /// Reference shape of mode `r` at position slot `p` (shared DOFs).
+    pub fn reference_shape(&self, p: usize, r: usize) -> &[Complex64] {
+        &self.references[p].shapes[r]
     }
 
     /// Position slot of reference position index `index`.
@@ -349,11 +385,12 @@ impl ModalObjective {
     /// (1 − MAC), NFD or NDD; the weighted sum of all three when `None`.
     pub fn term(&self, p: usize, r: usize, m: Option<Match>, which: Option<Term>) -> f64 {
         let w = self.weights;
+        let window = self.pairing.window;
         let Some(m) = m else {
             return match which {
-                None => w.penalty(self.window),
+                None => w.penalty(window),
                 Some(Term::Mac) => 1.0,
-                Some(Term::Nfd) => self.window,
+                Some(Term::Nfd) => window,
                 Some(Term::Ndd) => 1.0,
             };
         };
@@ -380,20 +417,24 @@ impl ModalObjective {
         }
     }
 
-    /// J(x) and the mean MAC over all kept reference modes (an unpaired mode
-    /// counts 0), from one model evaluation; (+∞, 0) when it cannot be solved.
+    /// J(x) and the mean MAC over all usable reference modes (an unpaired
+    /// mode counts 0), from one model evaluation; (+∞, 0) when it cannot be
+    /// solved.
     pub fn cost_and_mac(&self, x: &[f64]) -> (f64, f64) {
         let Ok(all) = self.matches(x) else {
             return (f64::INFINITY, 0.0);
         };
-        (self.sum_terms(&all), mean_mac(&all))
+        (self.sum_terms(&all), mean_mac(&all, &self.usable()))
     }
 
     fn sum_terms(&self, all: &[Vec<Option<Match>>]) -> f64 {
+        let usable = self.usable();
         let mut j = 0.0;
         for (p, ms) in all.iter().enumerate() {
             for (r, m) in ms.iter().enumerate() {
-                j += self.term(p, r, *m, None);
+                if usable[p][r] {
+                    j += self.term(p, r, *m, None);
+                }
             }
         }
         if j.is_finite() {
@@ -404,12 +445,12 @@ impl ModalObjective {
     }
 }
 
-/// How well the model modes at a point match the kept reference modes.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+/// How well the model modes at a point match the usable reference modes.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct ModeSummary {
     pub reference_modes: usize,
     pub paired: usize,
-    /// Mean MAC over the kept reference modes, an unpaired mode counting 0.
+    /// Mean MAC over the usable reference modes, an unpaired mode counting 0.
     pub mean_mac: f64,
     /// Mean NFD and NDD over the paired modes (eq. 2.64, 2.65).
     pub mean_nfd: f64,
@@ -420,10 +461,11 @@ impl ModalObjective {
     /// The [`ModeSummary`] at `x`.
     pub fn summary(&self, x: &[f64]) -> Result<ModeSummary, IdentifyError> {
         let all = self.matches(x)?;
+        let usable = self.usable();
         let (mut paired, mut nfd_sum, mut ndd_sum) = (0, 0.0, 0.0);
         for (p, ms) in all.iter().enumerate() {
             for (r, m) in ms.iter().enumerate() {
-                if let Some(m) = m {
+                if let (Some(m), true) = (m, usable[p][r]) {
                     paired += 1;
                     nfd_sum += nfd(self.references[p].frequencies[r], m.frequency_hz);
                     ndd_sum += ndd_guarded(self.references[p].damping[r], m.damping_ratio);
@@ -434,21 +476,24 @@ impl ModalObjective {
         Ok(ModeSummary {
             reference_modes: self.reference_modes(),
             paired,
-            mean_mac: mean_mac(&all),
+            mean_mac: mean_mac(&all, &usable),
             mean_nfd: nfd_sum / n,
             mean_ndd: ndd_sum / n,
         })
     }
 }
 
-/// Mean MAC over all reference modes of `matches`, an unpaired mode counting 0.
-pub fn mean_mac(matches: &[Vec<Option<Match>>]) -> f64 {
-    let n: usize = matches.iter().map(Vec::len).sum();
-    let sum: f64 = matches
-        .iter()
-        .flatten()
-        .map(|m| m.map_or(0.0, |m| m.mac))
-        .sum();
+/// Mean MAC over the modes of `set`, an unpaired mode counting 0.
+pub fn mean_mac(matches: &[Vec<Option<Match>>], set: &ModeSet) -> f64 {
+    let (mut sum, mut n) = (0.0, 0usize);
+    for (ms, used) in matches.iter().zip(set) {
+        for (m, &u) in ms.iter().zip(used) {
+            if u {
+                n += 1;
+                sum += m.map_or(0.0, |m| m.mac);
+            }
+        }
+    }
     sum / n.max(1) as f64
 }
 
@@ -465,24 +510,16 @@ mod tests {
     use crate::identify::black_box::tests::{objective, truth};
 
     #[test]
-    fn excluded_modes_leave_the_objective_and_bad_names_are_errors() {
-        let o = objective().without_modes(&[(0, 2)]).unwrap();
+    fn excluded_modes_leave_the_objective_with_their_reason() {
+        let mut o = objective();
+        o.exclude(0, 1, "not observable");
         assert_eq!(o.reference_modes(), 2);
-        assert_eq!(
-            (o.mode_index(0, 1), o.mode_index(0, 2), o.mode_index(0, 3)),
-            (Some(0), None, Some(1))
-        );
-        let (r, _) = o.residuals(&truth()).unwrap();
-        assert_eq!(r.len(), 14);
-        let error = |exclude: &[(u32, usize)]| match objective().without_modes(exclude) {
-            Ok(_) => panic!("{exclude:?} accepted"),
-            Err(e) => e.to_string(),
-        };
-        let e = error(&[(0, 4)]);
-        assert!(e.contains("no mode 4"), "{e}");
-        let e = error(&[(2, 1)]);
-        assert!(e.contains("position 2"), "{e}");
-        let e = error(&[(0, 1), (0, 2), (0, 3)]);
-        assert!(e.contains("leaves no reference mode"), "{e}");
+        assert_eq!(o.exclusion(0, 1), Some("not observable"));
+        assert_eq!(o.usable(), vec![vec![true, false, true]]);
+        let m = o.matches(&truth()).unwrap();
+        assert!(m[0][1].is_none() && m[0][0].is_some() && m[0][2].is_some());
+        assert!(o.cost(&truth()) < 1e-12);
+        let e = o.evaluate(&truth(), &o.usable()).unwrap();
+        assert_eq!(e.residuals.len(), 14);
     }
 }

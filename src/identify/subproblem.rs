@@ -19,13 +19,16 @@
 //! - `p{i}.mode{r}.damping` outputs name the damping parameters that the
 //!   damping fit identifies ([`super::damping`]); damping ratios are cheap
 //!   to fit, so every damping parameter significant for one of them is.
-//! - Outputs of excluded modes or unselected positions are skipped, with
-//!   the reason recorded.
+//! - Output names are modes of the nominal model (the screening's); each
+//!   lands on the reference mode paired with it ([`super::correspondence`]).
+//!   Outputs of modes with no partner, of excluded modes or of unselected
+//!   positions are skipped, with the reason recorded.
 //!
 //! [`solve`] runs SLSQP on one subproblem from several starts with the
 //! parameters outside it at seeded random values within their bounds (PUB3)
 //! and reports each parameter's spread over the repeats.
 
+use super::correspondence::{Correspondence, NamedMode};
 use super::{IdentifyError, ModalObjective};
 use crate::dynamics::{ParameterKind, Scale};
 use crate::optimize::slsqp::{self, SlsqpParams};
@@ -42,8 +45,9 @@ pub struct SubproblemSpec {
     pub parameters: Vec<String>,
 }
 
-/// A mode-shape subproblem: reference mode `mode` (index into the kept
-/// modes) of position slot `slot`, over the stiffness `parameters`.
+/// A mode-shape subproblem: reference mode `mode` (index into the
+/// reference's modes) of position slot `slot`, over the stiffness
+/// `parameters`.
 #[derive(Clone, Debug)]
 pub struct ModeSubproblem {
     /// `p{position}.mode{r}`.
@@ -89,8 +93,14 @@ enum Parsed {
     Skip(String),
 }
 
-/// Parse `p{index}.mode{r}.{frequency|damping|mac}`.
-fn parse_output(o: &ModalObjective, name: &str) -> Result<Parsed, IdentifyError> {
+/// Parse `p{index}.mode{r}.{frequency|damping|mac}` and find its reference
+/// mode through the correspondence of nominal and reference modes.
+fn parse_output(
+    o: &ModalObjective,
+    c: &Correspondence,
+    named: &[NamedMode],
+    name: &str,
+) -> Result<Parsed, IdentifyError> {
     let bad = || {
         IdentifyError::Invalid(format!(
             "subproblem output `{name}` is not `p<position>.mode<r>.<frequency|damping|mac>`; the sensitivity input must come from a gsa stage on this model file"
@@ -117,27 +127,30 @@ fn parse_output(o: &ModalObjective, name: &str) -> Result<Parsed, IdentifyError>
         "mac" => "mac",
         _ => return Err(bad()),
     };
-    let Some(slot) = o.slot(index) else {
-        return Ok(Parsed::Skip(format!(
-            "position {index} is not in the reference or not selected by `positions`"
-        )));
+    let (slot, mode) = match c.reference_mode(index, number, named) {
+        Ok(found) => found,
+        Err(why) => return Ok(Parsed::Skip(why)),
     };
-    match o.mode_index(slot, number) {
-        Some(mode) => Ok(Parsed::Output {
-            slot,
-            mode,
-            quantity,
-        }),
-        None => Ok(Parsed::Skip(format!(
-            "mode {number} at position {index} is excluded or not in the reference"
-        ))),
+    if let Some(why) = o.exclusion(slot, mode) {
+        return Ok(Parsed::Skip(format!(
+            "its reference mode {} is left out ({why})",
+            mode + 1
+        )));
     }
+    Ok(Parsed::Output {
+        slot,
+        mode,
+        quantity,
+    })
 }
 
-/// Build the mode-shape subproblems and the damping set from `specs`;
+/// Build the mode-shape subproblems and the damping set from `specs`, their
+/// modes found through `c` (`named`: the screening's mode frequencies);
 /// `significant` (parameter names) restricts the stiffness parameters.
 pub fn decompose(
     o: &ModalObjective,
+    c: &Correspondence,
+    named: &[NamedMode],
     specs: &[SubproblemSpec],
     significant: Option<&[String]>,
 ) -> Result<Decomposition, IdentifyError> {
@@ -153,7 +166,7 @@ pub fn decompose(
     }
     let mut d = Decomposition::default();
     for s in specs {
-        let (slot, mode, quantity) = match parse_output(o, &s.output)? {
+        let (slot, mode, quantity) = match parse_output(o, c, named, &s.output)? {
             Parsed::Output {
                 slot,
                 mode,
@@ -382,6 +395,16 @@ mod tests {
     use super::*;
     use crate::identify::black_box::tests::{objective, truth};
 
+    /// `decompose` with the correspondence at the file's values.
+    fn split(
+        o: &ModalObjective,
+        specs: &[SubproblemSpec],
+        significant: Option<&[String]>,
+    ) -> Result<Decomposition, IdentifyError> {
+        let c = Correspondence::new(o, &o.nominal(), 0.0).unwrap();
+        decompose(o, &c, &[], specs, significant)
+    }
+
     fn spec(output: &str, parameters: &[&str]) -> SubproblemSpec {
         SubproblemSpec {
             output: output.into(),
@@ -399,7 +422,8 @@ mod tests {
 
     #[test]
     fn outputs_of_one_mode_merge_and_damping_outputs_name_the_dampers() {
-        let o = objective().without_modes(&[(0, 3)]).unwrap();
+        let mut o = objective();
+        o.exclude(0, 2, "named in exclude_modes");
         let specs = [
             spec("p0.mode1.frequency", &["k1.k_x", "k12.k_x"]),
             spec("p0.mode1.mac", &["k23.k_x", "k1.k_x", "k1.c_x"]),
@@ -409,7 +433,7 @@ mod tests {
             spec("p0.mode2.damping", &["k1.k_x", "k12.c_x", "k3.c_x"]),
             spec("p0.mode1.damping", &["k12.c_x"]),
         ];
-        let d = decompose(&o, &specs, None).unwrap();
+        let d = split(&o, &specs, None).unwrap();
         let names: Vec<&str> = d.subproblems.iter().map(|s| s.name.as_str()).collect();
         assert_eq!(names, ["p0.mode1", "p0.mode2"]);
         assert_eq!(
@@ -424,10 +448,11 @@ mod tests {
         // The excluded mode and the unknown position are skipped, with why.
         let skipped: Vec<&str> = d.skipped.iter().map(|(o, _)| o.as_str()).collect();
         assert_eq!(skipped, ["p0.mode3.mac", "p5.mode1.mac"]);
-        assert!(d.skipped[0].1.contains("excluded"), "{:?}", d.skipped);
+        assert!(d.skipped[0].1.contains("exclude_modes"), "{:?}", d.skipped);
+        assert!(d.skipped[1].1.contains("position 5"), "{:?}", d.skipped);
         // The significant list restricts the stiffness parameters.
         let sig = ["k1.k_x".to_string(), "k3.k_x".to_string()];
-        let d = decompose(&o, &specs, Some(&sig)).unwrap();
+        let d = split(&o, &specs, Some(&sig)).unwrap();
         assert_eq!(d.subproblems[0].parameters, [0]);
         assert_eq!(d.stiffness(), [0, 3]);
     }
@@ -435,16 +460,16 @@ mod tests {
     #[test]
     fn unknown_names_are_errors_that_say_what_to_do() {
         let o = objective();
-        let e = decompose(&o, &[spec("p0.mode1.mac", &["k9.k_x"])], None).unwrap_err();
+        let e = split(&o, &[spec("p0.mode1.mac", &["k9.k_x"])], None).unwrap_err();
         assert!(e.to_string().contains("`k9.k_x`"), "{e}");
-        let e = decompose(
+        let e = split(
             &o,
             &[spec("p0.mode1.mac", &["k1.k_x"])],
             Some(&["zz".into()]),
         )
         .unwrap_err();
         assert!(e.to_string().contains("`zz`"), "{e}");
-        let e = decompose(&o, &[spec("p0.mode1", &["k1.k_x"])], None).unwrap_err();
+        let e = split(&o, &[spec("p0.mode1", &["k1.k_x"])], None).unwrap_err();
         assert!(e.to_string().contains("p<position>.mode<r>"), "{e}");
     }
 
@@ -455,7 +480,7 @@ mod tests {
         // file's value (1 equation, 1 unknown).
         let o = objective();
         let t = truth();
-        let d = decompose(&o, &[spec("p0.mode1.frequency", &["k1.k_x"])], None).unwrap();
+        let d = split(&o, &[spec("p0.mode1.frequency", &["k1.k_x"])], None).unwrap();
         let mut start = t.clone();
         start[0] = o.nominal()[0];
         let settings = SolveSettings {

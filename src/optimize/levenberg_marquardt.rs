@@ -22,14 +22,19 @@
 //! the damping term keeps them put).
 //!
 //! Stops when the budget cannot pay another Jacobian, when the cost fell by
-//! less than `ftol` (relative) over an accepted step, when no trial step
-//! lowers it (λ above 1e12), or after `max_iterations`. A point whose
+//! less than `ftol` (relative) over an accepted step, when the residual is
+//! orthogonal to the free Jacobian columns to `gtol` (More, Garbow &
+//! Hillstrom, MINPACK-1, 1980), when no trial step
+//! lowers it (λ above 1e12), after `max_iterations`, or as stalled when the
+//! last `stall_window` steps together lowered it by less than
+//! `stall_decrease` (a fit crawling along a bound). A point whose
 //! residuals cannot be computed (`None`) costs +∞; a failed stencil point
 //! gives a zero Jacobian column. Deterministic: the only parallel part is
 //! the caller's batch evaluation.
 
 use super::error::OptimizeError;
 use super::problem::{Bounds, HistoryPoint, Termination};
+use super::jacobian::forward as jacobian;
 use crate::dense::solve_spd;
 use serde::{Deserialize, Serialize};
 
@@ -46,6 +51,15 @@ pub struct LmParams {
     /// Stop when an accepted step lowers the cost by less than this fraction.
     pub ftol: f64,
     pub max_iterations: usize,
+    /// Converged when the cosine between the residual and every free
+    /// Jacobian column is at most this (MINPACK's gtol): a least-squares
+    /// minimum, reached at whatever noise floor the data have.
+    pub gtol: f64,
+    /// Stop as stalled when the last `stall_window` accepted steps lowered
+    /// the cost by less than `stall_decrease` (relative) in all: a fit
+    /// crawling along a bound or in a flat valley, far from any tolerance.
+    pub stall_window: usize,
+    pub stall_decrease: f64,
 }
 
 impl Default for LmParams {
@@ -56,6 +70,9 @@ impl Default for LmParams {
             max_step: 0.05,
             ftol: 1e-10,
             max_iterations: 500,
+            gtol: 1e-4,
+            stall_window: 20,
+            stall_decrease: 1e-2,
         }
     }
 }
@@ -164,41 +181,7 @@ pub fn minimize(
             break Termination::Converged;
         }
         // Jacobian, column-major: one forward-difference batch.
-        let steps: Vec<f64> = (0..n)
-            .map(|j| {
-                if u[j] + params.step <= 1.0 {
-                    params.step
-                } else {
-                    -params.step
-                }
-            })
-            .collect();
-        let stencil: Vec<Vec<f64>> = (0..n)
-            .map(|j| {
-                let mut p = u.clone();
-                p[j] += steps[j];
-                p
-            })
-            .collect();
-        let columns: Vec<Vec<f64>> = eval(&stencil)
-            .into_iter()
-            .zip(&steps)
-            .map(|(rp, h)| match rp {
-                Some(rp) if rp.len() == res.len() => rp
-                    .iter()
-                    .zip(res)
-                    .map(|(a, b)| {
-                        let d = (a - b) / h;
-                        if d.is_finite() {
-                            d
-                        } else {
-                            0.0
-                        }
-                    })
-                    .collect(),
-                _ => vec![0.0; res.len()],
-            })
-            .collect();
+        let columns = jacobian(&eval, &u, res, params.step);
         evaluations += n;
         let mut jtj = vec![0.0; n * n];
         let mut g = vec![0.0; n];
@@ -212,6 +195,19 @@ pub fn minimize(
         }
         let largest = (0..n).map(|i| jtj[i * n + i]).fold(0.0f64, f64::max);
         if largest == 0.0 {
+            break Termination::Converged;
+        }
+        // MINPACK's gtol: r is orthogonal to every column that can move
+        // (a column at a bound whose descent leaves the box cannot).
+        let rnorm = (2.0 * cost).sqrt();
+        let cosine = (0..n)
+            .filter(|&j| {
+                let descent = -g[j];
+                !((u[j] <= 0.0 && descent < 0.0) || (u[j] >= 1.0 && descent > 0.0))
+            })
+            .map(|j| g[j].abs() / (jtj[j * n + j].sqrt() * rnorm).max(f64::MIN_POSITIVE))
+            .fold(0.0f64, f64::max);
+        if cosine <= params.gtol {
             break Termination::Converged;
         }
         let floor = 1e-12 * largest;
@@ -259,6 +255,13 @@ pub fn minimize(
         });
         if decrease < params.ftol {
             break Termination::Converged;
+        }
+        let w = params.stall_window;
+        if w > 0 && history.len() > w {
+            let before = history[history.len() - 1 - w].f_best;
+            if (before - cost) < params.stall_decrease * before {
+                break Termination::Stalled;
+            }
         }
     };
     Ok(LmResult {

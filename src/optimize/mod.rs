@@ -16,6 +16,7 @@ pub mod bayesian;
 pub mod error;
 pub mod ga;
 pub mod gaussian_process;
+pub mod jacobian;
 pub mod levenberg_marquardt;
 pub mod multistart;
 pub mod optimizer;

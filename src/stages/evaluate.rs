@@ -92,8 +92,9 @@ impl Stage for Evaluate {
     fn kind(&self) -> &'static str {
         "evaluate"
     }
+    /// 2: modes paired by frequency and MAC.
     fn version(&self) -> u32 {
-        1
+        2
     }
     fn summary(&self) -> &'static str {
         "compare candidate modes/FRFs/parameters with a reference: MAC, MACXP, NFD, NDD, FRAC, CSF, parameter errors"
@@ -249,7 +250,12 @@ fn compare_modes(
             1.0,
         );
         write(&plots.join(format!("mac_{}.svg", r.position.index)), &svg)?;
-        let pairs = metrics::pair_modes(&rf, &rs, &cf, &cs, window, min_mac);
+        let settings = crate::pairing::Pairing {
+            window,
+            min_mac,
+            ..Default::default()
+        };
+        let pairs = crate::pairing::pair_modes(&rf, &rs, &cf, &cs, &settings);
         let (mut macs_p, mut nfds, mut ndds) = (Vec::new(), Vec::new(), Vec::new());
         for p in &pairs {
             let (a, b) = (&r.modes[p.reference], &c.modes[p.candidate]);

@@ -82,8 +82,11 @@ impl Stage for Gsa {
     }
 
     /// 2: `significant` output, FRF bands, validation, ANOVA sources.
+    /// 3: modes paired by frequency and MAC; one pole convention for
+    /// frequencies and damping (hysteretic modes at |λ|); subproblems.json
+    /// names its modes' frequencies.
     fn version(&self) -> u32 {
-        2
+        3
     }
 
     fn summary(&self) -> &'static str {

@@ -18,6 +18,7 @@ pub mod report;
 pub mod shard;
 pub mod synthesize;
 pub mod synthesize_params;
+pub mod synthesize_values;
 
 use crate::evaluation::{EvalError, Model};
 use crate::pipeline::progress::Progress;

@@ -10,11 +10,12 @@
 //! so downstream stages can rebuild it), `truth` (parameters.csv).
 
 use super::artifacts;
-use super::synthesize_params::{self as sp, Modes, Params, Values};
+use super::synthesize_params::{self as sp, Modes, Params};
+use super::synthesize_values::{override_from_table, significant_parameters, values};
 use super::{
     InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs,
 };
-use crate::dynamics::measurement::{self, GaussianStream};
+use crate::dynamics::measurement;
 use crate::dynamics::model_file::{self, ParameterKind, Scale};
 use crate::dynamics::solve::ModeSelection;
 use crate::dynamics::superelement::directory_resolver;
@@ -81,107 +82,6 @@ pub(crate) fn model_file_dependencies(dir: &Path, rel: &str) -> Result<Vec<Strin
     Ok(external_files(&spec, rel))
 }
 
-/// Override `x` with the `value` column of a parameter table (rows named by
-/// `parameter`); every named parameter must exist and lie within its bounds.
-fn override_from_table(model: &Model, x: &mut [f64], path: &Path) -> Result<(), StageError> {
-    let invalid = |message: String| StageError::InvalidInput {
-        input: "values".into(),
-        message,
-    };
-    for (name, v) in super::evaluate::read_parameters(path, "values")? {
-        let k = model
-            .parameter_index(&name)
-            .ok_or_else(|| invalid(format!("the model has no parameter `{name}`")))?;
-        let p = &model.parameters[k];
-        if !(v.is_finite() && p.lower <= v && v <= p.upper) {
-            return Err(invalid(format!(
-                "`{name}` = {v} is outside its bounds [{}, {}]",
-                p.lower, p.upper
-            )));
-        }
-        x[k] = v;
-    }
-    Ok(())
-}
-
-/// Parameter values to use, in model order.
-fn values(model: &Model, spec: Option<&Values>) -> Result<Vec<f64>, String> {
-    let mut v = model.true_values();
-    match spec {
-        None | Some(Values::Named(_)) => {}
-        Some(Values::Overrides(map)) => {
-            for (name, &x) in map {
-                let i = model.parameter_index(name).ok_or_else(|| {
-                    let names: Vec<&str> =
-                        model.parameters.iter().map(|p| p.name.as_str()).collect();
-                    format!(
-                        "values: the model has no parameter `{name}` (parameters: {})",
-                        names.join(", ")
-                    )
-                })?;
-                let p = &model.parameters[i];
-                if !(x.is_finite() && p.lower <= x && x <= p.upper) {
-                    return Err(format!(
-                        "values: `{name}` = {x} is outside its bounds [{}, {}]",
-                        p.lower, p.upper
-                    ));
-                }
-                v[i] = x;
-            }
-        }
-        Some(Values::Scale { scale }) => {
-            for (pattern, &f) in scale {
-                let glob = glob::Pattern::new(pattern)
-                    .map_err(|e| format!("values.scale: `{pattern}`: {e}"))?;
-                let mut matched = false;
-                for (i, p) in model.parameters.iter().enumerate() {
-                    if glob.matches(&p.name) {
-                        matched = true;
-                        let x = v[i] * f;
-                        if !(p.lower <= x && x <= p.upper) {
-                            return Err(format!(
-                                "values.scale: `{}` × {f} = {x} is outside its bounds [{}, {}]",
-                                p.name, p.lower, p.upper
-                            ));
-                        }
-                        v[i] = x;
-                    }
-                }
-                if !matched {
-                    return Err(format!(
-                        "values.scale: `{pattern}` matches no parameter of the model"
-                    ));
-                }
-            }
-        }
-        Some(Values::Perturb { perturb }) => {
-            if let Some(only) = &perturb.parameters {
-                let names: Vec<&str> = model.parameters.iter().map(|p| p.name.as_str()).collect();
-                if let Some(name) = only.iter().find(|n| !names.contains(&n.as_str())) {
-                    return Err(format!(
-                        "values.perturb.parameters: the model has no parameter `{name}` (parameters: {})",
-                        names.join(", ")
-                    ));
-                }
-            }
-            // One Gaussian stream per parameter index: adding a parameter
-            // leaves the others' perturbations unchanged.
-            for (i, p) in model.parameters.iter().enumerate() {
-                if perturb
-                    .parameters
-                    .as_ref()
-                    .is_some_and(|only| !only.contains(&p.name))
-                {
-                    continue;
-                }
-                let g = GaussianStream::new(perturb.seed, i as u64).standard();
-                v[i] = (p.value * (perturb.relative * g).exp()).clamp(p.lower, p.upper);
-            }
-        }
-    }
-    Ok(v)
-}
-
 /// Configuration indices selected by `positions` (indices or labels).
 fn positions(prepared: &PreparedModel, sel: Option<&[Value]>) -> Result<Vec<usize>, String> {
     let Some(sel) = sel else {
@@ -231,8 +131,10 @@ impl Stage for Synthesize {
     fn kind(&self) -> &'static str {
         "synthesize"
     }
+    /// 2: true modes in the pole convention of the FRFs (hysteretic modes
+    /// at |λ|, [`crate::dynamics::solve::mode_pole`]).
     fn version(&self) -> u32 {
-        1
+        2
     }
     fn summary(&self) -> &'static str {
         "solve a model file and write reference FRFs (with noise or a simulated impact test), modes and the truth"
@@ -241,12 +143,20 @@ impl Stage for Synthesize {
         PARAMS
     }
     fn inputs(&self) -> Option<&'static [InputSpec]> {
-        Some(&[InputSpec {
-            name: "values",
-            required: false,
-            list: false,
-            doc: "a parameter table (`parameter,value,...`: an identify stage's `parameters`, a synthesize `truth`) whose values override the model's, applied after the `values` param: the updated model's FRFs and modes",
-        }])
+        Some(&[
+            InputSpec {
+                name: "values",
+                required: false,
+                list: false,
+                doc: "a parameter table (`parameter,value,...`: an identify stage's `parameters`, a synthesize `truth`) whose values override the model's, applied after the `values` param: the updated model's FRFs and modes",
+            },
+            InputSpec {
+                name: "significant",
+                required: false,
+                list: false,
+                doc: "a gsa `significant` table (significant.csv): `values.perturb` moves only its significant parameters (PUB3 scenario 1 that follows the screening)",
+            },
+        ])
     }
     fn outputs(&self, _params: &Mapping) -> Vec<String> {
         ["frf", "modes", "model", "truth"]
@@ -269,7 +179,7 @@ impl Stage for Synthesize {
                 "fix the model file; see pipelines/models/ for examples",
             )
         })?;
-        values(&model, p.values.as_ref()).map_err(|m| {
+        values(&model, p.values.as_ref(), None).map_err(|m| {
             problem(
                 &["values"],
                 m,
@@ -307,7 +217,12 @@ impl Stage for Synthesize {
         };
         let (model, text) =
             load_model(ctx.pipeline_dir, &p.model).map_err(|m| invalid("model", m))?;
-        let mut x = values(&model, p.values.as_ref()).map_err(|m| invalid("values", m))?;
+        let only = match ctx.inputs.get("significant") {
+            Some(_) => Some(significant_parameters(ctx.input("significant")?, &p)?),
+            None => None,
+        };
+        let mut x =
+            values(&model, p.values.as_ref(), only.as_deref()).map_err(|m| invalid("values", m))?;
         if ctx.inputs.contains_key("values") {
             override_from_table(&model, &mut x, ctx.input("values")?)?;
         }

@@ -1,47 +1,96 @@
-//! The guided strategy's smooth views of the objective (PUB3, module docs of
-//! [`super`]): the least-squares residual vector of the joint refinement and
-//! the per-mode criterion of a subproblem. Both leave damping out (frequencies
-//! and shapes do not depend on it) and neither has J's penalty plateau.
+//! The least-squares view of the objective (the guided strategy's
+//! refinement) and the per-mode criterion of a PUB3 subproblem. Both leave
+//! damping out (frequencies and shapes do not depend on it) and neither has
+//! J's penalty plateau.
 
-use super::ModalObjective;
+use super::{mean_mac, ModalObjective, ModeSet};
 use crate::metrics::{mac, nfd};
 use num_complex::Complex64;
 
+/// The residuals at one point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Evaluation {
+    /// The residual vector of the modes of the requested set.
+    pub residuals: Vec<f64>,
+    /// Per mode of the set, (ζ_m − ζ_r)/(ζ_r σ_ζ) (an unpaired mode: 1/σ_ζ).
+    pub damping: Vec<f64>,
+    /// ½‖r‖² over all usable modes (the same criterion whatever the set,
+    /// so stages of a continuation can be compared).
+    pub cost_usable: f64,
+    /// Mean MAC over all usable modes, an unpaired mode counting 0.
+    pub mean_mac: f64,
+}
+
 impl ModalObjective {
-    /// The modal residual vector of the joint refinement and the mean MAC,
-    /// or `None` when the model cannot be solved. Per position and kept
-    /// reference mode r, paired with model mode m as in J:
+    /// The weighted modal residuals of the modes in `set` at `x`, or `None`
+    /// when the model cannot be solved. Per position and reference mode r of
+    /// the set, paired with model mode m (by the pairing of the set alone):
     ///
-    /// - √w_nfd (f_m − f_r)/f_r (the signed NFD, eq. 2.64);
-    /// - √w_mac (α φ̂_m − ψ̂_r), real and imaginary parts per shared DOF, with
-    ///   unit-normalized shapes and the unit phase factor α that brings them
-    ///   closest; ‖α φ̂ − ψ̂‖² = 2 (1 − √MAC) ≈ 1 − MAC near a match (eq. 2.62).
+    /// - √w_nfd (f_m − f_r) / (f_r σ_f,r): the signed NFD (eq. 2.64) in units
+    ///   of the frequency's uncertainty;
+    /// - √w_mac (α φ̂_m − ψ̂_r) / σ_s,r, real and imaginary parts per shared
+    ///   DOF, with unit-normalized shapes and the unit phase factor α that
+    ///   brings them closest: ‖α φ̂ − ψ̂‖² = 2 (1 − √MAC) ≈ 1 − MAC near a
+    ///   match (eq. 2.62).
     ///
-    /// An unpaired mode gives the constant residuals √w_nfd·window and −ψ̂_r.
-    /// ½‖r‖² ≈ ½ Σ [w_mac (1 − MAC) + w_nfd NFD²]: the least-squares form of
-    /// J's MAC and NFD terms (damping plays no part, see the module docs).
-    pub fn residuals(&self, x: &[f64]) -> Option<(Vec<f64>, f64)> {
+    /// An unpaired mode gives the constant residuals √w_nfd·window/σ_f and
+    /// −ψ̂_r/σ_s.
+    pub fn evaluate(&self, x: &[f64], set: &ModeSet) -> Option<Evaluation> {
         let models = self.model_modes(x).ok()?;
-        let pairing = self.pairing(&models);
+        let usable = self.usable();
+        let (residuals, damping) = self.residual_vector(&models, set);
+        let all = if *set == usable {
+            residuals.clone()
+        } else {
+            self.residual_vector(&models, &usable).0
+        };
+        let pairs = self.pair(&models, &usable);
+        let cost_usable = 0.5 * all.iter().map(|v| v * v).sum::<f64>();
+        let finite = residuals.iter().chain(&damping).all(|v| v.is_finite());
+        (finite && cost_usable.is_finite()).then(|| Evaluation {
+            residuals,
+            damping,
+            cost_usable,
+            mean_mac: mean_mac(&pairs, &usable),
+        })
+    }
+
+    /// The residual vector (see [`Self::evaluate`]) of `set`, and the
+    /// damping residuals.
+    fn residual_vector(
+        &self,
+        models: &[crate::modal::ModalModel],
+        set: &ModeSet,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let pairing = self.pair(models, set);
         let (wf, ws) = (self.weights.nfd.sqrt(), self.weights.mac.sqrt());
         let mut out = Vec::new();
-        let (mut mac_sum, mut count) = (0.0, 0usize);
-        for ((r, m), pairs) in self.references.iter().zip(&models).zip(&pairing) {
+        let mut damping = Vec::new();
+        for (((r, m), pairs), used) in self.references.iter().zip(models).zip(&pairing).zip(set) {
             for (k, c) in pairs.iter().enumerate() {
+                if !used[k] {
+                    continue;
+                }
+                let (sf, ss) = (r.sigma_f[k], r.sigma_s[k]);
                 let psi = &r.shapes[k];
-                let psi_norm = psi.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt();
-                count += 1;
+                let psi_norm = norm(psi);
                 let Some(c) = c else {
-                    out.push(wf * self.window);
+                    damping.push(1.0 / r.sigma_z[k]);
+                    out.push(wf * self.pairing.window / sf);
                     for v in psi {
-                        out.extend([-ws * v.re / psi_norm, -ws * v.im / psi_norm]);
+                        out.extend([-ws * v.re / psi_norm / ss, -ws * v.im / psi_norm / ss]);
                     }
                     continue;
                 };
-                let mode = &m.modes[*c];
-                mac_sum += mac(psi, &mode.shape);
-                out.push(wf * (mode.frequency_hz - r.frequencies[k]) / r.frequencies[k]);
-                let phi_norm = mode.shape.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt();
+                let mode = &m.modes[c.model_mode];
+                let zr = r.damping[k];
+                damping.push(if zr > 0.0 {
+                    (mode.damping_ratio - zr) / (zr * r.sigma_z[k])
+                } else {
+                    mode.damping_ratio / r.sigma_z[k]
+                });
+                out.push(wf * (mode.frequency_hz - r.frequencies[k]) / r.frequencies[k] / sf);
+                let phi_norm = norm(&mode.shape);
                 let dot: Complex64 = mode.shape.iter().zip(psi).map(|(p, q)| p.conj() * q).sum();
                 let alpha = if dot.norm() > 0.0 {
                     dot / dot.norm()
@@ -49,14 +98,12 @@ impl ModalObjective {
                     Complex64::new(1.0, 0.0)
                 };
                 for (p, q) in mode.shape.iter().zip(psi) {
-                    let d = alpha * p / phi_norm - q / psi_norm;
+                    let d = (alpha * p / phi_norm - q / psi_norm) / ss;
                     out.extend([ws * d.re, ws * d.im]);
                 }
             }
         }
-        out.iter()
-            .all(|v| v.is_finite())
-            .then(|| (out, mac_sum / count.max(1) as f64))
+        (out, damping)
     }
 
     /// The criterion of one mode-shape reference (a PUB3 subproblem): reference
@@ -87,6 +134,10 @@ impl ModalObjective {
     }
 }
 
+fn norm(v: &[Complex64]) -> f64 {
+    v.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt()
+}
+
 /// The pseudo-Huber function h_δ(t) = √(t² + δ²) − δ: smooth, ≈ t²/2δ for
 /// |t| ≪ δ and ≈ |t| − δ for |t| ≫ δ (δ = 0 gives |t|).
 fn huber(t: f64, delta: f64) -> f64 {
@@ -96,39 +147,49 @@ fn huber(t: f64, delta: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use crate::identify::black_box::tests::{objective, truth};
+    use crate::identify::Uncertainty;
 
     #[test]
     fn residuals_vanish_at_the_truth_and_match_mac_and_nfd_near_it() {
         let o = objective();
         let t = truth();
-        let (r, mac) = o.residuals(&t).unwrap();
+        let all = o.usable();
+        let e = o.evaluate(&t, &all).unwrap();
         // 3 modes × (1 frequency + 2 × 3 shape components).
-        assert_eq!(r.len(), 21);
-        assert!(r.iter().all(|v| v.abs() < 1e-12), "{r:?}");
-        assert!((mac - 1.0).abs() < 1e-12);
-        // Near the truth ½‖r‖² ≈ ½ Σ (1 − MAC) + NFD² (eq. 2.62, 2.64).
+        assert_eq!(e.residuals.len(), 21);
+        assert!(e.residuals.iter().all(|v| v.abs() < 1e-9), "{e:?}");
+        assert!((e.mean_mac - 1.0).abs() < 1e-12);
+        // Near the truth ½‖r‖² ≈ ½ Σ (1 − MAC)/σ_s² + (NFD/σ_f)² (eq. 2.62,
+        // 2.64), with the default uncertainty.
+        let u = Uncertainty::default();
         let mut x = t.clone();
         x[1] *= 1.002;
-        let (r, _) = o.residuals(&x).unwrap();
-        let half: f64 = 0.5 * r.iter().map(|v| v * v).sum::<f64>();
-        let all = o.matches(&x).unwrap();
-        let expect: f64 = all[0]
+        let e = o.evaluate(&x, &all).unwrap();
+        let half: f64 = 0.5 * e.residuals.iter().map(|v| v * v).sum::<f64>();
+        assert!((half - e.cost_usable).abs() < 1e-12 * half);
+        let m = o.matches(&x).unwrap();
+        let expect: f64 = m[0]
             .iter()
             .enumerate()
             .map(|(k, m)| {
                 let m = m.unwrap();
-                let nfd =
-                    (m.frequency_hz - o.reference_frequency(0, k)) / o.reference_frequency(0, k);
-                0.5 * ((1.0 - m.mac) + nfd * nfd)
+                let f = o.reference_frequency(0, k);
+                let nfd = (m.frequency_hz - f) / f;
+                0.5 * ((1.0 - m.mac) / u.shape.powi(2) + (nfd / u.frequency).powi(2))
             })
             .sum();
         assert!(
             half > 0.0 && (half / expect - 1.0).abs() < 1e-2,
             "{half} vs {expect}"
         );
-        let s = o.summary(&x).unwrap();
-        assert_eq!((s.reference_modes, s.paired), (3, 3));
-        assert!(s.mean_mac < 1.0 && s.mean_nfd > 0.0);
+        // A subset: only its modes' residuals, the usable cost unchanged.
+        let first = vec![vec![true, false, false]];
+        let s = o.evaluate(&x, &first).unwrap();
+        assert_eq!(s.residuals.len(), 7);
+        assert_eq!(s.cost_usable, e.cost_usable);
+        let summary = o.summary(&x).unwrap();
+        assert_eq!((summary.reference_modes, summary.paired), (3, 3));
+        assert!(summary.mean_mac < 1.0 && summary.mean_nfd > 0.0);
     }
 
     #[test]

@@ -92,13 +92,17 @@ fn track(
             if !shared.dofs.is_empty() {
                 let rf: Vec<f64> = r.modes.iter().map(|m| m.frequency_hz).collect();
                 let cf: Vec<f64> = c.modes.iter().map(|m| m.frequency_hz).collect();
-                let pairs = crate::metrics::pair_modes(
+                let settings = crate::pairing::Pairing {
+                    window,
+                    min_mac,
+                    ..Default::default()
+                };
+                let pairs = crate::pairing::pair_modes(
                     &rf,
                     &shared.first,
                     &cf,
                     &shared.second,
-                    window,
-                    min_mac,
+                    &settings,
                 );
                 for p in pairs {
                     partner[p.reference] = Some(&c.modes[p.candidate]);

@@ -95,6 +95,7 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
         "threshold": screening.threshold,
         "combine": screening.rule,
         "warnings": report.warnings,
+        "modes": model.named_modes().iter().map(|(name, f)| serde_json::json!({"name": name, "frequency_hz": f})).collect::<Vec<_>>(),
     });
     let subproblems = ctx.scratch.join("subproblems.json");
     let text =

@@ -1,0 +1,335 @@
+//! Mode-set continuation: sensitivity-based model updating (bounded
+//! Levenberg–Marquardt on the modal residuals, Friswell & Mottershead 1995)
+//! that brings the reference modes in stage by stage, lowest first.
+//!
+//! Why: with all modes at once, the least-squares landscape is full of
+//! local minima made by the pairing itself. A 30 % error in 20 stiffnesses
+//! moves the test bench's modes by up to 20 % and reorders them; in the
+//! crowded band (70–110 Hz, ten sensors) a model mode then pairs with the
+//! wrong reference mode, and Levenberg–Marquardt converges to a model that
+//! fits that wrong correspondence (PUB3 scenario 1: 2 of 6 seeds reached
+//! the truth from the subproblem values; the rest stalled at ½‖r‖² of
+//! 0.15–0.38). The lowest modes, in contrast, are global (mounts, frame),
+//! well separated and pair without doubt even 20 % off; fitted first, they
+//! pull the model close enough for the next mode to pair correctly, and so
+//! on — a homotopy in the data rather than in the parameters. Measured on
+//! the test bench from exact modes: 16 of 16 perturbation seeds converge to
+//! the truth this way, against 2 of 6 with all modes at once.
+//!
+//! **Prior.** Each parameter is tied to its start value by one more
+//! residual, (u − u₀)/σ_u in the unit box (log scale for log parameters),
+//! σ_u = `regularization` = 0.25 by default: the bounds span ±2σ, a
+//! log-normal prior of the kind the bounds already express (Tikhonov
+//! regularization of model updating, Friswell & Mottershead 1995, ch. 6).
+//! A parameter the data determine is moved by them (its data residuals are
+//! tens to hundreds of σ per unit of ln p); one they cannot see stays near
+//! its start instead of drifting to a bound to fit noise, which also lets
+//! the fit converge. Which parameters the data determine is judged from
+//! the data residuals alone ([`super::identifiability`]). The prior speaks
+//! in units of the stated uncertainty; when a stage's fit shows the data to
+//! be far more precise than stated (σ̂ ≪ 1: exact, synthetic modes), the
+//! next stage's prior is scaled by σ̂, so exact data are fitted exactly.
+//!
+//! Stage k uses, per position, the lowest `first + k·step` usable reference
+//! modes (by reference frequency); every stage starts where the previous
+//! ended. Intermediate stages stop once an accepted step lowers the cost by
+//! less than `stage_tolerance` (they only have to reach the basin); the last
+//! stage, with every usable mode, converges to the LM tolerance. Each stage
+//! keeps enough budget for the ones after it (three Jacobians each).
+
+use super::history::Recorder;
+use super::objective::{ModalObjective, ModeSet};
+use super::IdentifyError;
+use crate::optimize::levenberg_marquardt::{self, LmParams};
+use crate::optimize::{Bounds, Termination};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Settings of the continuation (YAML `guided.continuation`).
+#[derive(Clone, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ContinuationParams {
+    /// Modes per position in the first stage.
+    pub first: usize,
+    /// Modes added per position and stage.
+    pub step: usize,
+    /// An intermediate stage ends when an accepted step lowers ½‖r‖² by
+    /// less than this fraction.
+    pub stage_tolerance: f64,
+    /// Largest change of one parameter per step, as a fraction of its
+    /// (log) range.
+    pub max_step: f64,
+    /// Standard deviation, as a fraction of a parameter's (log) range, of
+    /// the prior that ties it to its start value (0: none); see the module
+    /// docs.
+    pub regularization: f64,
+}
+
+impl Default for ContinuationParams {
+    fn default() -> Self {
+        ContinuationParams {
+            first: 2,
+            step: 1,
+            stage_tolerance: 1e-3,
+            max_step: 0.05,
+            regularization: 0.25,
+        }
+    }
+}
+
+impl ContinuationParams {
+    /// Check the settings; the message names the bad one.
+    pub fn check(&self) -> Result<(), String> {
+        if self.first == 0 || self.step == 0 {
+            return Err("continuation.first and continuation.step must be ≥ 1".into());
+        }
+        if !(self.stage_tolerance > 0.0 && self.stage_tolerance < 1.0) {
+            return Err(format!(
+                "continuation.stage_tolerance must be in (0, 1), got {}",
+                self.stage_tolerance
+            ));
+        }
+        if !(self.regularization >= 0.0 && self.regularization.is_finite()) {
+            return Err(format!(
+                "continuation.regularization must be ≥ 0, got {}",
+                self.regularization
+            ));
+        }
+        if !(self.max_step > 0.0 && self.max_step <= 1.0) {
+            return Err(format!(
+                "continuation.max_step must be in (0, 1], got {}",
+                self.max_step
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// One stage of the continuation.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct StageRecord {
+    /// Usable modes per position taken in this stage (at most).
+    pub modes_per_position: usize,
+    /// Reference modes used in all.
+    pub modes: usize,
+    /// ½‖r‖² of this stage's modes (and the prior) at its start and end.
+    pub start: f64,
+    pub end: f64,
+    pub evaluations: usize,
+    pub termination: String,
+}
+
+/// What the continuation found.
+#[derive(Clone, Debug)]
+pub struct ContinuationResult {
+    /// All parameter values at the end.
+    pub x: Vec<f64>,
+    pub stages: Vec<StageRecord>,
+    pub evaluations: usize,
+    /// How the last stage ended.
+    pub termination: Termination,
+    /// ½‖r‖² over all usable modes at the start and at the end.
+    pub start_cost: f64,
+    pub end_cost: f64,
+}
+
+/// The mode sets of the stages: per slot the usable modes, lowest reference
+/// frequency first, `first + k·step` of them in stage k.
+pub fn schedule(o: &ModalObjective, settings: &ContinuationParams) -> Vec<(usize, ModeSet)> {
+    let usable = o.usable();
+    let order: Vec<Vec<usize>> = usable
+        .iter()
+        .enumerate()
+        .map(|(p, u)| {
+            let mut idx: Vec<usize> = (0..u.len()).filter(|&k| u[k]).collect();
+            idx.sort_by(|&a, &b| {
+                o.reference_frequency(p, a)
+                    .total_cmp(&o.reference_frequency(p, b))
+            });
+            idx
+        })
+        .collect();
+    let most = order.iter().map(Vec::len).max().unwrap_or(0);
+    let mut out = Vec::new();
+    let mut count = settings.first;
+    loop {
+        let set: ModeSet = usable
+            .iter()
+            .zip(&order)
+            .map(|(u, idx)| {
+                let mut s = vec![false; u.len()];
+                for &k in idx.iter().take(count) {
+                    s[k] = true;
+                }
+                s
+            })
+            .collect();
+        out.push((count.min(most), set));
+        if count >= most {
+            return out;
+        }
+        count += settings.step;
+    }
+}
+
+/// Run the continuation over the parameters `free` (indices) from `x0`
+/// (all values) with at most `budget` evaluations; every evaluation is
+/// recorded in `recorder` as (½‖r‖² over all usable modes, mean MAC).
+pub fn continuation(
+    o: &ModalObjective,
+    free: &[usize],
+    x0: &[f64],
+    prior: &[f64],
+    budget: usize,
+    settings: &ContinuationParams,
+    recorder: &Recorder,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<ContinuationResult, IdentifyError> {
+    settings.check().map_err(IdentifyError::Invalid)?;
+    let full = o.bounds()?;
+    let bounds = Bounds::new(
+        free.iter().map(|&i| full.lower()[i]).collect(),
+        free.iter().map(|&i| full.upper()[i]).collect(),
+        free.iter().map(|&i| full.scale()[i]).collect(),
+    )
+    .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
+    let n = free.len();
+    let stages = schedule(o, settings);
+    let centre = bounds.to_unit(&free.iter().map(|&i| prior[i]).collect::<Vec<_>>());
+    let mut prior_scale = 1.0;
+    let per_stage_minimum = 3 * (n + 1) + 1;
+    let mut x = x0.to_vec();
+    let mut records = Vec::new();
+    let start_cost = o
+        .evaluate(x0, &o.usable())
+        .map_or(f64::INFINITY, |e| e.cost_usable);
+    progress(1);
+    let mut used = 1usize;
+    let mut termination = Termination::BudgetExhausted;
+    for (k, (count, set)) in stages.iter().enumerate() {
+        let later = stages.len() - 1 - k;
+        let last = later == 0;
+        let stage_budget = budget
+            .saturating_sub(used)
+            .saturating_sub(later * per_stage_minimum);
+        if stage_budget < n + 2 {
+            break;
+        }
+        let base = x.clone();
+        let point = |values: &[f64]| {
+            let mut p = base.clone();
+            for (j, &i) in free.iter().enumerate() {
+                p[i] = values[j];
+            }
+            p
+        };
+        let residuals = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
+            let v: Vec<_> = points
+                .par_iter()
+                .map(|p| o.evaluate(&point(p), set))
+                .collect();
+            let record: Vec<(f64, f64)> = v
+                .iter()
+                .map(|e| e.as_ref().map_or((f64::INFINITY, 0.0), |e| (e.cost_usable, e.mean_mac)))
+                .collect();
+            recorder.record(&record);
+            progress(points.len() as u64);
+            v.into_iter()
+                .zip(points)
+                .map(|(e, p)| {
+                    e.map(|e| {
+                        let mut r = e.residuals;
+                        if settings.regularization > 0.0 {
+                            let u = bounds.to_unit(p);
+                            r.extend(
+                                u.iter()
+                                    .zip(&centre)
+                                    .map(|(a, b)| prior_scale * (a - b) / settings.regularization),
+                            );
+                        }
+                        r
+                    })
+                })
+                .collect()
+        };
+        let params = LmParams {
+            ftol: if last {
+                LmParams::default().ftol
+            } else {
+                settings.stage_tolerance
+            },
+            max_step: settings.max_step,
+            ..LmParams::default()
+        };
+        let start: Vec<f64> = free.iter().map(|&i| x[i]).collect();
+        let r = levenberg_marquardt::minimize(&bounds, &residuals, &start, stage_budget, &params)?;
+        used += r.evaluations;
+        // The data's own noise level σ̂ (in units of the stated σ) scales the
+        // prior of the next stage: see the module docs.
+        if settings.regularization > 0.0 && r.cost.is_finite() {
+            let u = bounds.to_unit(&r.x_best);
+            let prior: f64 = u
+                .iter()
+                .zip(&centre)
+                .map(|(a, b)| (prior_scale * (a - b) / settings.regularization).powi(2))
+                .sum::<f64>()
+                / 2.0;
+            let m = set
+                .iter()
+                .enumerate()
+                .map(|(p, s)| {
+                    s.iter().filter(|&&x| x).count() * (1 + 2 * o.references[p].rows.len())
+                })
+                .sum::<usize>()
+                .max(1);
+            let sigma = (2.0 * (r.cost - prior).max(0.0) / m as f64).sqrt();
+            prior_scale = sigma.clamp(1e-6, 1.0);
+        }
+        if r.cost.is_finite() {
+            x = point(&r.x_best);
+        }
+        records.push(StageRecord {
+            modes_per_position: *count,
+            modes: set.iter().flatten().filter(|&&s| s).count(),
+            start: r.history.first().map_or(f64::NAN, |h| h.f_best),
+            end: r.cost,
+            evaluations: r.evaluations,
+            termination: termination_text(&r.termination),
+        });
+        termination = r.termination;
+    }
+    if records.is_empty() {
+        return Err(IdentifyError::Invalid(format!(
+            "budget {budget} cannot pay the continuation over {n} parameters; give at least {}",
+            stages.len() * per_stage_minimum + n + 2
+        )));
+    }
+    // The data's cost over all usable modes (the stages' costs include the
+    // prior and, before the last, only some modes).
+    let end_cost = o
+        .evaluate(&x, &o.usable())
+        .map_or(f64::INFINITY, |e| e.cost_usable);
+    used += 1;
+    progress(1);
+    Ok(ContinuationResult {
+        x,
+        stages: records,
+        evaluations: used,
+        termination,
+        start_cost,
+        end_cost,
+    })
+}
+
+/// A short name of how an optimizer ended.
+pub fn termination_text(t: &Termination) -> String {
+    match t {
+        Termination::Converged => "converged".into(),
+        Termination::TargetReached => "target reached".into(),
+        Termination::BudgetExhausted => "budget exhausted".into(),
+        Termination::MaxIterations => "iteration limit".into(),
+        Termination::Stalled => "stalled".into(),
+        Termination::RoundoffLimited { .. } => "roundoff limited".into(),
+        Termination::Failed { message } => format!("failed: {message}"),
+    }
+}

@@ -1,0 +1,219 @@
+//! Which reference mode is which mode of the model at its start values
+//! ("nominal" modes), and which of them the sensors can see.
+//!
+//! GSA outputs (`p0.mode7.mac`) and `exclude_modes` name modes of the
+//! nominal model — the model the screening ran on — because a measurement's
+//! own numbering is arbitrary: AutoEMA finds 7–9 of 11 modes per position,
+//! and a missed mode renumbers every mode above it. Here the nominal modes
+//! are paired with the reference ([`crate::pairing`]: frequency and MAC, one
+//! assignment), so a GSA subproblem lands on its physical mode or is dropped
+//! with a reason, never silently shifted to a neighbour.
+//!
+//! **Observability.** A mode the sensors barely see (a local mode of an
+//! unmeasured part: the ball screw's bending between its bearings) has a
+//! shape at the sensors that is mostly noise, and a MAC that flips with tiny
+//! parameter changes and traps a local optimizer. The criterion is the
+//! sensor amplitude of the mass-normalized shape relative to the modes
+//! around it,
+//!
+//! v_r = ‖S φ_r‖ / median_k ‖S φ_k‖   (k over the model modes in the band),
+//!
+//! scale-free and blind to the reference's noise; a mode with v_r below the
+//! threshold (default 0.25) is left out, and the reason written down. On the
+//! test bench the screw modes have v = 0.05–0.22 and every global mode
+//! v ≥ 0.46.
+
+use super::objective::ModalObjective;
+use super::IdentifyError;
+use crate::metrics::nfd;
+use crate::pairing::{cost_matrix, margins, pair_modes};
+use serde::Serialize;
+
+/// A mode of the nominal model at one position.
+#[derive(Clone, Debug, Serialize)]
+pub struct NominalMode {
+    /// 1-based number, ascending frequency (the GSA's `mode<r>`).
+    pub number: usize,
+    pub frequency_hz: f64,
+    /// Sensor amplitude relative to the median (module docs).
+    pub visibility: f64,
+    /// The reference mode paired with it (index into the reference's modes).
+    pub reference: Option<usize>,
+    pub mac: f64,
+    /// Increase of the pairing cost if this pair were forbidden.
+    pub margin: f64,
+}
+
+/// The nominal modes of one position and their partners.
+#[derive(Clone, Debug, Serialize)]
+pub struct SlotCorrespondence {
+    pub position: u32,
+    pub nominal: Vec<NominalMode>,
+    /// Per reference mode, the index of its nominal partner.
+    pub partner: Vec<Option<usize>>,
+}
+
+/// GSA mode names of a screening: `p<position>.mode<r>` with the frequency
+/// the screening saw (its reference's modes).
+#[derive(Clone, Debug, PartialEq, serde::Deserialize, Serialize)]
+pub struct NamedMode {
+    pub name: String,
+    pub frequency_hz: f64,
+}
+
+/// The correspondence of all positions.
+#[derive(Clone, Debug, Serialize)]
+pub struct Correspondence {
+    pub slots: Vec<SlotCorrespondence>,
+    /// Settings used.
+    pub visibility_threshold: f64,
+}
+
+impl Correspondence {
+    /// Pair the model's modes at `x0` with the reference of `o`, per slot.
+    pub fn new(
+        o: &ModalObjective,
+        x0: &[f64],
+        visibility_threshold: f64,
+    ) -> Result<Correspondence, IdentifyError> {
+        let models = o.model_modes(x0)?;
+        let mut slots = Vec::new();
+        for (p, model) in models.iter().enumerate() {
+            let n_ref = o.modes_at(p);
+            let rf: Vec<f64> = (0..n_ref).map(|k| o.reference_frequency(p, k)).collect();
+            let rs: Vec<_> = (0..n_ref).map(|k| o.reference_shape(p, k).to_vec()).collect();
+            let mf: Vec<f64> = model.modes.iter().map(|m| m.frequency_hz).collect();
+            let ms: Vec<_> = model.modes.iter().map(|m| m.shape.clone()).collect();
+            let pairs = pair_modes(&rf, &rs, &mf, &ms, &o.pairing);
+            let macs = crate::metrics::mac_matrix(&rs, &ms);
+            let costs = cost_matrix(&rf, &mf, &macs, &o.pairing);
+            let margin = margins(&costs, &pairs);
+            // The band the reference covers, widened by the pairing window.
+            let lo = rf.iter().copied().fold(f64::INFINITY, f64::min) * (1.0 - o.pairing.window);
+            let hi = rf.iter().copied().fold(0.0, f64::max) * (1.0 + o.pairing.window);
+            let amp: Vec<f64> = ms
+                .iter()
+                .map(|s| s.iter().map(|v| v.norm_sqr()).sum::<f64>().sqrt())
+                .collect();
+            let mut in_band: Vec<f64> = (0..mf.len())
+                .filter(|&k| mf[k] >= lo && mf[k] <= hi)
+                .map(|k| amp[k])
+                .collect();
+            in_band.sort_by(f64::total_cmp);
+            let median = in_band.get(in_band.len() / 2).copied().unwrap_or(0.0);
+            let mut nominal: Vec<NominalMode> = (0..mf.len())
+                .map(|k| NominalMode {
+                    number: k + 1,
+                    frequency_hz: mf[k],
+                    visibility: if median > 0.0 { amp[k] / median } else { 0.0 },
+                    reference: None,
+                    mac: 0.0,
+                    margin: f64::INFINITY,
+                })
+                .collect();
+            let mut partner = vec![None; n_ref];
+            for (pair, m) in pairs.iter().zip(margin) {
+                nominal[pair.candidate].reference = Some(pair.reference);
+                nominal[pair.candidate].mac = pair.mac;
+                nominal[pair.candidate].margin = m;
+                partner[pair.reference] = Some(pair.candidate);
+            }
+            slots.push(SlotCorrespondence {
+                position: o.position(p).index,
+                nominal,
+                partner,
+            });
+        }
+        Ok(Correspondence {
+            slots,
+            visibility_threshold,
+        })
+    }
+
+    /// The nominal mode named `p<position>.mode<r>`: by the screening's
+    /// frequency when `named` lists it (the nominal mode nearest to it,
+    /// within 2 %), else by number. `Err` says why there is none.
+    pub fn nominal_mode(
+        &self,
+        position: u32,
+        number: usize,
+        named: &[NamedMode],
+    ) -> Result<(usize, usize), String> {
+        let slot = self
+            .slots
+            .iter()
+            .position(|s| s.position == position)
+            .ok_or_else(|| {
+                format!("position {position} is not in the reference or not selected by `positions`")
+            })?;
+        let s = &self.slots[slot];
+        let name = format!("p{position}.mode{number}");
+        let index = match named.iter().find(|m| m.name == name) {
+            Some(m) => s
+                .nominal
+                .iter()
+                .enumerate()
+                .min_by(|a, b| {
+                    nfd(a.1.frequency_hz, m.frequency_hz)
+                        .total_cmp(&nfd(b.1.frequency_hz, m.frequency_hz))
+                })
+                .filter(|(_, n)| nfd(n.frequency_hz, m.frequency_hz) <= 0.02)
+                .map(|(k, _)| k)
+                .ok_or_else(|| {
+                    format!(
+                        "the screening's {name} ({:.2} Hz) has no mode of this model within 2 % at its start values",
+                        m.frequency_hz
+                    )
+                })?,
+            None if number >= 1 && number <= s.nominal.len() => number - 1,
+            None => {
+                return Err(format!(
+                    "the model has {} modes at position {position}, no mode {number}",
+                    s.nominal.len()
+                ))
+            }
+        };
+        Ok((slot, index))
+    }
+
+    /// The reference mode paired with the nominal mode named
+    /// `p<position>.mode<r>` (see [`Self::nominal_mode`]): (slot, reference
+    /// mode index), or why there is none.
+    pub fn reference_mode(
+        &self,
+        position: u32,
+        number: usize,
+        named: &[NamedMode],
+    ) -> Result<(usize, usize), String> {
+        let (slot, k) = self.nominal_mode(position, number, named)?;
+        let n = &self.slots[slot].nominal[k];
+        n.reference.map(|r| (slot, r)).ok_or_else(|| {
+            format!(
+                "p{position}.mode{number} ({:.2} Hz in the model) pairs with no reference mode",
+                n.frequency_hz
+            )
+        })
+    }
+
+    /// Exclude from `o` every reference mode whose nominal partner the
+    /// sensors barely see; returns how many.
+    pub fn exclude_unobservable(&self, o: &mut ModalObjective) -> usize {
+        let mut count = 0;
+        for (p, s) in self.slots.iter().enumerate() {
+            for n in &s.nominal {
+                if let (Some(r), true) = (n.reference, n.visibility < self.visibility_threshold) {
+                    o.exclude(
+                        p,
+                        r,
+                        format!(
+                            "not observable: its model mode p{}.mode{} ({:.1} Hz) moves the sensors {:.2}× as much as the median mode (threshold {})",
+                            s.position, n.number, n.frequency_hz, n.visibility, self.visibility_threshold
+                        ),
+                    );
+                    count += 1;
+                }
+            }
+        }
+        count
+    }
+}

@@ -1,0 +1,364 @@
+//! Identifiability and uncertainty at a least-squares solution (Gauss–Newton
+//! linearization; Bard 1974, "Nonlinear Parameter Estimation", ch. 7;
+//! Friswell & Mottershead 1995, ch. 7).
+//!
+//! With J the Jacobian of the weighted residuals r (each divided by its
+//! standard deviation, [`super::Uncertainty`]) with respect to ln p — so
+//! columns are "residual change in σ units per relative change of p" —
+//! J = U S Vᵀ, and:
+//!
+//! - **Structural non-identifiability**: a direction v_k with s_k below
+//!   10⁻⁶ s_max is a combination Σ v_ik ln p_i the model's modes cannot see
+//!   at all: two springs in parallel have identical columns, so s = 0 for
+//!   v = (1, −1)/√2 — their ratio is free, only their sum counts (the test
+//!   bench's two front mounts laterally; left and right guide shoes of one
+//!   carriage laterally). Every parameter with |v_ik| ≥ 0.05 in such a
+//!   direction is not identifiable, whatever the data quality.
+//! - **Covariance**, the textbook Gauss–Newton estimate scaled by the
+//!   residual variance: C = σ̂² (JᵀJ)⁺ over the other directions, with
+//!   σ̂² = ‖r‖²/(m − rank). A parameter is identifiable when its standard
+//!   error √C_ii (relative, of ln p) is at most `max_std_error`; so with
+//!   noisy data a weakly determined parameter is flagged, while exact data
+//!   (σ̂ → 0) determine everything that is not structurally free. The
+//!   errors give 95 % intervals p·exp(±1.96 √C_ii).
+//! - The a-priori error √C₀,ii with C₀ = (JᵀJ)⁺ (σ̂ = 1: the precision the
+//!   stated uncertainty of the reference allows) is reported beside it.
+//!
+//! The Jacobian comes from central differences (so an exact degeneracy
+//! shows as s ≈ 10⁻⁹ s_max, far below the threshold); the singular values
+//! from the eigenvalues of JᵀJ (n ≤ a few dozen parameters; sequential, so
+//! bit-identical whatever the thread count).
+
+#![allow(non_snake_case)]
+
+use crate::dynamics::eigen::symmetric_eigen;
+use faer::Mat;
+use serde::{Deserialize, Serialize};
+
+/// Singular values below this fraction of the largest are structural zeros
+/// (eigenvalues of JᵀJ below its square).
+const STRUCTURAL: f64 = 1e-6;
+
+/// Smallest |v_ik| for a parameter to share a structural null direction.
+const IN_NULL_SPACE: f64 = 0.05;
+
+/// Smallest |v_ik| for a parameter to be named in a combination.
+const NAMED_WEIGHT: f64 = 0.2;
+
+/// One parameter's verdict and uncertainty.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParameterUncertainty {
+    pub parameter: String,
+    pub identifiable: bool,
+    /// In a structural null direction (the model cannot see it at all).
+    pub structural: bool,
+    /// A-priori relative standard error at the stated uncertainty (+∞ when
+    /// structural).
+    #[serde(deserialize_with = "super::verdict::nan_if_null")]
+    pub prior_std_error: f64,
+    /// Relative standard error σ̂ √C₀,ii (identifiable only).
+    pub std_error: Option<f64>,
+}
+
+/// A combination of parameters the data do not determine.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Combination {
+    /// Singular value s_k of the direction (σ units per unit of ln p); 0
+    /// for a structural group.
+    pub singular_value: f64,
+    /// Free directions in it: 1 for a weak direction; for a structural
+    /// group, the dimension of its null space (two parallel springs: 1).
+    pub free: usize,
+    /// A weak direction: (parameter, weight v_ik) with |v_ik| ≥ 0.2, largest
+    /// first. A structural group: its parameters with their share of the
+    /// null space (the diagonal of its projector).
+    pub parameters: Vec<(String, f64)>,
+}
+
+impl Combination {
+    /// `0.71·ln me1.k_x − 0.71·ln me2.k_x` for a weak direction;
+    /// `{me1.k_x, me2.k_x}: 1 free combination` for a structural group.
+    pub fn describe(&self) -> String {
+        if self.singular_value == 0.0 {
+            let names: Vec<&str> = self.parameters.iter().map(|p| p.0.as_str()).collect();
+            return format!(
+                "{{{}}}: {} free combination{} (the modes see only {})",
+                names.join(", "),
+                self.free,
+                if self.free == 1 { "" } else { "s" },
+                if self.free + 1 == names.len() {
+                    "their joint effect"
+                } else {
+                    "part of them"
+                }
+            );
+        }
+        let mut s = String::new();
+        for (k, (name, w)) in self.parameters.iter().enumerate() {
+            let sign = if *w < 0.0 { "−" } else { "+" };
+            if k == 0 {
+                if *w < 0.0 {
+                    s.push('−');
+                }
+            } else {
+                s.push_str(&format!(" {sign} "));
+            }
+            s.push_str(&format!("{:.2}·ln {name}", w.abs()));
+        }
+        s
+    }
+}
+
+/// The identifiability analysis at one point.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Identifiability {
+    pub parameters: Vec<ParameterUncertainty>,
+    /// Singular values of J, descending.
+    pub singular_values: Vec<f64>,
+    pub undetermined: Vec<Combination>,
+    /// Residuals (m) and numerical rank of J.
+    pub residuals: usize,
+    pub rank: usize,
+    /// σ̂² = ‖r‖²/(m − rank): ≈ 1 when the model fits to the stated noise,
+    /// ≫ 1 when it cannot (model error), ≈ 0 for exact data — `None` when
+    /// m ≤ rank.
+    pub residual_variance: Option<f64>,
+    pub max_std_error: f64,
+}
+
+/// Analyze the Jacobian `columns` (one per parameter, ∂r/∂ln p, each of
+/// length m) at residuals `r`; `names` name the parameters.
+pub fn analyze(
+    columns: &[Vec<f64>],
+    r: &[f64],
+    names: &[String],
+    max_std_error: f64,
+) -> Identifiability {
+    let n = columns.len();
+    let m = r.len();
+    let G = Mat::<f64>::from_fn(n, n, |a, b| {
+        columns[a]
+            .iter()
+            .zip(&columns[b])
+            .map(|(x, y)| x * y)
+            .sum()
+    });
+    let (mu, V) = if n == 0 {
+        (Vec::new(), Mat::<f64>::zeros(0, 0))
+    } else {
+        symmetric_eigen(&G).unwrap_or_else(|_| (vec![0.0; n], Mat::<f64>::identity(n, n)))
+    };
+    let largest = mu.iter().copied().fold(0.0f64, f64::max);
+    let null = |k: usize| mu[k] <= STRUCTURAL * STRUCTURAL * largest || mu[k] <= 0.0;
+    let rank = (0..n).filter(|&k| !null(k)).count();
+    let rss: f64 = r.iter().map(|v| v * v).sum();
+    let residual_variance = (m > rank).then(|| rss / (m - rank) as f64);
+    let structural: Vec<bool> = (0..n)
+        .map(|i| (0..n).any(|k| null(k) && V[(i, k)].abs() >= IN_NULL_SPACE))
+        .collect();
+    let prior: Vec<f64> = (0..n)
+        .map(|i| {
+            if structural[i] {
+                return f64::INFINITY;
+            }
+            (0..n)
+                .filter(|&k| !null(k))
+                .map(|k| V[(i, k)] * V[(i, k)] / mu[k])
+                .sum::<f64>()
+                .sqrt()
+        })
+        .collect();
+    // Without residual degrees of freedom the stated uncertainty stands in.
+    let sigma = residual_variance.map_or(1.0, f64::sqrt);
+    let parameters = (0..n)
+        .map(|i| {
+            let se = sigma * prior[i];
+            let identifiable = !structural[i] && se <= max_std_error;
+            ParameterUncertainty {
+                parameter: names[i].clone(),
+                identifiable,
+                structural: structural[i],
+                prior_std_error: prior[i],
+                std_error: identifiable.then_some(se),
+            }
+        })
+        .collect();
+    let mut undetermined = structural_groups(&V, &null, names);
+    // Weak directions, ascending in μ: the weakest first.
+    for k in 0..n {
+        let s = mu[k].max(0.0).sqrt();
+        if null(k) || sigma / s <= max_std_error {
+            continue;
+        }
+        let mut named: Vec<(String, f64)> = (0..n)
+            .filter(|&i| V[(i, k)].abs() >= NAMED_WEIGHT)
+            .map(|i| (names[i].clone(), V[(i, k)]))
+            .collect();
+        named.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+        // One sign convention: the largest weight positive.
+        if named.first().is_some_and(|(_, w)| *w < 0.0) {
+            for (_, w) in &mut named {
+                *w = -*w;
+            }
+        }
+        undetermined.push(Combination {
+            singular_value: s,
+            free: 1,
+            parameters: named,
+        });
+    }
+    let mut singular_values: Vec<f64> = mu.iter().map(|v| v.max(0.0).sqrt()).collect();
+    singular_values.reverse();
+    Identifiability {
+        parameters,
+        singular_values,
+        undetermined,
+        residuals: m,
+        rank,
+        residual_variance,
+        max_std_error,
+    }
+}
+
+/// The structural null space split into independent groups of parameters.
+/// Its basis is arbitrary (eigenvectors of a repeated zero eigenvalue mix),
+/// so the groups come from the projector P = V₀V₀ᵀ onto it, which is not:
+/// two parameters belong together when |P_ij| ≥ 0.05, and a group's number
+/// of free combinations is the trace of P over it.
+fn structural_groups(V: &Mat<f64>, null: &dyn Fn(usize) -> bool, names: &[String]) -> Vec<Combination> {
+    let n = names.len();
+    let ks: Vec<usize> = (0..n).filter(|&k| null(k)).collect();
+    let p = |i: usize, j: usize| -> f64 { ks.iter().map(|&k| V[(i, k)] * V[(j, k)]).sum() };
+    let member: Vec<bool> = (0..n).map(|i| p(i, i) >= IN_NULL_SPACE * IN_NULL_SPACE).collect();
+    let mut group = vec![usize::MAX; n];
+    let mut out = Vec::new();
+    for seed in 0..n {
+        if !member[seed] || group[seed] != usize::MAX {
+            continue;
+        }
+        let id = out.len();
+        let mut stack = vec![seed];
+        group[seed] = id;
+        let mut items = Vec::new();
+        while let Some(i) = stack.pop() {
+            items.push(i);
+            for j in 0..n {
+                if member[j] && group[j] == usize::MAX && p(i, j).abs() >= IN_NULL_SPACE {
+                    group[j] = id;
+                    stack.push(j);
+                }
+            }
+        }
+        items.sort_unstable();
+        let trace: f64 = items.iter().map(|&i| p(i, i)).sum();
+        out.push(Combination {
+            singular_value: 0.0,
+            free: (trace.round() as usize).max(1),
+            parameters: items.iter().map(|&i| (names[i].clone(), p(i, i))).collect(),
+        });
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn names(n: usize) -> Vec<String> {
+        (0..n).map(|i| format!("p{i}")).collect()
+    }
+
+    #[test]
+    fn covariance_of_a_straight_line_fit_matches_the_textbook_formula() {
+        // y_k = a + b t_k + e_k, t = 0..4: J = [1, t], residuals at the LS
+        // solution of y = (1.1, 2.9, 5.2, 6.8, 9.1). Closed form:
+        // C = σ̂² (JᵀJ)⁻¹, (JᵀJ)⁻¹ = [[Σt², −Σt], [−Σt, n]] / (nΣt² − (Σt)²).
+        let t = [0.0, 1.0, 2.0, 3.0, 4.0];
+        let y = [1.1, 2.9, 5.2, 6.8, 9.1];
+        let n = t.len() as f64;
+        let (st, stt) = (t.iter().sum::<f64>(), t.iter().map(|v| v * v).sum::<f64>());
+        let sy: f64 = y.iter().sum();
+        let sty: f64 = t.iter().zip(&y).map(|(a, b)| a * b).sum();
+        let det = n * stt - st * st;
+        let b = (n * sty - st * sy) / det;
+        let a = (sy - b * st) / n;
+        let r: Vec<f64> = t.iter().zip(&y).map(|(t, y)| a + b * t - y).collect();
+        let cols = vec![vec![1.0; 5], t.to_vec()];
+        let id = analyze(&cols, &r, &names(2), 10.0);
+        let s2 = r.iter().map(|v| v * v).sum::<f64>() / 3.0;
+        assert!((id.residual_variance.unwrap() / s2 - 1.0).abs() < 1e-12);
+        let se_a = (s2 * stt / det).sqrt();
+        let se_b = (s2 * n / det).sqrt();
+        let got_a = id.parameters[0].std_error.unwrap();
+        let got_b = id.parameters[1].std_error.unwrap();
+        assert!((got_a / se_a - 1.0).abs() < 1e-10, "{got_a} vs {se_a}");
+        assert!((got_b / se_b - 1.0).abs() < 1e-10, "{got_b} vs {se_b}");
+        assert_eq!(id.rank, 2);
+        assert!(id.undetermined.is_empty());
+        // Prior errors are those of unit-variance residuals.
+        assert!((id.parameters[1].prior_std_error - (n / det).sqrt()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn parallel_columns_are_a_named_undetermined_combination() {
+        // p1 and p2 act only through their sum (identical columns), p0 alone.
+        let c0 = vec![1.0, 0.0, 2.0, 0.5];
+        let c1 = vec![0.3, 1.0, -0.4, 0.8];
+        let id = analyze(
+            &[c0, c1.clone(), c1],
+            &[0.0; 4],
+            &["k0".into(), "k1".into(), "k2".into()],
+            0.1,
+        );
+        assert_eq!(id.rank, 2);
+        let flags: Vec<bool> = id.parameters.iter().map(|p| p.identifiable).collect();
+        assert_eq!(flags, [true, false, false]);
+        assert_eq!(id.undetermined.len(), 1);
+        let c = &id.undetermined[0];
+        let named: Vec<&str> = c.parameters.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(named, ["k1", "k2"]);
+        assert_eq!(c.free, 1);
+        // Each has half of the one free direction (1, −1)/√2.
+        assert!((c.parameters[0].1 - 0.5).abs() < 1e-9, "{c:?}");
+        assert!(c.describe().contains("{k1, k2}: 1 free combination"), "{}", c.describe());
+        assert!(id.parameters[1].structural && id.parameters[2].structural);
+        // Exact data: σ̂ = 0, so the error is 0 where identifiable.
+        assert_eq!(id.parameters[0].std_error, Some(0.0));
+        assert_eq!(id.parameters[1].std_error, None);
+    }
+
+    #[test]
+    fn independent_degeneracies_are_separate_groups_whatever_the_basis() {
+        // Two parallel pairs (a, b) and (c, d), plus e alone: the null space
+        // has dimension 2 and any basis of it mixes the pairs; the groups
+        // must not.
+        let ca = vec![1.0, 0.0, 0.5, 0.2, 0.0];
+        let cc = vec![0.0, 1.0, -0.3, 0.0, 0.7];
+        let ce = vec![0.2, 0.1, 0.0, 1.0, 0.4];
+        let names: Vec<String> = ["a", "b", "c", "d", "e"].map(String::from).to_vec();
+        let id = analyze(&[ca.clone(), ca, cc.clone(), cc, ce], &[0.0; 5], &names, 0.1);
+        let groups: Vec<Vec<&str>> = id
+            .undetermined
+            .iter()
+            .map(|c| c.parameters.iter().map(|p| p.0.as_str()).collect())
+            .collect();
+        assert_eq!(groups, [vec!["a", "b"], vec!["c", "d"]]);
+        assert!(id.undetermined.iter().all(|c| c.free == 1));
+        assert!(id.parameters[4].identifiable);
+    }
+
+    #[test]
+    fn a_weak_but_nonzero_direction_is_judged_by_the_threshold() {
+        // Column norm 5, σ̂ = 1 (‖r‖² = 1, one degree of freedom): error
+        // 0.2 — identifiable at 0.25, not at 0.1.
+        let cols = vec![vec![3.0, 4.0]];
+        let r = [0.8, -0.6];
+        assert!(analyze(&cols, &r, &names(1), 0.25).parameters[0].identifiable);
+        let id = analyze(&cols, &r, &names(1), 0.1);
+        assert!(!id.parameters[0].identifiable && !id.parameters[0].structural);
+        assert_eq!(id.undetermined.len(), 1);
+        assert!((id.undetermined[0].singular_value - 5.0).abs() < 1e-12);
+        // The same data without noise determine it exactly.
+        assert!(analyze(&cols, &[0.0, 0.0], &names(1), 0.1).parameters[0].identifiable);
+    }
+}

@@ -1,0 +1,337 @@
+//! Model updating end to end, whatever the strategy: the reference paired
+//! with the model at its start values (correspondence, observability,
+//! `exclude_modes`), the strategy itself, and its assessment at the result
+//! (final pairing, identifiability and uncertainty, verdict). Every model
+//! evaluation of the assessment is counted with the strategy's.
+
+use super::correspondence::Correspondence;
+use super::guided::{guided, GuidedParams, GuidedResult, Screening};
+use super::history::HistoryRow;
+use super::identifiability::{analyze, Identifiability};
+use super::objective::{Match, ModalObjective};
+use super::verdict::{ModeCounts, Status, Verdict};
+use super::{black_box, IdentifyError};
+use crate::optimize::jacobian;
+use crate::optimize::slsqp::SlsqpParams;
+use crate::optimize::{OptimizeResult, Optimizer, Scale};
+use crate::pairing::{cost_matrix, margins, pair_modes};
+use rayon::prelude::*;
+
+/// The strategy and its settings.
+#[derive(Clone, Copy)]
+pub enum Strategy<'a> {
+    /// PUB3: GSA subproblems, continuation refinement, damping fit.
+    Guided {
+        screening: Screening<'a>,
+        settings: &'a GuidedParams,
+        slsqp: &'a SlsqpParams,
+    },
+    /// One optimizer over all parameters on J.
+    BlackBox { optimizer: &'a Optimizer },
+}
+
+/// Everything an update needs besides the objective.
+#[derive(Clone, Copy)]
+pub struct Plan<'a> {
+    pub strategy: Strategy<'a>,
+    pub budget: usize,
+    pub seed: u64,
+    /// Observability threshold on the sensor amplitude (0 keeps every mode).
+    pub visibility: f64,
+    /// Modes of the nominal model to leave out: (position, number).
+    pub exclude: &'a [(u32, usize)],
+    /// Largest a-priori relative standard error of an identifiable parameter.
+    pub max_std_error: f64,
+}
+
+/// A reference mode and its partner at the result.
+#[derive(Clone, Debug)]
+pub struct FinalPair {
+    pub matched: Option<Match>,
+    /// Increase of the pairing cost if this pair were forbidden.
+    pub margin: f64,
+}
+
+/// The result of an update.
+pub struct Update {
+    pub start: Vec<f64>,
+    pub x: Vec<f64>,
+    pub history: Vec<HistoryRow>,
+    /// All evaluations: the strategy's and the assessment's.
+    pub evaluations: usize,
+    pub assessment_evaluations: usize,
+    /// J at `x` (the black-box criterion, for comparison across strategies).
+    pub objective: f64,
+    pub correspondence: Correspondence,
+    /// Per slot and reference mode: the partner at the result.
+    pub pairs: Vec<Vec<FinalPair>>,
+    /// Parameters identified (indices) and their analysis, in that order.
+    pub identified: Vec<usize>,
+    pub identifiability: Identifiability,
+    pub verdict: Verdict,
+    pub guided: Option<GuidedResult>,
+    pub optimizer: Option<OptimizeResult>,
+}
+
+/// Update the model of `o` (exclusions are added to it) by `plan`.
+pub fn update(
+    o: &mut ModalObjective,
+    plan: &Plan,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Update, IdentifyError> {
+    let start = o.nominal();
+    let correspondence = Correspondence::new(o, &start, plan.visibility)?;
+    progress(1);
+    for &(position, number) in plan.exclude {
+        let (slot, k) = correspondence
+            .nominal_mode(position, number, &[])
+            .map_err(|why| IdentifyError::Invalid(format!("exclude_modes: p{position}.mode{number}: {why}")))?;
+        if let Some(r) = correspondence.slots[slot].nominal[k].reference {
+            o.exclude(slot, r, format!("named in exclude_modes (p{position}.mode{number})"));
+        }
+    }
+    correspondence.exclude_unobservable(o);
+    for p in 0..o.positions() {
+        if o.usable()[p].iter().all(|u| !u) {
+            return Err(IdentifyError::Invalid(format!(
+                "no usable reference mode is left at position {} (all excluded: {}); lower `observability` or shorten `exclude_modes`",
+                o.position(p).index,
+                o.exclusion(p, 0).unwrap_or("excluded")
+            )));
+        }
+    }
+    let o = &*o;
+    // The assessment's evaluations come out of the same budget: the final
+    // pairing (3), J (1) and a Jacobian over at most every parameter (2n + 1).
+    let reserve = 2 * o.parameters().len() + 5;
+    let budget = plan
+        .budget
+        .checked_sub(reserve + 1)
+        .filter(|&b| b > 0)
+        .ok_or_else(|| {
+            IdentifyError::Invalid(format!(
+                "budget {} cannot pay the assessment of the result ({} evaluations) and a strategy; give more",
+                plan.budget,
+                reserve + 1
+            ))
+        })?;
+    let (x, history, evaluations, identified, status, guided_result, optimizer) = match plan.strategy {
+        Strategy::Guided {
+            screening,
+            settings,
+            slsqp,
+        } => {
+            let r = guided(
+                o,
+                &correspondence,
+                screening,
+                settings,
+                slsqp,
+                &start,
+                budget,
+                plan.seed,
+                progress,
+            )?;
+            let mut identified = r.stiffness.clone();
+            identified.extend(&r.damping);
+            identified.sort_unstable();
+            (r.x.clone(), r.history.clone(), r.evaluations, identified, r.status, Some(r), None)
+        }
+        Strategy::BlackBox { optimizer } => {
+            let r = black_box(o, optimizer, &start, budget, plan.seed, progress)?;
+            let status = Status::of(&r.result.termination);
+            let all = (0..o.parameters().len()).collect();
+            (r.result.x_best.clone(), r.history, r.result.evaluations, all, status, None, Some(r.result))
+        }
+    };
+    let (assessment, pairs, verdict_inputs) = assess(o, &start, &x, &identified, plan, progress)?;
+    let warnings = bound_warnings(o, &x, &identified);
+    let verdict = Verdict::judge(
+        status,
+        verdict_inputs.0,
+        verdict_inputs.1,
+        verdict_inputs.2,
+        identified.len(),
+        assessment.0.parameters.iter().filter(|p| p.identifiable).count(),
+        warnings,
+    );
+    let objective = o.cost(&x);
+    progress(1);
+    // Correspondence (1), final pairing (3), Jacobian (2n + 1), J (1).
+    let assessment_evaluations = 1 + 3 + assessment.1 + 1;
+    Ok(Update {
+        objective,
+        evaluations: evaluations + assessment_evaluations,
+        assessment_evaluations,
+        start,
+        x,
+        history,
+        correspondence,
+        pairs,
+        identified,
+        identifiability: assessment.0,
+        verdict,
+        guided: guided_result,
+        optimizer,
+    })
+}
+
+type Assessment = (
+    (Identifiability, usize),
+    Vec<Vec<FinalPair>>,
+    (f64, f64, ModeCounts),
+);
+
+/// The final pairing with margins, the weighted-residual RMS at the start
+/// and the result, and the identifiability of `identified` at `x`.
+fn assess(
+    o: &ModalObjective,
+    start: &[f64],
+    x: &[f64],
+    identified: &[usize],
+    plan: &Plan,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Assessment, IdentifyError> {
+    let usable = o.usable();
+    let rms = |e: &Option<super::objective::Evaluation>| {
+        e.as_ref().map_or(f64::NAN, |e| {
+            (2.0 * e.cost_usable / e.residuals.len().max(1) as f64).sqrt()
+        })
+    };
+    let at_start = o.evaluate(start, &usable);
+    let at_x = o.evaluate(x, &usable);
+    let models = o.model_modes(x)?;
+    progress(3);
+    let matched = o.pair(&models, &usable);
+    let mut counts = ModeCounts {
+        reference: (0..o.positions()).map(|p| o.modes_at(p)).sum(),
+        used: o.reference_modes(),
+        ..ModeCounts::default()
+    };
+    counts.excluded = counts.reference - counts.used;
+    let mut pairs = Vec::new();
+    for (p, model) in models.iter().enumerate() {
+        let idx: Vec<usize> = (0..o.modes_at(p)).filter(|&k| usable[p][k]).collect();
+        let rf: Vec<f64> = idx.iter().map(|&k| o.reference_frequency(p, k)).collect();
+        let rs: Vec<_> = idx.iter().map(|&k| o.reference_shape(p, k).to_vec()).collect();
+        let mf: Vec<f64> = model.modes.iter().map(|m| m.frequency_hz).collect();
+        let ms: Vec<_> = model.modes.iter().map(|m| m.shape.clone()).collect();
+        let found = pair_modes(&rf, &rs, &mf, &ms, &o.pairing);
+        let macs = crate::metrics::mac_matrix(&rs, &ms);
+        let m = margins(&cost_matrix(&rf, &mf, &macs, &o.pairing), &found);
+        let mut slot: Vec<FinalPair> = (0..o.modes_at(p))
+            .map(|k| FinalPair {
+                matched: matched[p][k],
+                margin: f64::INFINITY,
+            })
+            .collect();
+        for (pair, margin) in found.iter().zip(m) {
+            slot[idx[pair.reference]].margin = margin;
+            if margin < o.pairing.ambiguity {
+                counts.ambiguous += 1;
+            }
+        }
+        counts.unpaired += idx.iter().filter(|&&k| matched[p][k].is_none()).count();
+        pairs.push(slot);
+    }
+    let identifiability = identifiability_at(o, x, identified, plan.max_std_error, progress)?;
+    Ok((identifiability, pairs, (rms(&at_start), rms(&at_x), counts)))
+}
+
+/// The identifiability of `identified` at `x` from a forward-difference
+/// Jacobian (central differences) of the weighted residuals (frequencies,
+/// shapes and damping ratios of the usable modes) with respect to ln p: one
+/// batch of 2·`identified.len()` evaluations (+1 at `x`).
+fn identifiability_at(
+    o: &ModalObjective,
+    x: &[f64],
+    identified: &[usize],
+    max_std_error: f64,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Identifiability, usize), IdentifyError> {
+    let usable = o.usable();
+    let full = o.bounds()?;
+    let residuals = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
+        let v: Vec<_> = points
+            .par_iter()
+            .map(|u| {
+                let mut p = x.to_vec();
+                let phys = full.to_physical(u);
+                for &i in identified {
+                    p[i] = phys[i];
+                }
+                o.evaluate(&p, &usable).map(|e| {
+                    let mut r = e.residuals;
+                    r.extend(e.damping);
+                    r
+                })
+            })
+            .collect();
+        progress(points.len() as u64);
+        v
+    };
+    let u = full.to_unit(x);
+    let r0 = residuals(std::slice::from_ref(&u))
+        .pop()
+        .flatten()
+        .ok_or_else(|| IdentifyError::Model("the model cannot be solved at the result".into()))?;
+    // Perturb only the identified coordinates: a Jacobian over them alone.
+    let batch = |points: &[Vec<f64>]| residuals(points);
+    let sub_u: Vec<f64> = identified.iter().map(|&i| u[i]).collect();
+    let embed = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
+        let full_points: Vec<Vec<f64>> = points
+            .iter()
+            .map(|s| {
+                let mut p = u.clone();
+                for (j, &i) in identified.iter().enumerate() {
+                    p[i] = s[j];
+                }
+                p
+            })
+            .collect();
+        batch(&full_points)
+    };
+    let columns_u = jacobian::central(&embed, &sub_u, &r0, 1e-4);
+    // ∂r/∂ln p = ∂r/∂u · du/d ln p.
+    let columns: Vec<Vec<f64>> = columns_u
+        .into_iter()
+        .zip(identified)
+        .map(|(col, &i)| {
+            let (l, h) = (full.lower()[i], full.upper()[i]);
+            let du_dlnp = match full.scale()[i] {
+                Scale::Log10 => 1.0 / (std::f64::consts::LN_10 * (h.log10() - l.log10())),
+                Scale::Linear => x[i] / (h - l),
+            };
+            col.into_iter().map(|v| v * du_dlnp).collect()
+        })
+        .collect();
+    let names: Vec<String> = identified
+        .iter()
+        .map(|&i| o.parameters()[i].name.clone())
+        .collect();
+    Ok((
+        analyze(&columns, &r0, &names, max_std_error),
+        2 * identified.len() + 1,
+    ))
+}
+
+/// Warnings for identified parameters that ended at a bound.
+fn bound_warnings(o: &ModalObjective, x: &[f64], identified: &[usize]) -> Vec<String> {
+    let full = match o.bounds() {
+        Ok(b) => b,
+        Err(_) => return Vec::new(),
+    };
+    let u = full.to_unit(x);
+    identified
+        .iter()
+        .filter(|&&i| !(1e-6..=1.0 - 1e-6).contains(&u[i]))
+        .map(|&i| {
+            let p = &o.parameters()[i];
+            let side = if u[i] < 0.5 { "lower" } else { "upper" };
+            format!(
+                "{} ended at its {side} bound ({:e}): the bounds may be too tight or the model cannot represent the reference",
+                p.name, x[i]
+            )
+        })
+        .collect()
+}

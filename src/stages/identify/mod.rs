@@ -1,0 +1,376 @@
+//! The `identify` kind: model updating against reference modes (seed section
+//! 2.2; PUB3 section 5.2.3, PUB4 section 5.3) — see [`crate::identify`].
+//!
+//! The model is a synthesize `model` artifact (model.json, the model file's
+//! text embedded) or a model file named by the `model` param (hashed with the
+//! files it references); the reference is a `modes` artifact; the guided
+//! strategy also reads a gsa `subproblems` artifact (subproblems.json).
+//!
+//! Outputs: `parameters` (parameters.csv with identifiability, standard
+//! errors and 95 % intervals), `history` (history.csv:
+//! `evaluation,best_objective,mean_mac`), `updated_modes` (the model's modes
+//! at the identified values, at the reference DOFs), `cost` (cost.json:
+//! evaluations, seconds, the match and the verdict, [`cost::Cost`]),
+//! `correlation` (correlation.csv: every reference mode, its partner and
+//! why it is used or left out), `identifiability` (identifiability.json),
+//! and for `sensitivity_guided` also `subproblems` (per subproblem: repeats,
+//! values, spread; per parameter the subproblem it came from; the
+//! refinement runs and stages; the damping fit).
+
+pub mod cost;
+mod outputs;
+mod params;
+
+use super::artifacts;
+use super::{InputSpec, ParamProblem, ParamSpec, Stage, StageContext, StageError, StageOutputs};
+use crate::dynamics::{self, directory_resolver};
+use crate::identify::updating::{update, Plan, Strategy, Update};
+use crate::identify::{ModalObjective, NamedMode, Screening, SubproblemSpec};
+use crate::optimize::Optimizer;
+use cost::{Cost, Phases};
+use outputs::write;
+use params::{parse, problem, Spec};
+use serde_yaml_ng::{Mapping, Value};
+use std::collections::BTreeMap;
+use std::path::Path;
+use std::time::Instant;
+
+pub struct Identify;
+
+const INPUTS: &[InputSpec] = &[
+    InputSpec {
+        name: "model",
+        required: false,
+        list: false,
+        doc: "a synthesize `model` artifact (model.json); or give the `model` param",
+    },
+    InputSpec {
+        name: "reference",
+        required: true,
+        list: false,
+        doc: "reference modes (a `modes` artifact)",
+    },
+    InputSpec {
+        name: "sensitivity",
+        required: false,
+        list: false,
+        doc: "sensitivity_guided: a gsa `subproblems` artifact",
+    },
+];
+
+impl Stage for Identify {
+    fn kind(&self) -> &'static str {
+        "identify"
+    }
+    fn version(&self) -> u32 {
+        3
+    }
+    fn summary(&self) -> &'static str {
+        "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        params::PARAMS
+    }
+    fn inputs(&self) -> Option<&'static [InputSpec]> {
+        Some(INPUTS)
+    }
+    fn outputs(&self, params: &Mapping) -> Vec<String> {
+        let mut out: Vec<String> = [
+            "parameters",
+            "history",
+            "updated_modes",
+            "cost",
+            "correlation",
+            "identifiability",
+        ]
+        .map(String::from)
+        .to_vec();
+        if params.get("strategy").and_then(Value::as_str) == Some("sensitivity_guided") {
+            out.push("subproblems".into());
+        }
+        out
+    }
+    fn check(&self, params: &Mapping) -> Result<(), ParamProblem> {
+        parse(params).map(|_| ())
+    }
+    fn uses_seed(&self) -> bool {
+        true
+    }
+    fn file_dependencies(&self, params: &Mapping, dir: &Path) -> Result<Vec<String>, ParamProblem> {
+        let Some(path) = params.get("model").and_then(Value::as_str) else {
+            return Ok(Vec::new());
+        };
+        super::synthesize::model_file_dependencies(dir, path).map_err(|m| {
+            problem(
+                &["model"],
+                m,
+                "paths are relative to the pipeline file; see pipelines/models/",
+            )
+        })
+    }
+
+    fn check_inputs(&self, params: &Mapping, bound: &[&str]) -> Result<(), ParamProblem> {
+        let guided = params.get("strategy").and_then(Value::as_str) == Some("sensitivity_guided");
+        if guided && !bound.contains(&"sensitivity") {
+            return Err(ParamProblem {
+                path: vec!["strategy".into()],
+                message: "strategy sensitivity_guided needs the `sensitivity` input".into(),
+                help: Some(
+                    "bind a gsa stage's subproblems: `inputs: {sensitivity: gsa.subproblems}`"
+                        .into(),
+                ),
+            });
+        }
+        if !bound.contains(&"model") && !params.contains_key("model") {
+            return Err(ParamProblem {
+                path: vec![],
+                message: "no model: bind the `model` input (a synthesize `model` output) or give the `model` param".into(),
+                help: None,
+            });
+        }
+        Ok(())
+    }
+
+    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let started = Instant::now();
+        let spec = parse(ctx.params).map_err(|p| StageError::InvalidParam {
+            param: p.path.join("."),
+            message: p.message,
+        })?;
+        let model = load_model(ctx)?;
+        let reference = artifacts::read_modes(ctx.input("reference")?, "reference")?;
+        let invalid_reference = |e: crate::identify::IdentifyError| StageError::InvalidInput {
+            input: "reference".into(),
+            message: e.to_string(),
+        };
+        let mut objective = ModalObjective::new(
+            &model,
+            &reference,
+            spec.positions.as_deref(),
+            spec.weights,
+            spec.pairing,
+        )
+        .map_err(invalid_reference)?;
+        objective.set_uncertainty(spec.uncertainty);
+        ctx.progress.set_length(spec.budget as u64);
+        let progress = |n: u64| ctx.progress.inc(n);
+        let screening_input = if spec.guided {
+            let Some(path) = ctx.inputs.get("sensitivity").and_then(|v| v.first()) else {
+                return Err(StageError::InvalidInput {
+                    input: "sensitivity".into(),
+                    message: "strategy sensitivity_guided needs the `sensitivity` input: bind a gsa stage's `subproblems` output".into(),
+                });
+            };
+            Some(read_subproblems(path)?)
+        } else {
+            None
+        };
+        let slsqp = match &spec.optimizer {
+            Optimizer::Slsqp(p) => p.clone(),
+            _ => Default::default(),
+        };
+        let strategy = match &screening_input {
+            Some(s) => Strategy::Guided {
+                screening: Screening {
+                    specs: &s.specs,
+                    significant: s.significant.as_deref(),
+                    modes: &s.modes,
+                },
+                settings: &spec.settings,
+                slsqp: &slsqp,
+            },
+            None => Strategy::BlackBox {
+                optimizer: &spec.optimizer,
+            },
+        };
+        let plan = Plan {
+            strategy,
+            budget: spec.budget,
+            seed: ctx.seed,
+            visibility: spec.observability,
+            exclude: &spec.exclude,
+            max_std_error: spec.max_std_error,
+        };
+        let u = update(&mut objective, &plan, &progress).map_err(|e| match e {
+            crate::identify::IdentifyError::Invalid(m) => StageError::InvalidInput {
+                input: "reference".into(),
+                message: m,
+            },
+            e => StageError::Failed(e.to_string()),
+        })?;
+        if !u.verdict.ok {
+            ctx.progress
+                .set_message(format!("verdict: {}", u.verdict.message));
+        }
+        let files = write_outputs(ctx, &objective, &spec, &u, started)?;
+        Ok(StageOutputs {
+            files,
+            counters: [("evaluations".to_string(), u.evaluations as u64)].into(),
+        })
+    }
+}
+
+/// Write every output into the scratch directory.
+fn write_outputs(
+    ctx: &StageContext,
+    o: &ModalObjective,
+    spec: &Spec,
+    u: &Update,
+    started: Instant,
+) -> Result<Vec<(String, std::path::PathBuf)>, StageError> {
+    let failed = |e: crate::identify::IdentifyError| StageError::Failed(e.to_string());
+    let mut files = Vec::new();
+    let mut put = |name: &str, file: &str, text: String| -> Result<(), StageError> {
+        let path = ctx.scratch.join(file);
+        write(&path, &text)?;
+        files.push((name.to_string(), path));
+        Ok(())
+    };
+    put("parameters", "parameters.csv", outputs::parameters_csv(o, u))?;
+    put("history", "history.csv", outputs::history_csv(u))?;
+    put("correlation", "correlation.csv", outputs::correlation_csv(o, u))?;
+    put("identifiability", "identifiability.json", outputs::identifiability_json(u))?;
+    let mut phases = Phases {
+        assessment: u.assessment_evaluations,
+        ..Phases::default()
+    };
+    if let Some(g) = &u.guided {
+        [phases.subproblems, phases.refine, phases.damping] = g.phase_evaluations;
+        let names = |idx: &[usize]| -> Vec<String> {
+            idx.iter().map(|&i| o.parameters()[i].name.clone()).collect()
+        };
+        let json = serde_json::json!({
+            "settings": spec.settings,
+            "subproblems": g.subproblems,
+            "skipped": g.skipped.iter().map(|(o, why)| serde_json::json!({"output": o, "reason": why})).collect::<Vec<_>>(),
+            "chosen": g.chosen,
+            "refinement": g.refinement,
+            "stiffness_parameters": names(&g.stiffness),
+            "damping_parameters": names(&g.damping),
+            "damping_equations": g.damping_equations,
+            "damping_rms_residual": g.damping_rms_residual,
+        });
+        put(
+            "subproblems",
+            "subproblems.json",
+            serde_json::to_string_pretty(&json).unwrap_or_default() + "\n",
+        )?;
+    }
+    let updated = ctx.scratch.join(artifacts::MODES_DIR);
+    artifacts::write_modes(&updated, &o.model_modes(&u.x).map_err(failed)?)?;
+    files.push(("updated_modes".to_string(), updated));
+    let cost = Cost {
+        evaluations: u.evaluations,
+        seconds: started.elapsed().as_secs_f64(),
+        best_objective: u.objective,
+        strategy: if spec.guided { "sensitivity_guided" } else { "black_box" }.into(),
+        optimizer: if spec.guided { "slsqp".into() } else { spec.optimizer.name().to_string() },
+        modes: o.summary(&u.x).map_err(failed)?,
+        phase_evaluations: phases,
+        verdict: u.verdict.clone(),
+    };
+    let path = ctx.scratch.join("cost.json");
+    write(
+        &path,
+        &(serde_json::to_string_pretty(&cost).unwrap_or_default() + "\n"),
+    )?;
+    files.push(("cost".to_string(), path));
+    Ok(files)
+}
+
+/// The screening an identify stage reads from a gsa subproblems.json.
+struct ScreeningInput {
+    specs: Vec<SubproblemSpec>,
+    significant: Option<Vec<String>>,
+    modes: Vec<NamedMode>,
+}
+
+/// The model from the `model` input (model.json) or the `model` param.
+fn load_model(ctx: &StageContext) -> Result<dynamics::Model, StageError> {
+    if let Some(file) = ctx.path_param("model") {
+        let rel = ctx
+            .params
+            .get("model")
+            .and_then(Value::as_str)
+            .unwrap_or_default();
+        let text = std::fs::read_to_string(&file)
+            .map_err(|e| StageError::io(format!("cannot read model file `{rel}`"), e))?;
+        let base = file.parent().unwrap_or(ctx.pipeline_dir).to_path_buf();
+        let resolver = directory_resolver(&base);
+        return dynamics::Model::from_yaml(&text, rel, &resolver).map_err(|e| {
+            StageError::InvalidParam {
+                param: "model".into(),
+                message: e.to_string(),
+            }
+        });
+    }
+    let Some(path) = ctx.inputs.get("model").and_then(|v| v.first()) else {
+        return Err(StageError::InvalidInput {
+            input: "model".into(),
+            message: "no model: bind the `model` input to a synthesize stage's `model` output, or give the `model` param".into(),
+        });
+    };
+    let bad = |message: String| StageError::InvalidInput {
+        input: "model".into(),
+        message,
+    };
+    let bytes = std::fs::read(path).map_err(|e| StageError::io("cannot read input `model`", e))?;
+    let json: serde_json::Value =
+        serde_json::from_slice(&bytes).map_err(|e| bad(format!("not a model.json: {e}")))?;
+    let yaml = json["yaml"].as_str().ok_or_else(|| {
+        bad("model.json has no `yaml` text; bind a synthesize stage's `model` output".into())
+    })?;
+    let name = json["file"].as_str().unwrap_or("model.json").to_string();
+    let external: BTreeMap<String, String> = json["external"]
+        .as_object()
+        .map(|m| {
+            m.iter()
+                .filter_map(|(k, v)| v.as_str().map(|s| (k.clone(), s.to_string())))
+                .collect()
+        })
+        .unwrap_or_default();
+    let resolver = |p: &str| -> std::io::Result<Vec<u8>> {
+        external
+            .get(p)
+            .map(|s| s.as_bytes().to_vec())
+            .ok_or_else(|| {
+                std::io::Error::new(
+                    std::io::ErrorKind::NotFound,
+                    format!("`{p}` is not embedded in model.json"),
+                )
+            })
+    };
+    dynamics::Model::from_yaml(yaml, &name, &resolver).map_err(|e| bad(e.to_string()))
+}
+
+/// The `subproblems` of a gsa subproblems.json, its `significant` list and
+/// the frequencies of the modes it names (both absent in hand-written files).
+fn read_subproblems(path: &Path) -> Result<ScreeningInput, StageError> {
+    let bad = |message: String| StageError::InvalidInput {
+        input: "sensitivity".into(),
+        message,
+    };
+    let bytes =
+        std::fs::read(path).map_err(|e| StageError::io("cannot read input `sensitivity`", e))?;
+    let json: serde_json::Value =
+        serde_json::from_slice(&bytes).map_err(|e| bad(format!("not a subproblems.json: {e}")))?;
+    let list = json.get("subproblems").cloned().ok_or_else(|| {
+        bad("no `subproblems` list; bind a gsa stage's `subproblems` output".into())
+    })?;
+    let specs = serde_json::from_value(list).map_err(|e| bad(format!("subproblems: {e}")))?;
+    let significant = match json.get("significant") {
+        None => None,
+        Some(v) => {
+            Some(serde_json::from_value(v.clone()).map_err(|e| bad(format!("significant: {e}")))?)
+        }
+    };
+    let modes = match json.get("modes") {
+        None => Vec::new(),
+        Some(v) => serde_json::from_value(v.clone()).map_err(|e| bad(format!("modes: {e}")))?,
+    };
+    Ok(ScreeningInput {
+        specs,
+        significant,
+        modes,
+    })
+}

@@ -1,0 +1,157 @@
+//! The parameter values `synthesize` solves a model at: the `values` param
+//! (the truth, overrides by name, a seeded log-normal perturbation, factors
+//! by glob), the `significant` input (which parameters a perturbation moves)
+//! and the `values` input (a parameter table applied last).
+
+use super::synthesize_params::{Params, Values};
+use super::StageError;
+use crate::dynamics::measurement::GaussianStream;
+use crate::dynamics::Model;
+use std::path::Path;
+
+/// Override `x` with the `value` column of a parameter table (rows named by
+/// `parameter`); every named parameter must exist and lie within its bounds.
+pub(super) fn override_from_table(model: &Model, x: &mut [f64], path: &Path) -> Result<(), StageError> {
+    let invalid = |message: String| StageError::InvalidInput {
+        input: "values".into(),
+        message,
+    };
+    for (name, v) in super::evaluate::read_parameters(path, "values")? {
+        let k = model
+            .parameter_index(&name)
+            .ok_or_else(|| invalid(format!("the model has no parameter `{name}`")))?;
+        let p = &model.parameters[k];
+        if !(v.is_finite() && p.lower <= v && v <= p.upper) {
+            return Err(invalid(format!(
+                "`{name}` = {v} is outside its bounds [{}, {}]",
+                p.lower, p.upper
+            )));
+        }
+        x[k] = v;
+    }
+    Ok(())
+}
+
+/// The significant parameters of a gsa significant.csv
+/// (`parameter,score,significant`), for `values.perturb`.
+pub(super) fn significant_parameters(path: &Path, p: &Params) -> Result<Vec<String>, StageError> {
+    let bad = |message: String| StageError::InvalidInput {
+        input: "significant".into(),
+        message,
+    };
+    match &p.values {
+        Some(Values::Perturb { perturb }) if perturb.parameters.is_none() => {}
+        Some(Values::Perturb { .. }) => {
+            return Err(bad(
+                "`values.perturb.parameters` and the `significant` input both name the parameters to move; keep one".into(),
+            ))
+        }
+        _ => {
+            return Err(bad(
+                "the `significant` input names the parameters `values.perturb` moves; give `values: {perturb: {relative, seed}}`".into(),
+            ))
+        }
+    }
+    let mut reader = csv::Reader::from_path(path)
+        .map_err(|e| bad(format!("not a significant.csv: {e}")))?;
+    let headers = reader
+        .headers()
+        .map_err(|e| bad(format!("not a significant.csv: {e}")))?
+        .clone();
+    let col = |name: &str| {
+        headers.iter().position(|h| h == name).ok_or_else(|| {
+            bad(format!(
+                "no `{name}` column; bind a gsa stage's `significant` output"
+            ))
+        })
+    };
+    let (c_name, c_sig) = (col("parameter")?, col("significant")?);
+    let mut out = Vec::new();
+    for row in reader.records() {
+        let row = row.map_err(|e| bad(format!("significant.csv: {e}")))?;
+        if row.get(c_sig) == Some("true") {
+            out.push(row.get(c_name).unwrap_or_default().to_string());
+        }
+    }
+    if out.is_empty() {
+        return Err(bad("the screening found no significant parameter".into()));
+    }
+    Ok(out)
+}
+
+/// Parameter values to use, in model order; `only` (from the `significant`
+/// input) names the parameters a `perturb` moves.
+pub(super) fn values(model: &Model, spec: Option<&Values>, only: Option<&[String]>) -> Result<Vec<f64>, String> {
+    let mut v = model.true_values();
+    match spec {
+        None | Some(Values::Named(_)) => {}
+        Some(Values::Overrides(map)) => {
+            for (name, &x) in map {
+                let i = model.parameter_index(name).ok_or_else(|| {
+                    let names: Vec<&str> =
+                        model.parameters.iter().map(|p| p.name.as_str()).collect();
+                    format!(
+                        "values: the model has no parameter `{name}` (parameters: {})",
+                        names.join(", ")
+                    )
+                })?;
+                let p = &model.parameters[i];
+                if !(x.is_finite() && p.lower <= x && x <= p.upper) {
+                    return Err(format!(
+                        "values: `{name}` = {x} is outside its bounds [{}, {}]",
+                        p.lower, p.upper
+                    ));
+                }
+                v[i] = x;
+            }
+        }
+        Some(Values::Scale { scale }) => {
+            for (pattern, &f) in scale {
+                let glob = glob::Pattern::new(pattern)
+                    .map_err(|e| format!("values.scale: `{pattern}`: {e}"))?;
+                let mut matched = false;
+                for (i, p) in model.parameters.iter().enumerate() {
+                    if glob.matches(&p.name) {
+                        matched = true;
+                        let x = v[i] * f;
+                        if !(p.lower <= x && x <= p.upper) {
+                            return Err(format!(
+                                "values.scale: `{}` × {f} = {x} is outside its bounds [{}, {}]",
+                                p.name, p.lower, p.upper
+                            ));
+                        }
+                        v[i] = x;
+                    }
+                }
+                if !matched {
+                    return Err(format!(
+                        "values.scale: `{pattern}` matches no parameter of the model"
+                    ));
+                }
+            }
+        }
+        Some(Values::Perturb { perturb }) => {
+            let only = only.or(perturb.parameters.as_deref());
+            if let Some(only) = only {
+                let names: Vec<&str> = model.parameters.iter().map(|p| p.name.as_str()).collect();
+                if let Some(name) = only.iter().find(|n| !names.contains(&n.as_str())) {
+                    return Err(format!(
+                        "values.perturb.parameters: the model has no parameter `{name}` (parameters: {})",
+                        names.join(", ")
+                    ));
+                }
+            }
+            // One Gaussian stream per parameter index: adding a parameter
+            // leaves the others' perturbations unchanged.
+            for (i, p) in model.parameters.iter().enumerate() {
+                if only.is_some_and(|only| !only.contains(&p.name)) {
+                    continue;
+                }
+                let g = GaussianStream::new(perturb.seed, i as u64).standard();
+                v[i] = (p.value * (perturb.relative * g).exp()).clamp(p.lower, p.upper);
+            }
+        }
+    }
+    Ok(v)
+}
+
