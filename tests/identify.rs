@@ -173,3 +173,95 @@ fn guided_without_sensitivity_is_rejected_before_anything_runs() {
     );
     assert!(!ws.path().join("cache/runs").exists());
 }
+
+const FIXTURES: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fixtures/models");
+
+/// A workspace with the parallel-springs model.
+fn parallel(pipeline: &str) -> Workspace {
+    let ws = Workspace::new();
+    std::fs::copy(
+        format!("{FIXTURES}/parallel_springs.yaml"),
+        ws.path().join("parallel.yaml"),
+    )
+    .unwrap();
+    ws.write("p.yaml", pipeline);
+    ws
+}
+
+#[test]
+fn parallel_springs_are_named_as_undetermined_and_the_rest_is_identified() {
+    // ka and kb act only through their sum: whatever the data, their split
+    // is free. The truth moves all three; the identification must fit the
+    // modes exactly, determine k12, and name {ka, kb} instead of reporting
+    // an arbitrary split as a value with an error bar.
+    let ws = parallel(
+        "name: par\nstages:\n  truth:\n    kind: synthesize\n    params: {model: parallel.yaml, frequency: {min: 0, max: 300, step: 0.5}, values: {ka.k_x: 1.3e6, kb.k_x: 0.6e6, k12.k_x: 1.0e6}}\n  fit:\n    kind: identify\n    inputs: {reference: truth.modes}\n    params: {model: parallel.yaml, strategy: black_box, optimizer: slsqp, budget: 1500}\n",
+    );
+    ws.run(&[], 0);
+    let id: serde_json::Value =
+        serde_json::from_str(&ws.read("results/par/fit/identifiability.json")).unwrap();
+    let groups = id["undetermined"].as_array().unwrap();
+    let structural: Vec<Vec<&str>> = groups
+        .iter()
+        .filter(|g| g["singular_value"] == 0.0)
+        .map(|g| {
+            g["parameters"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|p| p[0].as_str().unwrap())
+                .collect()
+        })
+        .collect();
+    assert_eq!(structural, [vec!["ka.k_x", "kb.k_x"]], "{id}");
+    let text = id["undetermined_text"].to_string();
+    assert!(text.contains("{ka.k_x, kb.k_x}: 1 free combination"), "{text}");
+    let params = ws.read("results/par/fit/parameters.csv");
+    let row = |name: &str| -> Vec<String> {
+        params
+            .lines()
+            .find(|l| l.starts_with(&format!("{name},")))
+            .unwrap()
+            .split(',')
+            .map(String::from)
+            .collect()
+    };
+    // Not identifiable: flagged, no error bar.
+    for name in ["ka.k_x", "kb.k_x"] {
+        let r = row(name);
+        assert_eq!((r[6].as_str(), r[7].as_str()), ("false", ""), "{r:?}");
+    }
+    // Identifiable and right; the sum of the pair is right too.
+    let k12 = row("k12.k_x");
+    assert_eq!(k12[6], "true", "{k12:?}");
+    assert!((k12[1].parse::<f64>().unwrap() / 1.0e6 - 1.0).abs() < 1e-4, "{k12:?}");
+    let sum = row("ka.k_x")[1].parse::<f64>().unwrap() + row("kb.k_x")[1].parse::<f64>().unwrap();
+    assert!((sum / 1.9e6 - 1.0).abs() < 1e-4, "{sum}");
+    let cost: serde_json::Value =
+        serde_json::from_str(&ws.read("results/par/fit/cost.json")).unwrap();
+    assert!(cost["verdict"]["warnings"].to_string().contains("not determined"), "{cost}");
+}
+
+#[test]
+fn a_model_that_cannot_match_says_so() {
+    // The reference comes from the three-mass chain with its masses changed
+    // (a model error no stiffness can absorb): the update must end with a
+    // verdict that is not ok, the residual above the noise and the size of
+    // the misfit — and exit 0 with results, as the data deserve.
+    let ws = setup(
+        "name: bad\nstages:\n  truth:\n    kind: synthesize\n    params: {model: heavy.yaml, frequency: {min: 0, max: 400, step: 0.5}}\n  fit:\n    kind: identify\n    inputs: {reference: truth.modes}\n    params: {model: three_mass.yaml, strategy: black_box, optimizer: slsqp, budget: 1500}\n",
+    );
+    let heavy = std::fs::read_to_string(format!("{MODELS}/three_mass.yaml"))
+        .unwrap()
+        .replace("mass: 1.0,", "mass: 2.6,")
+        .replace("mass: 0.8,", "mass: 0.3,");
+    ws.write("heavy.yaml", &heavy);
+    ws.run(&[], 0);
+    let cost: serde_json::Value =
+        serde_json::from_str(&ws.read("results/bad/fit/cost.json")).unwrap();
+    let v = &cost["verdict"];
+    assert_eq!(v["ok"], false, "{v}");
+    assert_eq!(v["fit"], "above_noise", "{v}");
+    assert!(v["end_rms"].as_f64().unwrap() > 2.0, "{v}");
+    assert!(v["message"].as_str().unwrap().contains("above the reference's uncertainty"), "{v}");
+}

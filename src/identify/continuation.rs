@@ -30,6 +30,14 @@
 //! be far more precise than stated (σ̂ ≪ 1: exact, synthetic modes), the
 //! next stage's prior is scaled by σ̂, so exact data are fitted exactly.
 //!
+//! **Outliers.** A measured mode can be wrong in a way no σ foresaw (two
+//! close, well-damped modes fitted as one, with a shape of neither). After
+//! each stage, a mode whose residual RMS exceeds `outlier` (3) times the
+//! median mode's — and 3σ — has its residuals scaled down to that bar
+//! (a Huber weight) and the stage is fitted again from its start: it can
+//! no longer drag the others. Down-weighted modes are listed with their
+//! residuals in the result, and the verdict mentions them.
+//!
 //! Stage k uses, per position, the lowest `first + k·step` usable reference
 //! modes (by reference frequency); every stage starts where the previous
 //! ended. Intermediate stages stop once an accepted step lowers the cost by
@@ -59,6 +67,9 @@ pub struct ContinuationParams {
     /// Largest change of one parameter per step, as a fraction of its
     /// (log) range.
     pub max_step: f64,
+    /// A mode whose residual RMS after a stage exceeds this many times the
+    /// median mode's (and this many σ) is an outlier (0: none).
+    pub outlier: f64,
     /// Standard deviation, as a fraction of a parameter's (log) range, of
     /// the prior that ties it to its start value (0: none); see the module
     /// docs.
@@ -72,6 +83,7 @@ impl Default for ContinuationParams {
             step: 1,
             stage_tolerance: 1e-3,
             max_step: 0.05,
+            outlier: 3.0,
             regularization: 0.25,
         }
     }
@@ -93,6 +105,12 @@ impl ContinuationParams {
             return Err(format!(
                 "continuation.regularization must be ≥ 0, got {}",
                 self.regularization
+            ));
+        }
+        if !(self.outlier >= 0.0 && self.outlier.is_finite()) {
+            return Err(format!(
+                "continuation.outlier must be ≥ 0, got {}",
+                self.outlier
             ));
         }
         if !(self.max_step > 0.0 && self.max_step <= 1.0) {
@@ -125,6 +143,8 @@ pub struct ContinuationResult {
     /// All parameter values at the end.
     pub x: Vec<f64>,
     pub stages: Vec<StageRecord>,
+    /// Modes down-weighted as outliers.
+    pub outliers: Vec<Outlier>,
     pub evaluations: usize,
     /// How the last stage ended.
     pub termination: Termination,
@@ -172,9 +192,170 @@ pub fn schedule(o: &ModalObjective, settings: &ContinuationParams) -> Vec<(usize
     }
 }
 
+/// A reference mode the continuation down-weighted as an outlier.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Outlier {
+    pub position: u32,
+    /// 1-based number in the reference.
+    pub mode: usize,
+    pub frequency_hz: f64,
+    /// Its residual RMS (σ units) when it was found, and the stage's median.
+    pub rms: f64,
+    pub median: f64,
+    /// The factor its residuals were given from then on.
+    pub weight: f64,
+}
+
+/// The state of one continuation run.
+struct Runner<'a> {
+    o: &'a ModalObjective,
+    free: &'a [usize],
+    bounds: Bounds,
+    /// The prior's centre (unit box of the free parameters).
+    centre: Vec<f64>,
+    settings: &'a ContinuationParams,
+    /// σ̂ of the last stage, scaling the prior (module docs).
+    prior_scale: f64,
+    /// Per slot and reference mode: the factor on its residuals.
+    weights: Vec<Vec<f64>>,
+    recorder: &'a Recorder,
+    progress: &'a (dyn Fn(u64) + Sync),
+}
+
+impl Runner<'_> {
+    fn point(&self, base: &[f64], values: &[f64]) -> Vec<f64> {
+        let mut p = base.to_vec();
+        for (j, &i) in self.free.iter().enumerate() {
+            p[i] = values[j];
+        }
+        p
+    }
+
+    /// The weighted data residuals of `set` and the prior's, for a batch of
+    /// free-parameter points around `base`; every point is recorded.
+    fn residuals(&self, set: &ModeSet, base: &[f64], points: &[Vec<f64>]) -> Vec<Option<Vec<f64>>> {
+        let v: Vec<_> = points
+            .par_iter()
+            .map(|p| self.o.evaluate(&self.point(base, p), set))
+            .collect();
+        let record: Vec<(f64, f64)> = v
+            .iter()
+            .map(|e| e.as_ref().map_or((f64::INFINITY, 0.0), |e| (e.cost_usable, e.mean_mac)))
+            .collect();
+        self.recorder.record(&record);
+        (self.progress)(points.len() as u64);
+        let segments = self.o.segments(set);
+        v.into_iter()
+            .zip(points)
+            .map(|(e, p)| {
+                e.map(|e| {
+                    let mut r = e.residuals;
+                    let mut at = 0;
+                    for &(slot, mode, len) in &segments {
+                        let w = self.weights[slot][mode];
+                        r[at..at + len].iter_mut().for_each(|v| *v *= w);
+                        at += len;
+                    }
+                    r.extend(self.prior(p));
+                    r
+                })
+            })
+            .collect()
+    }
+
+    /// The prior's residuals at free-parameter values `p`.
+    fn prior(&self, p: &[f64]) -> Vec<f64> {
+        if self.settings.regularization <= 0.0 {
+            return Vec::new();
+        }
+        self.bounds
+            .to_unit(p)
+            .iter()
+            .zip(&self.centre)
+            .map(|(a, b)| self.prior_scale * (a - b) / self.settings.regularization)
+            .collect()
+    }
+
+    /// One stage: Levenberg–Marquardt on `set` from `x` (all values).
+    fn stage(
+        &self,
+        set: &ModeSet,
+        x: &[f64],
+        budget: usize,
+        last: bool,
+    ) -> Result<levenberg_marquardt::LmResult, IdentifyError> {
+        let params = LmParams {
+            ftol: if last {
+                LmParams::default().ftol
+            } else {
+                self.settings.stage_tolerance
+            },
+            max_step: self.settings.max_step,
+            ..LmParams::default()
+        };
+        let start: Vec<f64> = self.free.iter().map(|&i| x[i]).collect();
+        let residuals = |points: &[Vec<f64>]| self.residuals(set, x, points);
+        Ok(levenberg_marquardt::minimize(&self.bounds, &residuals, &start, budget, &params)?)
+    }
+
+    /// σ̂ of a finished stage (its data cost over its residual count) as the
+    /// next stage's prior scale.
+    fn update_prior_scale(&mut self, set: &ModeSet, r: &levenberg_marquardt::LmResult) {
+        if self.settings.regularization <= 0.0 || !r.cost.is_finite() {
+            return;
+        }
+        let prior: f64 = self.prior(&r.x_best).iter().map(|v| v * v).sum::<f64>() / 2.0;
+        let m: usize = self.o.segments(set).iter().map(|s| s.2).sum::<usize>().max(1);
+        let sigma = (2.0 * (r.cost - prior).max(0.0) / m as f64).sqrt();
+        self.prior_scale = sigma.clamp(1e-6, 1.0);
+    }
+
+    /// Modes of `set` whose residual RMS at `x` exceeds `outlier` × the
+    /// median (at least `outlier` σ), not yet down-weighted; one evaluation.
+    fn outliers(&self, set: &ModeSet, x: &[f64]) -> Vec<Outlier> {
+        let limit = self.settings.outlier;
+        if limit <= 0.0 {
+            return Vec::new();
+        }
+        (self.progress)(1);
+        let Some(e) = self.o.evaluate(x, set) else {
+            return Vec::new();
+        };
+        let segments = self.o.segments(set);
+        let mut at = 0;
+        let rms: Vec<f64> = segments
+            .iter()
+            .map(|&(_, _, len)| {
+                let v = &e.residuals[at..at + len];
+                at += len;
+                (v.iter().map(|v| v * v).sum::<f64>() / len as f64).sqrt()
+            })
+            .collect();
+        let mut sorted = rms.clone();
+        sorted.sort_by(f64::total_cmp);
+        let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
+        let bar = limit * median.max(1.0);
+        segments
+            .iter()
+            .zip(&rms)
+            .filter(|((slot, mode, _), &r)| r > bar && self.weights[*slot][*mode] == 1.0)
+            .map(|(&(slot, mode, _), &r)| Outlier {
+                position: self.o.position(slot).index,
+                mode: mode + 1,
+                frequency_hz: self.o.reference_frequency(slot, mode),
+                rms: r,
+                median,
+                weight: bar / r,
+            })
+            .collect()
+    }
+}
+
 /// Run the continuation over the parameters `free` (indices) from `x0`
-/// (all values) with at most `budget` evaluations; every evaluation is
-/// recorded in `recorder` as (½‖r‖² over all usable modes, mean MAC).
+/// (all values), tied to `prior` (all values) by the prior, with at most
+/// `budget` evaluations; every evaluation is recorded in `recorder` as
+/// (½‖r‖² over all usable modes, mean MAC).
+#[allow(clippy::too_many_arguments)]
 pub fn continuation(
     o: &ModalObjective,
     free: &[usize],
@@ -195,11 +376,21 @@ pub fn continuation(
     .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
     let n = free.len();
     let stages = schedule(o, settings);
-    let centre = bounds.to_unit(&free.iter().map(|&i| prior[i]).collect::<Vec<_>>());
-    let mut prior_scale = 1.0;
-    let per_stage_minimum = 3 * (n + 1) + 1;
+    let mut runner = Runner {
+        o,
+        free,
+        centre: bounds.to_unit(&free.iter().map(|&i| prior[i]).collect::<Vec<_>>()),
+        bounds,
+        settings,
+        prior_scale: 1.0,
+        weights: (0..o.positions()).map(|p| vec![1.0; o.modes_at(p)]).collect(),
+        recorder,
+        progress,
+    };
+    let per_stage_minimum = 3 * (n + 1) + 2;
     let mut x = x0.to_vec();
     let mut records = Vec::new();
+    let mut outliers = Vec::new();
     let start_cost = o
         .evaluate(x0, &o.usable())
         .map_or(f64::INFINITY, |e| e.cost_usable);
@@ -208,85 +399,30 @@ pub fn continuation(
     let mut termination = Termination::BudgetExhausted;
     for (k, (count, set)) in stages.iter().enumerate() {
         let later = stages.len() - 1 - k;
-        let last = later == 0;
         let stage_budget = budget
             .saturating_sub(used)
             .saturating_sub(later * per_stage_minimum);
-        if stage_budget < n + 2 {
+        if stage_budget < n + 3 {
             break;
         }
-        let base = x.clone();
-        let point = |values: &[f64]| {
-            let mut p = base.clone();
-            for (j, &i) in free.iter().enumerate() {
-                p[i] = values[j];
-            }
-            p
-        };
-        let residuals = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
-            let v: Vec<_> = points
-                .par_iter()
-                .map(|p| o.evaluate(&point(p), set))
-                .collect();
-            let record: Vec<(f64, f64)> = v
-                .iter()
-                .map(|e| e.as_ref().map_or((f64::INFINITY, 0.0), |e| (e.cost_usable, e.mean_mac)))
-                .collect();
-            recorder.record(&record);
-            progress(points.len() as u64);
-            v.into_iter()
-                .zip(points)
-                .map(|(e, p)| {
-                    e.map(|e| {
-                        let mut r = e.residuals;
-                        if settings.regularization > 0.0 {
-                            let u = bounds.to_unit(p);
-                            r.extend(
-                                u.iter()
-                                    .zip(&centre)
-                                    .map(|(a, b)| prior_scale * (a - b) / settings.regularization),
-                            );
-                        }
-                        r
-                    })
-                })
-                .collect()
-        };
-        let params = LmParams {
-            ftol: if last {
-                LmParams::default().ftol
-            } else {
-                settings.stage_tolerance
-            },
-            max_step: settings.max_step,
-            ..LmParams::default()
-        };
-        let start: Vec<f64> = free.iter().map(|&i| x[i]).collect();
-        let r = levenberg_marquardt::minimize(&bounds, &residuals, &start, stage_budget, &params)?;
+        let mut r = runner.stage(set, &x, stage_budget - 1, later == 0)?;
         used += r.evaluations;
-        // The data's own noise level σ̂ (in units of the stated σ) scales the
-        // prior of the next stage: see the module docs.
-        if settings.regularization > 0.0 && r.cost.is_finite() {
-            let u = bounds.to_unit(&r.x_best);
-            let prior: f64 = u
-                .iter()
-                .zip(&centre)
-                .map(|(a, b)| (prior_scale * (a - b) / settings.regularization).powi(2))
-                .sum::<f64>()
-                / 2.0;
-            let m = set
-                .iter()
-                .enumerate()
-                .map(|(p, s)| {
-                    s.iter().filter(|&&x| x).count() * (1 + 2 * o.references[p].rows.len())
-                })
-                .sum::<usize>()
-                .max(1);
-            let sigma = (2.0 * (r.cost - prior).max(0.0) / m as f64).sqrt();
-            prior_scale = sigma.clamp(1e-6, 1.0);
+        let found = runner.outliers(set, &runner.point(&x, &r.x_best));
+        used += 1;
+        // Down-weight them and fit the stage again from its start.
+        let redo = stage_budget.saturating_sub(r.evaluations + 1);
+        if !found.is_empty() && redo >= n + 2 {
+            for f in &found {
+                let slot = o.slot(f.position).unwrap_or(0);
+                runner.weights[slot][f.mode - 1] = f.weight;
+            }
+            outliers.extend(found);
+            r = runner.stage(set, &x, redo, later == 0)?;
+            used += r.evaluations;
         }
+        runner.update_prior_scale(set, &r);
         if r.cost.is_finite() {
-            x = point(&r.x_best);
+            x = runner.point(&x, &r.x_best);
         }
         records.push(StageRecord {
             modes_per_position: *count,
@@ -304,8 +440,9 @@ pub fn continuation(
             stages.len() * per_stage_minimum + n + 2
         )));
     }
-    // The data's cost over all usable modes (the stages' costs include the
-    // prior and, before the last, only some modes).
+    // The data's cost over all usable modes, unweighted (the stages' costs
+    // include the prior, the outliers' weights and, before the last, only
+    // some modes).
     let end_cost = o
         .evaluate(&x, &o.usable())
         .map_or(f64::INFINITY, |e| e.cost_usable);
@@ -314,6 +451,7 @@ pub fn continuation(
     Ok(ContinuationResult {
         x,
         stages: records,
+        outliers,
         evaluations: used,
         termination,
         start_cost,

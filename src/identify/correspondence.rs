@@ -77,11 +77,14 @@ impl Correspondence {
         visibility_threshold: f64,
     ) -> Result<Correspondence, IdentifyError> {
         let models = o.model_modes(x0)?;
+        let usable = o.usable();
         let mut slots = Vec::new();
         for (p, model) in models.iter().enumerate() {
             let n_ref = o.modes_at(p);
-            let rf: Vec<f64> = (0..n_ref).map(|k| o.reference_frequency(p, k)).collect();
-            let rs: Vec<_> = (0..n_ref).map(|k| o.reference_shape(p, k).to_vec()).collect();
+            // Modes already left out (duplicates) take no partner.
+            let idx: Vec<usize> = (0..n_ref).filter(|&k| usable[p][k]).collect();
+            let rf: Vec<f64> = idx.iter().map(|&k| o.reference_frequency(p, k)).collect();
+            let rs: Vec<_> = idx.iter().map(|&k| o.reference_shape(p, k).to_vec()).collect();
             let mf: Vec<f64> = model.modes.iter().map(|m| m.frequency_hz).collect();
             let ms: Vec<_> = model.modes.iter().map(|m| m.shape.clone()).collect();
             let pairs = pair_modes(&rf, &rs, &mf, &ms, &o.pairing);
@@ -113,10 +116,11 @@ impl Correspondence {
                 .collect();
             let mut partner = vec![None; n_ref];
             for (pair, m) in pairs.iter().zip(margin) {
-                nominal[pair.candidate].reference = Some(pair.reference);
+                let r = idx[pair.reference];
+                nominal[pair.candidate].reference = Some(r);
                 nominal[pair.candidate].mac = pair.mac;
                 nominal[pair.candidate].margin = m;
-                partner[pair.reference] = Some(pair.candidate);
+                partner[r] = Some(pair.candidate);
             }
             slots.push(SlotCorrespondence {
                 position: o.position(p).index,
@@ -193,6 +197,49 @@ impl Correspondence {
                 n.frequency_hz
             )
         })
+    }
+
+    /// Exclude from `o` the second of any two reference modes of one
+    /// position that are one mode estimated twice: frequencies within 1 %
+    /// and MAC ≥ 0.9 at the shared DOFs (an EMA that split one mode into two
+    /// clusters). Two true modes that close are orthogonal in the mass
+    /// metric, and sensors that still see them alike cannot tell them apart
+    /// either; of the pair, the one with the more complex shape (the worse
+    /// estimate, [`super::objective::Uncertainty`]) is left out. Returns how
+    /// many.
+    pub fn exclude_duplicates(o: &mut ModalObjective) -> usize {
+        let mut count = 0;
+        for p in 0..o.positions() {
+            let n = o.modes_at(p);
+            for a in 0..n {
+                for b in (a + 1)..n {
+                    if o.exclusion(p, a).is_some() || o.exclusion(p, b).is_some() {
+                        continue;
+                    }
+                    let (fa, fb) = (o.reference_frequency(p, a), o.reference_frequency(p, b));
+                    let m = crate::metrics::mac(o.reference_shape(p, a), o.reference_shape(p, b));
+                    if nfd(fa, fb) > 0.01 || m < 0.9 {
+                        continue;
+                    }
+                    let (ca, cb) = (
+                        super::objective::complexity(o.reference_shape(p, a)),
+                        super::objective::complexity(o.reference_shape(p, b)),
+                    );
+                    let (keep, drop) = if cb < ca { (b, a) } else { (a, b) };
+                    o.exclude(
+                        p,
+                        drop,
+                        format!(
+                            "a duplicate of reference mode {} ({:.2} Hz, MAC {m:.3} between them): one mode estimated twice",
+                            keep + 1,
+                            o.reference_frequency(p, keep)
+                        ),
+                    );
+                    count += 1;
+                }
+            }
+        }
+        count
     }
 
     /// Exclude from `o` every reference mode whose nominal partner the

@@ -136,6 +136,8 @@ pub struct RefinementRun {
     /// Where it started: `start`, `subproblems` or `sobol <k>`.
     pub from: String,
     pub stages: Vec<super::continuation::StageRecord>,
+    /// Modes it down-weighted as outliers.
+    pub outliers: Vec<super::continuation::Outlier>,
     pub evaluations: usize,
     pub termination: String,
     /// ½‖r‖² over all usable modes at its start and end.
@@ -392,6 +394,7 @@ fn refine(
         runs.push(RefinementRun {
             from: from.clone(),
             stages: r.stages.clone(),
+            outliers: r.outliers.clone(),
             evaluations: r.evaluations,
             termination: super::continuation::termination_text(&r.termination),
             start: r.start_cost,

@@ -31,7 +31,7 @@ mod residuals;
 mod uncertainty;
 
 pub use residuals::Evaluation;
-pub use uncertainty::Uncertainty;
+pub use uncertainty::{complexity, Uncertainty};
 
 use super::IdentifyError;
 use crate::dynamics::{self, PreparedModel};

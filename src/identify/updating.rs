@@ -80,6 +80,7 @@ pub fn update(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Update, IdentifyError> {
     let start = o.nominal();
+    Correspondence::exclude_duplicates(o);
     let correspondence = Correspondence::new(o, &start, plan.visibility)?;
     progress(1);
     for &(position, number) in plan.exclude {
@@ -145,7 +146,15 @@ pub fn update(
         }
     };
     let (assessment, pairs, verdict_inputs) = assess(o, &start, &x, &identified, plan, progress)?;
-    let warnings = bound_warnings(o, &x, &identified);
+    let mut warnings = bound_warnings(o, &x, &identified);
+    if let Some(run) = guided_result.as_ref().and_then(|g| g.refinement.first()) {
+        warnings.extend(run.outliers.iter().map(|f| {
+            format!(
+                "reference mode {} at position {} ({:.2} Hz) down-weighted as an outlier: residual {:.1}σ RMS against a median of {:.1}σ",
+                f.mode, f.position, f.frequency_hz, f.rms, f.median
+            )
+        }));
+    }
     let verdict = Verdict::judge(
         status,
         verdict_inputs.0,

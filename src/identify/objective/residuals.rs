@@ -55,6 +55,22 @@ impl ModalObjective {
         })
     }
 
+    /// (slot, mode, number of residuals) of each mode of `set`, in the
+    /// order of the residual vector of [`Self::evaluate`].
+    pub fn segments(&self, set: &ModeSet) -> Vec<(usize, usize, usize)> {
+        self.references
+            .iter()
+            .zip(set)
+            .enumerate()
+            .flat_map(|(p, (r, used))| {
+                let len = 1 + 2 * r.rows.len();
+                (0..used.len())
+                    .filter(move |&k| used[k])
+                    .map(move |k| (p, k, len))
+            })
+            .collect()
+    }
+
     /// The residual vector (see [`Self::evaluate`]) of `set`, and the
     /// damping residuals.
     fn residual_vector(
