@@ -99,7 +99,10 @@ fn score(results: &Path, f: &Family, seed: u32, significant: &[String]) -> Score
     let updated = read_modes(&id_dir.join("updated_modes"), "updated").unwrap();
     let mut macs = Vec::new();
     for t in &truth {
-        let Some(u) = updated.iter().find(|u| u.position.index == t.position.index) else {
+        let Some(u) = updated
+            .iter()
+            .find(|u| u.position.index == t.position.index)
+        else {
             macs.extend(t.modes.iter().map(|_| 0.0));
             continue;
         };
@@ -119,7 +122,12 @@ fn score(results: &Path, f: &Family, seed: u32, significant: &[String]) -> Score
     // Errors of the identifiable significant stiffnesses.
     let kinds: BTreeMap<String, (f64, String)> = csv_rows(&truth_dir.join("parameters.csv"))
         .into_iter()
-        .map(|r| (r["parameter"].clone(), (r["value"].parse().unwrap(), r["kind"].clone())))
+        .map(|r| {
+            (
+                r["parameter"].clone(),
+                (r["value"].parse().unwrap(), r["kind"].clone()),
+            )
+        })
         .collect();
     let mut errors: Vec<f64> = csv_rows(&id_dir.join("parameters.csv"))
         .into_iter()
@@ -143,7 +151,10 @@ fn score(results: &Path, f: &Family, seed: u32, significant: &[String]) -> Score
         identifiable: errors.len(),
         evaluations: cost["evaluations"].as_u64().unwrap_or(0),
         ok: cost["verdict"]["ok"].as_bool().unwrap_or(false),
-        message: cost["verdict"]["message"].as_str().unwrap_or("").to_string(),
+        message: cost["verdict"]["message"]
+            .as_str()
+            .unwrap_or("")
+            .to_string(),
     }
 }
 
@@ -180,8 +191,11 @@ fn main() {
         .filter(|r| r["significant"] == "true")
         .map(|r| r["parameter"].clone())
         .collect();
-    let mut md = String::from("# Guided identification on families (test bench, PUB3 scenario 1)\n\n");
-    let mut csv = String::from("family,seed,mean_mac,median_error,identifiable,evaluations,verdict_ok,success\n");
+    let mut md =
+        String::from("# Guided identification on families (test bench, PUB3 scenario 1)\n\n");
+    let mut csv = String::from(
+        "family,seed,mean_mac,median_error,identifiable,evaluations,verdict_ok,success\n",
+    );
     for f in &FAMILIES {
         let scores: Vec<Score> = (1..=f.seeds)
             .map(|s| score(&results, f, s, &significant))
@@ -200,7 +214,10 @@ fn main() {
         let macs: Vec<f64> = scores.iter().map(|s| s.mean_mac).collect();
         let errs: Vec<f64> = scores.iter().map(|s| s.median_error).collect();
         let evals: Vec<f64> = scores.iter().map(|s| s.evaluations as f64).collect();
-        let _ = writeln!(md, "| distribution (min / 10 % / median / 90 % / max) | |\n|---|---|");
+        let _ = writeln!(
+            md,
+            "| distribution (min / 10 % / median / 90 % / max) | |\n|---|---|"
+        );
         let _ = writeln!(md, "| mean MAC vs truth | {} |", quantiles(&macs));
         let _ = writeln!(md, "| median identifiable error | {} |", quantiles(&errs));
         let _ = writeln!(md, "| evaluations | {} |\n", quantiles(&evals));
@@ -215,7 +232,11 @@ fn main() {
                 s.identifiable,
                 s.evaluations,
                 if s.ok { "ok" } else { "✗ " },
-                if s.ok { String::new() } else { s.message.clone() }
+                if s.ok {
+                    String::new()
+                } else {
+                    s.message.clone()
+                }
             );
             let _ = writeln!(
                 csv,

@@ -94,14 +94,21 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
         .collect();
     assert_eq!(k1[4], "2000000.0");
     assert_eq!((k1[5], k1[6]), ("true", "true"));
-    let (v, lo, hi): (f64, f64, f64) = (k1[1].parse().unwrap(), k1[8].parse().unwrap(), k1[9].parse().unwrap());
+    let (v, lo, hi): (f64, f64, f64) = (
+        k1[1].parse().unwrap(),
+        k1[8].parse().unwrap(),
+        k1[9].parse().unwrap(),
+    );
     assert!(lo <= v && v <= hi && (hi - lo) < 0.01 * v, "{k1:?}");
     // The verdict: converged, within the noise, every mode paired.
     assert_eq!(cost["verdict"]["ok"], true, "{}", cost["verdict"]);
     assert_eq!(cost["verdict"]["modes"]["unpaired"], 0);
     let correlation = ws.read("results/id/fit/correlation.csv");
     assert_eq!(correlation.lines().count(), 4, "{correlation}");
-    assert!(correlation.lines().skip(1).all(|l| l.contains(",true,")), "{correlation}");
+    assert!(
+        correlation.lines().skip(1).all(|l| l.contains(",true,")),
+        "{correlation}"
+    );
     let id: serde_json::Value =
         serde_json::from_str(&ws.read("results/id/fit/identifiability.json")).unwrap();
     assert!(id["parameters"].as_array().unwrap().len() == 8, "{id}");
@@ -215,7 +222,10 @@ fn parallel_springs_are_named_as_undetermined_and_the_rest_is_identified() {
         .collect();
     assert_eq!(structural, [vec!["ka.k_x", "kb.k_x"]], "{id}");
     let text = id["undetermined_text"].to_string();
-    assert!(text.contains("{ka.k_x, kb.k_x}: 1 free combination"), "{text}");
+    assert!(
+        text.contains("{ka.k_x, kb.k_x}: 1 free combination"),
+        "{text}"
+    );
     let params = ws.read("results/par/fit/parameters.csv");
     let row = |name: &str| -> Vec<String> {
         params
@@ -234,12 +244,20 @@ fn parallel_springs_are_named_as_undetermined_and_the_rest_is_identified() {
     // Identifiable and right; the sum of the pair is right too.
     let k12 = row("k12.k_x");
     assert_eq!(k12[6], "true", "{k12:?}");
-    assert!((k12[1].parse::<f64>().unwrap() / 1.0e6 - 1.0).abs() < 1e-4, "{k12:?}");
+    assert!(
+        (k12[1].parse::<f64>().unwrap() / 1.0e6 - 1.0).abs() < 1e-4,
+        "{k12:?}"
+    );
     let sum = row("ka.k_x")[1].parse::<f64>().unwrap() + row("kb.k_x")[1].parse::<f64>().unwrap();
     assert!((sum / 1.9e6 - 1.0).abs() < 1e-4, "{sum}");
     let cost: serde_json::Value =
         serde_json::from_str(&ws.read("results/par/fit/cost.json")).unwrap();
-    assert!(cost["verdict"]["warnings"].to_string().contains("not determined"), "{cost}");
+    assert!(
+        cost["verdict"]["warnings"]
+            .to_string()
+            .contains("not determined"),
+        "{cost}"
+    );
 }
 
 #[test]
@@ -263,5 +281,11 @@ fn a_model_that_cannot_match_says_so() {
     assert_eq!(v["ok"], false, "{v}");
     assert_eq!(v["fit"], "above_noise", "{v}");
     assert!(v["end_rms"].as_f64().unwrap() > 2.0, "{v}");
-    assert!(v["message"].as_str().unwrap().contains("above the reference's uncertainty"), "{v}");
+    assert!(
+        v["message"]
+            .as_str()
+            .unwrap()
+            .contains("above the reference's uncertainty"),
+        "{v}"
+    );
 }

@@ -41,19 +41,37 @@ impl ModalSolution {
     /// ω_r/2π exactly for viscous damping, ω_r (1 + η_r²)^{1/4}/2π for
     /// hysteretic.
     pub fn frequencies_hz(&self) -> Vec<f64> {
-        self.poles()
-            .iter()
-            .map(|l| l.norm() / (2.0 * std::f64::consts::PI))
+        self.pole_parts()
+            .map(|(w, _)| w / (2.0 * std::f64::consts::PI))
             .collect()
     }
 
     /// Damping ratios −Re λ_r / |λ_r| of the modes' poles: ζ_r for viscous
     /// damping, ≈ ζ_r + η_r/2 with both.
     pub fn damping_ratios(&self) -> Vec<f64> {
-        self.poles()
+        self.pole_parts().map(|(_, z)| z).collect()
+    }
+
+    /// (|λ_r|, −Re λ_r/|λ_r|) of every mode, in a form exact for viscous
+    /// damping (η = 0 gives ω_r and ζ_r to the last bit, so a damper never
+    /// moves a frequency by rounding): with s = √(1 − ζ² + jη) = a + jb,
+    /// |λ|² = ω_r² (1 + 2ζb + (|s|² − (1 − ζ²))) and
+    /// |s|² − (1 − ζ²) = η² / (|s|² + 1 − ζ²).
+    fn pole_parts(&self) -> impl Iterator<Item = (f64, f64)> + '_ {
+        self.eigenvalues
             .iter()
-            .map(|l| if l.norm() > 0.0 { -l.re / l.norm() } else { 0.0 })
-            .collect()
+            .zip(self.zeta.iter().zip(&self.eta))
+            .map(|(&l, (&z, &e))| {
+                let s = Complex64::new(1.0 - z * z, e).sqrt();
+                let excess = e * e / (s.norm_sqr() + 1.0 - z * z);
+                let factor = (1.0 + 2.0 * z * s.im + excess).sqrt();
+                let ratio = if factor > 0.0 {
+                    (z + s.im) / factor
+                } else {
+                    0.0
+                };
+                (l.sqrt() * factor, ratio)
+            })
     }
 
     /// Undamped natural frequencies ω_r / 2π, Hz.
@@ -234,13 +252,42 @@ mod tests {
     use super::*;
 
     #[test]
+    fn pole_parts_agree_with_the_pole_and_are_exact_for_viscous_damping() {
+        let sol = |z: f64, e: f64| ModalSolution {
+            config: 0,
+            eigenvalues: vec![(2.0 * std::f64::consts::PI * 83.7).powi(2)],
+            Phi: Mat::zeros(1, 1),
+            sensor_shapes: Mat::zeros(1, 1),
+            excitation_shapes: Mat::zeros(1, 1),
+            zeta: vec![z],
+            eta: vec![e],
+        };
+        for (z, e) in [(0.0, 0.0), (0.013, 0.0), (0.0, 0.1), (0.02, 0.08)] {
+            let s = sol(z, e);
+            let l = s.poles()[0];
+            let f = s.frequencies_hz()[0];
+            assert!((f * 2.0 * std::f64::consts::PI / l.norm() - 1.0).abs() < 1e-14);
+            assert!((s.damping_ratios()[0] + l.re / l.norm()).abs() < 1e-14);
+            if e == 0.0 {
+                assert_eq!(f, s.undamped_frequencies_hz()[0]);
+                assert_eq!(s.damping_ratios()[0], z);
+            }
+        }
+    }
+
+    #[test]
     fn the_pole_is_a_root_of_the_frf_denominator() {
-        for (w, z, e) in [(100.0, 0.0, 0.0), (100.0, 0.03, 0.0), (250.0, 0.0, 0.1), (60.0, 0.02, 0.08)] {
+        for (w, z, e) in [
+            (100.0, 0.0, 0.0),
+            (100.0, 0.03, 0.0),
+            (250.0, 0.0, 0.1),
+            (60.0, 0.02, 0.08),
+        ] {
             let l = mode_pole(w, z, e);
             // ω = λ / j must zero ω_r² − ω² + j(2ζωω_r + ηω_r²).
             let om = l / Complex64::new(0.0, 1.0);
-            let d = Complex64::new(w * w, e * w * w) - om * om
-                + Complex64::new(0.0, 2.0 * z * w) * om;
+            let d =
+                Complex64::new(w * w, e * w * w) - om * om + Complex64::new(0.0, 2.0 * z * w) * om;
             assert!(d.norm() < 1e-9 * w * w, "{d}");
             assert!(l.re <= 0.0 && l.im > 0.0);
         }

@@ -23,8 +23,8 @@ use super::frf_bands::FrfBands;
 use super::{check_dimension, EvalError, Model, Parameter, Scale};
 use crate::dynamics::{self, DynamicsError, ModalSolution, PreparedModel};
 use crate::metrics::mac;
-use crate::pairing::{pair_modes, Pairing};
 use crate::modal::ModalModel;
+use crate::pairing::{pair_modes, Pairing};
 use num_complex::Complex64;
 
 /// Pairing settings.

@@ -148,7 +148,8 @@ pub struct ContinuationResult {
     pub evaluations: usize,
     /// How the last stage ended.
     pub termination: Termination,
-    /// ½‖r‖² over all usable modes at the start and at the end.
+    /// The robust cost over all usable modes (½‖r‖² where every mode fits
+    /// within 3σ) at the start and at the end.
     pub start_cost: f64,
     pub end_cost: f64,
 }
@@ -240,7 +241,10 @@ impl Runner<'_> {
             .collect();
         let record: Vec<(f64, f64)> = v
             .iter()
-            .map(|e| e.as_ref().map_or((f64::INFINITY, 0.0), |e| (e.cost_usable, e.mean_mac)))
+            .map(|e| {
+                e.as_ref()
+                    .map_or((f64::INFINITY, 0.0), |e| (e.cost_usable, e.mean_mac))
+            })
             .collect();
         self.recorder.record(&record);
         (self.progress)(points.len() as u64);
@@ -295,7 +299,13 @@ impl Runner<'_> {
         };
         let start: Vec<f64> = self.free.iter().map(|&i| x[i]).collect();
         let residuals = |points: &[Vec<f64>]| self.residuals(set, x, points);
-        Ok(levenberg_marquardt::minimize(&self.bounds, &residuals, &start, budget, &params)?)
+        Ok(levenberg_marquardt::minimize(
+            &self.bounds,
+            &residuals,
+            &start,
+            budget,
+            &params,
+        )?)
     }
 
     /// σ̂ of a finished stage (its data cost over its residual count) as the
@@ -305,7 +315,13 @@ impl Runner<'_> {
             return;
         }
         let prior: f64 = self.prior(&r.x_best).iter().map(|v| v * v).sum::<f64>() / 2.0;
-        let m: usize = self.o.segments(set).iter().map(|s| s.2).sum::<usize>().max(1);
+        let m: usize = self
+            .o
+            .segments(set)
+            .iter()
+            .map(|s| s.2)
+            .sum::<usize>()
+            .max(1);
         let sigma = (2.0 * (r.cost - prior).max(0.0) / m as f64).sqrt();
         self.prior_scale = sigma.clamp(1e-6, 1.0);
     }
@@ -383,7 +399,9 @@ pub fn continuation(
         bounds,
         settings,
         prior_scale: 1.0,
-        weights: (0..o.positions()).map(|p| vec![1.0; o.modes_at(p)]).collect(),
+        weights: (0..o.positions())
+            .map(|p| vec![1.0; o.modes_at(p)])
+            .collect(),
         recorder,
         progress,
     };
@@ -393,7 +411,7 @@ pub fn continuation(
     let mut outliers = Vec::new();
     let start_cost = o
         .evaluate(x0, &o.usable())
-        .map_or(f64::INFINITY, |e| e.cost_usable);
+        .map_or(f64::INFINITY, |e| e.robust_usable);
     progress(1);
     let mut used = 1usize;
     let mut termination = Termination::BudgetExhausted;
@@ -445,7 +463,7 @@ pub fn continuation(
     // some modes).
     let end_cost = o
         .evaluate(&x, &o.usable())
-        .map_or(f64::INFINITY, |e| e.cost_usable);
+        .map_or(f64::INFINITY, |e| e.robust_usable);
     used += 1;
     progress(1);
     Ok(ContinuationResult {

@@ -84,7 +84,10 @@ impl Correspondence {
             // Modes already left out (duplicates) take no partner.
             let idx: Vec<usize> = (0..n_ref).filter(|&k| usable[p][k]).collect();
             let rf: Vec<f64> = idx.iter().map(|&k| o.reference_frequency(p, k)).collect();
-            let rs: Vec<_> = idx.iter().map(|&k| o.reference_shape(p, k).to_vec()).collect();
+            let rs: Vec<_> = idx
+                .iter()
+                .map(|&k| o.reference_shape(p, k).to_vec())
+                .collect();
             let mf: Vec<f64> = model.modes.iter().map(|m| m.frequency_hz).collect();
             let ms: Vec<_> = model.modes.iter().map(|m| m.shape.clone()).collect();
             let pairs = pair_modes(&rf, &rs, &mf, &ms, &o.pairing);
@@ -148,7 +151,9 @@ impl Correspondence {
             .iter()
             .position(|s| s.position == position)
             .ok_or_else(|| {
-                format!("position {position} is not in the reference or not selected by `positions`")
+                format!(
+                    "position {position} is not in the reference or not selected by `positions`"
+                )
             })?;
         let s = &self.slots[slot];
         let name = format!("p{position}.mode{number}");

@@ -140,7 +140,7 @@ pub struct RefinementRun {
     pub outliers: Vec<super::continuation::Outlier>,
     pub evaluations: usize,
     pub termination: String,
-    /// ½‖r‖² over all usable modes at its start and end.
+    /// The robust cost over all usable modes at its start and end.
     pub start: f64,
     pub end: f64,
 }
@@ -185,9 +185,20 @@ pub fn guided(
 ) -> Result<GuidedResult, IdentifyError> {
     settings.check().map_err(IdentifyError::Invalid)?;
     let params = o.parameters();
-    let d = decompose(o, c, screening.modes, screening.specs, screening.significant)?;
+    let d = decompose(
+        o,
+        c,
+        screening.modes,
+        screening.specs,
+        screening.significant,
+    )?;
     if d.subproblems.is_empty() {
-        let why: Vec<String> = d.skipped.iter().take(3).map(|(o, w)| format!("{o}: {w}")).collect();
+        let why: Vec<String> = d
+            .skipped
+            .iter()
+            .take(3)
+            .map(|(o, w)| format!("{o}: {w}"))
+            .collect();
         return Err(IdentifyError::Invalid(format!(
             "no subproblem has a significant stiffness parameter and a usable reference mode ({}); check the gsa threshold, `exclude_modes` and `positions`",
             why.join("; ")
@@ -214,9 +225,7 @@ pub fn guided(
     } else {
         budget.saturating_sub(damping_cost)
     };
-    let minimum = damping_cost
-        + 2 * runs_total
-        + if settings.refine { 8 * (n + 1) } else { 0 };
+    let minimum = damping_cost + 2 * runs_total + if settings.refine { 8 * (n + 1) } else { 0 };
     if budget < minimum {
         return Err(IdentifyError::Invalid(format!(
             "budget {budget} is too small for {} subproblems × {} repeats{}; give at least {minimum}",
@@ -275,7 +284,9 @@ pub fn guided(
     let mut step2 = 0;
     if settings.refine {
         let left = budget.saturating_sub(step1 + damping_cost);
-        let r = refine(o, &stiffness, start, &x1, settings, left, seed, &recorder, progress)?;
+        let r = refine(
+            o, &stiffness, start, &x1, settings, left, seed, &recorder, progress,
+        )?;
         step2 = r.evaluations;
         x = r.x;
         status = r.status;
@@ -333,7 +344,7 @@ fn refine(
     let usable = o.usable();
     let cost = |x: &[f64]| {
         o.evaluate(x, &usable)
-            .map_or(f64::INFINITY, |e| e.cost_usable)
+            .map_or(f64::INFINITY, |e| e.robust_usable)
     };
     let mut used = 0;
     let mut candidates: Vec<(String, Vec<f64>)> = vec![("start".into(), start.to_vec())];
@@ -400,9 +411,7 @@ fn refine(
             start: r.start_cost,
             end: r.end_cost,
         });
-        let better = best
-            .as_ref()
-            .is_none_or(|(b, _)| r.end_cost < b.end_cost);
+        let better = best.as_ref().is_none_or(|(b, _)| r.end_cost < b.end_cost);
         if better {
             best = Some((r, runs.len() - 1));
         }

@@ -137,11 +137,7 @@ pub fn analyze(
     let n = columns.len();
     let m = r.len();
     let G = Mat::<f64>::from_fn(n, n, |a, b| {
-        columns[a]
-            .iter()
-            .zip(&columns[b])
-            .map(|(x, y)| x * y)
-            .sum()
+        columns[a].iter().zip(&columns[b]).map(|(x, y)| x * y).sum()
     });
     let (mu, V) = if n == 0 {
         (Vec::new(), Mat::<f64>::zeros(0, 0))
@@ -225,11 +221,17 @@ pub fn analyze(
 /// so the groups come from the projector P = V₀V₀ᵀ onto it, which is not:
 /// two parameters belong together when |P_ij| ≥ 0.05, and a group's number
 /// of free combinations is the trace of P over it.
-fn structural_groups(V: &Mat<f64>, null: &dyn Fn(usize) -> bool, names: &[String]) -> Vec<Combination> {
+fn structural_groups(
+    V: &Mat<f64>,
+    null: &dyn Fn(usize) -> bool,
+    names: &[String],
+) -> Vec<Combination> {
     let n = names.len();
     let ks: Vec<usize> = (0..n).filter(|&k| null(k)).collect();
     let p = |i: usize, j: usize| -> f64 { ks.iter().map(|&k| V[(i, k)] * V[(j, k)]).sum() };
-    let member: Vec<bool> = (0..n).map(|i| p(i, i) >= IN_NULL_SPACE * IN_NULL_SPACE).collect();
+    let member: Vec<bool> = (0..n)
+        .map(|i| p(i, i) >= IN_NULL_SPACE * IN_NULL_SPACE)
+        .collect();
     let mut group = vec![usize::MAX; n];
     let mut out = Vec::new();
     for seed in 0..n {
@@ -320,7 +322,11 @@ mod tests {
         assert_eq!(c.free, 1);
         // Each has half of the one free direction (1, −1)/√2.
         assert!((c.parameters[0].1 - 0.5).abs() < 1e-9, "{c:?}");
-        assert!(c.describe().contains("{k1, k2}: 1 free combination"), "{}", c.describe());
+        assert!(
+            c.describe().contains("{k1, k2}: 1 free combination"),
+            "{}",
+            c.describe()
+        );
         assert!(id.parameters[1].structural && id.parameters[2].structural);
         // Exact data: σ̂ = 0, so the error is 0 where identifiable.
         assert_eq!(id.parameters[0].std_error, Some(0.0));
@@ -336,7 +342,12 @@ mod tests {
         let cc = vec![0.0, 1.0, -0.3, 0.0, 0.7];
         let ce = vec![0.2, 0.1, 0.0, 1.0, 0.4];
         let names: Vec<String> = ["a", "b", "c", "d", "e"].map(String::from).to_vec();
-        let id = analyze(&[ca.clone(), ca, cc.clone(), cc, ce], &[0.0; 5], &names, 0.1);
+        let id = analyze(
+            &[ca.clone(), ca, cc.clone(), cc, ce],
+            &[0.0; 5],
+            &names,
+            0.1,
+        );
         let groups: Vec<Vec<&str>> = id
             .undetermined
             .iter()

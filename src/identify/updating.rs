@@ -86,9 +86,15 @@ pub fn update(
     for &(position, number) in plan.exclude {
         let (slot, k) = correspondence
             .nominal_mode(position, number, &[])
-            .map_err(|why| IdentifyError::Invalid(format!("exclude_modes: p{position}.mode{number}: {why}")))?;
+            .map_err(|why| {
+                IdentifyError::Invalid(format!("exclude_modes: p{position}.mode{number}: {why}"))
+            })?;
         if let Some(r) = correspondence.slots[slot].nominal[k].reference {
-            o.exclude(slot, r, format!("named in exclude_modes (p{position}.mode{number})"));
+            o.exclude(
+                slot,
+                r,
+                format!("named in exclude_modes (p{position}.mode{number})"),
+            );
         }
     }
     correspondence.exclude_unobservable(o);
@@ -116,35 +122,52 @@ pub fn update(
                 reserve + 1
             ))
         })?;
-    let (x, history, evaluations, identified, status, guided_result, optimizer) = match plan.strategy {
-        Strategy::Guided {
-            screening,
-            settings,
-            slsqp,
-        } => {
-            let r = guided(
-                o,
-                &correspondence,
+    let (x, history, evaluations, identified, status, guided_result, optimizer) =
+        match plan.strategy {
+            Strategy::Guided {
                 screening,
                 settings,
                 slsqp,
-                &start,
-                budget,
-                plan.seed,
-                progress,
-            )?;
-            let mut identified = r.stiffness.clone();
-            identified.extend(&r.damping);
-            identified.sort_unstable();
-            (r.x.clone(), r.history.clone(), r.evaluations, identified, r.status, Some(r), None)
-        }
-        Strategy::BlackBox { optimizer } => {
-            let r = black_box(o, optimizer, &start, budget, plan.seed, progress)?;
-            let status = Status::of(&r.result.termination);
-            let all = (0..o.parameters().len()).collect();
-            (r.result.x_best.clone(), r.history, r.result.evaluations, all, status, None, Some(r.result))
-        }
-    };
+            } => {
+                let r = guided(
+                    o,
+                    &correspondence,
+                    screening,
+                    settings,
+                    slsqp,
+                    &start,
+                    budget,
+                    plan.seed,
+                    progress,
+                )?;
+                let mut identified = r.stiffness.clone();
+                identified.extend(&r.damping);
+                identified.sort_unstable();
+                (
+                    r.x.clone(),
+                    r.history.clone(),
+                    r.evaluations,
+                    identified,
+                    r.status,
+                    Some(r),
+                    None,
+                )
+            }
+            Strategy::BlackBox { optimizer } => {
+                let r = black_box(o, optimizer, &start, budget, plan.seed, progress)?;
+                let status = Status::of(&r.result.termination);
+                let all = (0..o.parameters().len()).collect();
+                (
+                    r.result.x_best.clone(),
+                    r.history,
+                    r.result.evaluations,
+                    all,
+                    status,
+                    None,
+                    Some(r.result),
+                )
+            }
+        };
     let (assessment, pairs, verdict_inputs) = assess(o, &start, &x, &identified, plan, progress)?;
     let mut warnings = bound_warnings(o, &x, &identified);
     if let Some(run) = guided_result.as_ref().and_then(|g| g.refinement.first()) {
@@ -161,7 +184,12 @@ pub fn update(
         verdict_inputs.1,
         verdict_inputs.2,
         identified.len(),
-        assessment.0.parameters.iter().filter(|p| p.identifiable).count(),
+        assessment
+            .0
+            .parameters
+            .iter()
+            .filter(|p| p.identifiable)
+            .count(),
         warnings,
     );
     let objective = o.cost(&x);
@@ -204,7 +232,7 @@ fn assess(
     let usable = o.usable();
     let rms = |e: &Option<super::objective::Evaluation>| {
         e.as_ref().map_or(f64::NAN, |e| {
-            (2.0 * e.cost_usable / e.residuals.len().max(1) as f64).sqrt()
+            (2.0 * e.robust_usable / e.count_usable.max(1) as f64).sqrt()
         })
     };
     let at_start = o.evaluate(start, &usable);
@@ -222,7 +250,10 @@ fn assess(
     for (p, model) in models.iter().enumerate() {
         let idx: Vec<usize> = (0..o.modes_at(p)).filter(|&k| usable[p][k]).collect();
         let rf: Vec<f64> = idx.iter().map(|&k| o.reference_frequency(p, k)).collect();
-        let rs: Vec<_> = idx.iter().map(|&k| o.reference_shape(p, k).to_vec()).collect();
+        let rs: Vec<_> = idx
+            .iter()
+            .map(|&k| o.reference_shape(p, k).to_vec())
+            .collect();
         let mf: Vec<f64> = model.modes.iter().map(|m| m.frequency_hz).collect();
         let ms: Vec<_> = model.modes.iter().map(|m| m.shape.clone()).collect();
         let found = pair_modes(&rf, &rs, &mf, &ms, &o.pairing);

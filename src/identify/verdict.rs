@@ -38,10 +38,9 @@ impl Status {
             T::Converged | T::TargetReached => Status::Converged,
             T::RoundoffLimited { accepted: true, .. } => Status::Converged,
             T::BudgetExhausted => Status::BudgetExhausted,
-            T::MaxIterations
-            | T::Stalled
-            | T::RoundoffLimited { .. }
-            | T::Failed { .. } => Status::Stalled,
+            T::MaxIterations | T::Stalled | T::RoundoffLimited { .. } | T::Failed { .. } => {
+                Status::Stalled
+            }
         }
     }
 }
@@ -114,7 +113,8 @@ impl Verdict {
             Fit::AboveNoise
         };
         let worse = !(end_rms <= start_rms);
-        let ok = status == Status::Converged && fit == Fit::WithinNoise && !worse && modes.unpaired == 0;
+        let ok =
+            status == Status::Converged && fit == Fit::WithinNoise && !worse && modes.unpaired == 0;
         let mut parts = vec![match status {
             Status::Converged => "converged".to_string(),
             Status::Stalled => "stalled before converging".to_string(),

@@ -108,7 +108,11 @@ mod tests {
         let cen = central(&batch, &u, &f(&u), 1e-6);
         assert!((cen[0][0] - 2.0).abs() < 1e-5, "{cen:?}");
         // A failed point gives a zero column, not a NaN.
-        let failing = |p: &[Vec<f64>]| p.iter().map(|u| (u[0] < 0.35).then(|| f(u))).collect::<Vec<_>>();
+        let failing = |p: &[Vec<f64>]| {
+            p.iter()
+                .map(|u| (u[0] < 0.35).then(|| f(u)))
+                .collect::<Vec<_>>()
+        };
         let fwd = forward(&failing, &[0.349_999_9, 0.6], &f(&[0.349_999_9, 0.6]), 1e-6);
         assert_eq!(fwd[0], vec![0.0; 3]);
     }

@@ -33,8 +33,8 @@
 //! the caller's batch evaluation.
 
 use super::error::OptimizeError;
-use super::problem::{Bounds, HistoryPoint, Termination};
 use super::jacobian::forward as jacobian;
+use super::problem::{Bounds, HistoryPoint, Termination};
 use crate::dense::solve_spd;
 use serde::{Deserialize, Serialize};
 

@@ -35,7 +35,9 @@ fn identical_sets_pair_one_to_one_with_zero_cost() {
     let (f, s) = truth();
     let p = pair_modes(&f, &s, &f, &s, &Pairing::default());
     assert_eq!(pairs_of(&p), (0..5).map(|k| (k, k)).collect::<Vec<_>>());
-    assert!(p.iter().all(|p| p.cost.abs() < 1e-12 && (p.mac - 1.0).abs() < 1e-12));
+    assert!(p
+        .iter()
+        .all(|p| p.cost.abs() < 1e-12 && (p.mac - 1.0).abs() < 1e-12));
 }
 
 #[test]
@@ -74,14 +76,20 @@ fn a_close_look_alike_neighbour_is_not_cross_paired() {
     // cross-pairs; the frequency term keeps each with its own.
     let (f, s) = truth();
     let blend = |a: &[Complex64], b: &[Complex64], w: f64| -> Vec<Complex64> {
-        a.iter().zip(b).map(|(x, y)| x * (1.0 - w) + y * w).collect()
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| x * (1.0 - w) + y * w)
+            .collect()
     };
     let mut es = s.clone();
     es[2] = blend(&s[2], &s[3], 0.55);
     es[3] = blend(&s[3], &s[2], 0.55);
     let ef = vec![20.0, 35.0, 51.1, 52.4, 80.0];
     let macs = mac_matrix(&s, &es);
-    assert!(macs[2][3] > macs[2][2] && macs[3][2] > macs[3][3], "{macs:?}");
+    assert!(
+        macs[2][3] > macs[2][2] && macs[3][2] > macs[3][3],
+        "{macs:?}"
+    );
     let mac_only = Pairing {
         frequency_scale: 1e12,
         ..Pairing::default()

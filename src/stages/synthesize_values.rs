@@ -11,7 +11,11 @@ use std::path::Path;
 
 /// Override `x` with the `value` column of a parameter table (rows named by
 /// `parameter`); every named parameter must exist and lie within its bounds.
-pub(super) fn override_from_table(model: &Model, x: &mut [f64], path: &Path) -> Result<(), StageError> {
+pub(super) fn override_from_table(
+    model: &Model,
+    x: &mut [f64],
+    path: &Path,
+) -> Result<(), StageError> {
     let invalid = |message: String| StageError::InvalidInput {
         input: "values".into(),
         message,
@@ -52,8 +56,8 @@ pub(super) fn significant_parameters(path: &Path, p: &Params) -> Result<Vec<Stri
             ))
         }
     }
-    let mut reader = csv::Reader::from_path(path)
-        .map_err(|e| bad(format!("not a significant.csv: {e}")))?;
+    let mut reader =
+        csv::Reader::from_path(path).map_err(|e| bad(format!("not a significant.csv: {e}")))?;
     let headers = reader
         .headers()
         .map_err(|e| bad(format!("not a significant.csv: {e}")))?
@@ -81,7 +85,11 @@ pub(super) fn significant_parameters(path: &Path, p: &Params) -> Result<Vec<Stri
 
 /// Parameter values to use, in model order; `only` (from the `significant`
 /// input) names the parameters a `perturb` moves.
-pub(super) fn values(model: &Model, spec: Option<&Values>, only: Option<&[String]>) -> Result<Vec<f64>, String> {
+pub(super) fn values(
+    model: &Model,
+    spec: Option<&Values>,
+    only: Option<&[String]>,
+) -> Result<Vec<f64>, String> {
     let mut v = model.true_values();
     match spec {
         None | Some(Values::Named(_)) => {}
@@ -154,4 +162,3 @@ pub(super) fn values(model: &Model, spec: Option<&Values>, only: Option<&[String
     }
     Ok(v)
 }
-

@@ -132,7 +132,12 @@ fn the_refinement_does_not_depend_on_the_start() {
             &|_| {},
         )
         .unwrap();
-        assert!(worst_error(&r.x) < 1e-6, "from {corner}: {:?} {:#?}", r.x, r.refinement);
+        assert!(
+            worst_error(&r.x) < 1e-6,
+            "from {corner}: {:?} {:#?}",
+            r.x,
+            r.refinement
+        );
     }
 }
 

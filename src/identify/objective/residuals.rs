@@ -19,7 +19,15 @@ pub struct Evaluation {
     pub cost_usable: f64,
     /// Mean MAC over all usable modes, an unpaired mode counting 0.
     pub mean_mac: f64,
+    /// The robust cost over all usable modes ([`ModalObjective::robust`]).
+    pub robust_usable: f64,
+    /// Number of residuals over all usable modes.
+    pub count_usable: usize,
 }
+
+/// A mode's residual RMS (σ units) above which the robust cost grows only
+/// linearly: an outlier counts, but cannot dominate.
+pub const HUBER_RMS: f64 = 3.0;
 
 impl ModalObjective {
     /// The weighted modal residuals of the modes in `set` at `x`, or `None`
@@ -46,13 +54,41 @@ impl ModalObjective {
         };
         let pairs = self.pair(&models, &usable);
         let cost_usable = 0.5 * all.iter().map(|v| v * v).sum::<f64>();
+        let robust_usable = self.robust(&all, &usable);
         let finite = residuals.iter().chain(&damping).all(|v| v.is_finite());
         (finite && cost_usable.is_finite()).then(|| Evaluation {
+            count_usable: all.len(),
             residuals,
             damping,
             cost_usable,
             mean_mac: mean_mac(&pairs, &usable),
+            robust_usable,
         })
+    }
+
+    /// The robust cost of the residual vector `r` of `set`: per mode, with
+    /// n residuals of norm ‖r_m‖ and the bar b = 3√n (an RMS of 3σ), the
+    /// Huber function ½‖r_m‖² below b and b‖r_m‖ − ½b² above. For data that
+    /// fit to their noise it is ½‖r‖²; a mode the model cannot reproduce (a
+    /// bad estimate, a model error local to it) adds linearly, so choosing
+    /// between fits, or against the start, is not decided by one mode.
+    pub fn robust(&self, r: &[f64], set: &ModeSet) -> f64 {
+        let mut at = 0;
+        let mut total = 0.0;
+        for (_, _, len) in self.segments(set) {
+            let Some(v) = r.get(at..at + len) else {
+                return f64::INFINITY;
+            };
+            at += len;
+            let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+            let bar = HUBER_RMS * (len as f64).sqrt();
+            total += if norm <= bar {
+                0.5 * norm * norm
+            } else {
+                bar * norm - 0.5 * bar * bar
+            };
+        }
+        total
     }
 
     /// (slot, mode, number of residuals) of each mode of `set`, in the

@@ -97,13 +97,8 @@ fn track(
                     min_mac,
                     ..Default::default()
                 };
-                let pairs = crate::pairing::pair_modes(
-                    &rf,
-                    &shared.first,
-                    &cf,
-                    &shared.second,
-                    &settings,
-                );
+                let pairs =
+                    crate::pairing::pair_modes(&rf, &shared.first, &cf, &shared.second, &settings);
                 for p in pairs {
                     partner[p.reference] = Some(&c.modes[p.candidate]);
                 }

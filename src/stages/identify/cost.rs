@@ -36,7 +36,8 @@ pub struct Cost {
 impl Cost {
     /// Read a cost.json.
     pub fn read(path: &std::path::Path) -> Result<Cost, String> {
-        let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        let bytes =
+            std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         serde_json::from_slice(&bytes)
             .map_err(|e| format!("{} is not an identify cost.json: {e}", path.display()))
     }

@@ -226,10 +226,22 @@ fn write_outputs(
         files.push((name.to_string(), path));
         Ok(())
     };
-    put("parameters", "parameters.csv", outputs::parameters_csv(o, u))?;
+    put(
+        "parameters",
+        "parameters.csv",
+        outputs::parameters_csv(o, u),
+    )?;
     put("history", "history.csv", outputs::history_csv(u))?;
-    put("correlation", "correlation.csv", outputs::correlation_csv(o, u))?;
-    put("identifiability", "identifiability.json", outputs::identifiability_json(u))?;
+    put(
+        "correlation",
+        "correlation.csv",
+        outputs::correlation_csv(o, u),
+    )?;
+    put(
+        "identifiability",
+        "identifiability.json",
+        outputs::identifiability_json(u),
+    )?;
     let mut phases = Phases {
         assessment: u.assessment_evaluations,
         ..Phases::default()
@@ -237,7 +249,9 @@ fn write_outputs(
     if let Some(g) = &u.guided {
         [phases.subproblems, phases.refine, phases.damping] = g.phase_evaluations;
         let names = |idx: &[usize]| -> Vec<String> {
-            idx.iter().map(|&i| o.parameters()[i].name.clone()).collect()
+            idx.iter()
+                .map(|&i| o.parameters()[i].name.clone())
+                .collect()
         };
         let json = serde_json::json!({
             "settings": spec.settings,
@@ -263,8 +277,17 @@ fn write_outputs(
         evaluations: u.evaluations,
         seconds: started.elapsed().as_secs_f64(),
         best_objective: u.objective,
-        strategy: if spec.guided { "sensitivity_guided" } else { "black_box" }.into(),
-        optimizer: if spec.guided { "slsqp".into() } else { spec.optimizer.name().to_string() },
+        strategy: if spec.guided {
+            "sensitivity_guided"
+        } else {
+            "black_box"
+        }
+        .into(),
+        optimizer: if spec.guided {
+            "slsqp".into()
+        } else {
+            spec.optimizer.name().to_string()
+        },
         modes: o.summary(&u.x).map_err(failed)?,
         phase_evaluations: phases,
         verdict: u.verdict.clone(),

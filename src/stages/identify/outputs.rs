@@ -73,7 +73,10 @@ pub fn correlation_csv(o: &ModalObjective, u: &Update) -> String {
                 r + 1,
                 o.reference_frequency(p, r),
                 o.exclusion(p, r).is_none(),
-                nominal.map_or(String::new(), |n| format!("p{}.mode{}", slot.position, n.number)),
+                nominal.map_or(String::new(), |n| format!(
+                    "p{}.mode{}",
+                    slot.position, n.number
+                )),
                 cell(nominal.map(|n| n.frequency_hz)),
                 cell(nominal.map(|n| n.visibility)),
                 cell(nominal.map(|n| n.mac)),

@@ -100,7 +100,11 @@ pub fn parse(params: &Mapping) -> Result<Spec, ParamProblem> {
     let budget = match params.get("budget") {
         None => 2000,
         Some(v) => v.as_u64().filter(|&n| n >= 1).ok_or_else(|| {
-            problem(&["budget"], "`budget` must be an integer ≥ 1", "e.g. budget: 2000")
+            problem(
+                &["budget"],
+                "`budget` must be an integer ≥ 1",
+                "e.g. budget: 2000",
+            )
         })? as usize,
     };
     let mut settings: GuidedParams = mapping(
@@ -109,7 +113,11 @@ pub fn parse(params: &Mapping) -> Result<Spec, ParamProblem> {
         "guided: {subproblem_budget: 200, spread_limit: 0.05, refine: true, restarts: 3}",
     )?;
     if let Some(v) = params.get("repeats") {
-        if params.get("guided").and_then(|g| g.get("repeats")).is_some() {
+        if params
+            .get("guided")
+            .and_then(|g| g.get("repeats"))
+            .is_some()
+        {
             return Err(problem(
                 &["guided", "repeats"],
                 "`repeats` is given twice",
@@ -132,7 +140,11 @@ pub fn parse(params: &Mapping) -> Result<Spec, ParamProblem> {
         Some(v) => parse_modes(v)?,
     };
     let weights: Weights = mapping(params, "weights", "weights: {mac: 1, nfd: 1, ndd: 0.5}")?;
-    for (k, w) in [("mac", weights.mac), ("nfd", weights.nfd), ("ndd", weights.ndd)] {
+    for (k, w) in [
+        ("mac", weights.mac),
+        ("nfd", weights.nfd),
+        ("ndd", weights.ndd),
+    ] {
         if !(w >= 0.0 && w.is_finite()) {
             return Err(problem(
                 &["weights", k],
@@ -142,7 +154,11 @@ pub fn parse(params: &Mapping) -> Result<Spec, ParamProblem> {
         }
     }
     if weights.mac + weights.nfd + weights.ndd == 0.0 {
-        return Err(problem(&["weights"], "all weights are 0", "give at least one positive weight"));
+        return Err(problem(
+            &["weights"],
+            "all weights are 0",
+            "give at least one positive weight",
+        ));
     }
     let mut pairing: Pairing = mapping(
         params,
@@ -159,7 +175,11 @@ pub fn parse(params: &Mapping) -> Result<Spec, ParamProblem> {
         pairing.min_mac = 0.5;
     }
     if let Some(v) = params.get("window") {
-        if params.get("pairing").and_then(|p| p.get("window")).is_some() {
+        if params
+            .get("pairing")
+            .and_then(|p| p.get("window"))
+            .is_some()
+        {
             return Err(problem(
                 &["window"],
                 "the pairing window is given twice",
@@ -167,12 +187,20 @@ pub fn parse(params: &Mapping) -> Result<Spec, ParamProblem> {
             ));
         }
         pairing.window = v.as_f64().filter(|w| *w > 0.0).ok_or_else(|| {
-            problem(&["window"], "`window` must be a positive fraction", "e.g. window: 0.2 for ±20 %")
+            problem(
+                &["window"],
+                "`window` must be a positive fraction",
+                "e.g. window: 0.2 for ±20 %",
+            )
         })?;
     }
-    pairing
-        .check()
-        .map_err(|m| problem(&["pairing"], m, "e.g. pairing: {window: 0.2, frequency_scale: 0.1}"))?;
+    pairing.check().map_err(|m| {
+        problem(
+            &["pairing"],
+            m,
+            "e.g. pairing: {window: 0.2, frequency_scale: 0.1}",
+        )
+    })?;
     let uncertainty: Uncertainty = mapping(
         params,
         "uncertainty",
