@@ -3,8 +3,9 @@
 //! (close modes pull each other, damping of a weak mode next to a strong
 //! one); the final poles minimize the misfit of the modal model instead.
 //!
-//! Poles whose half-power bands (±3ζf) overlap form a group, refined
-//! together by variable projection (Golub & Pereyra 1973,
+//! Each pole is refined together with the poles whose bands (±3ζf) overlap
+//! its own (its neighbourhood, Gauss–Seidel over the poles) by variable
+//! projection (Golub & Pereyra 1973,
 //! doi:10.1137/0710036): within the group's band W, with the other roots'
 //! contributions of the current global LSFD fit subtracted (y_c), each
 //! channel's local model
@@ -104,24 +105,83 @@ fn modal(l: Complex64, xa: f64, xb: f64, w: f64) -> Complex64 {
     (p + q) * xa + Complex64::new(0.0, 1.0) * (p - q) * xb
 }
 
-/// Groups of consecutive poles (sorted by frequency) whose ±3ζf bands overlap.
-fn groups(lambdas: &[Complex64]) -> Vec<Vec<usize>> {
+/// Pole `k` and the poles whose ±3ζf bands overlap its own (sorted).
+fn neighbourhood(lambdas: &[Complex64], k: usize) -> Vec<usize> {
     let band = |l: Complex64| {
         let w = l.norm();
         let z = -l.re / w;
         (w * (1.0 - 3.0 * z), w * (1.0 + 3.0 * z))
     };
-    let mut out: Vec<Vec<usize>> = Vec::new();
-    let mut reach = f64::NEG_INFINITY;
-    for (k, &l) in lambdas.iter().enumerate() {
-        let (lo, hi) = band(l);
-        match out.last_mut() {
-            Some(g) if lo <= reach => g.push(k),
-            _ => out.push(vec![k]),
-        }
-        reach = reach.max(hi);
+    let (lo, hi) = band(lambdas[k]);
+    (0..lambdas.len())
+        .filter(|&j| {
+            let (a, b) = band(lambdas[j]);
+            j == k || (a <= hi && b >= lo)
+        })
+        .collect()
+}
+
+/// The local problem of group `g` (indices into `lambdas`, the poles of
+/// the global fit `fit`); None when the band holds too few lines.
+fn local_problem(
+    data: &FrfData,
+    noise: &[f64],
+    lambdas: &[Complex64],
+    fit: &GramFit,
+    g: &[usize],
+) -> Option<Local> {
+    let omega: Vec<f64> = data.frequencies_hz.iter().map(|f| 2.0 * PI * f).collect();
+    let n_ch = data.n_out() * data.n_ref();
+    let nf = data.n_lines();
+    let np = lambdas.len();
+    let band = |k: usize| {
+        let w = lambdas[k].norm();
+        let z = -lambdas[k].re / w;
+        (w * (1.0 - 4.0 * z), w * (1.0 + 4.0 * z))
+    };
+    let lo = g.iter().map(|&k| band(k).0).fold(f64::INFINITY, f64::min);
+    let hi = g
+        .iter()
+        .map(|&k| band(k).1)
+        .fold(f64::NEG_INFINITY, f64::max);
+    let lines: Vec<usize> = (0..nf)
+        .filter(|&f| omega[f] >= lo && omega[f] <= hi)
+        .collect();
+    if lines.len() < 4 * g.len() + 8 {
+        return None;
     }
-    out
+    // Channels where the group stands highest above the noise.
+    let mut strength: Vec<(f64, usize)> = (0..n_ch)
+        .map(|c| {
+            let r: f64 = g.iter().map(|&k| fit.residue(k, c).norm_sqr()).sum();
+            (r / noise[c].max(1e-300), c)
+        })
+        .collect();
+    strength.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+    let y: Vec<Vec<Complex64>> = strength
+        .iter()
+        .take(CHANNELS)
+        .map(|&(_, c)| {
+            let x = &fit.x[c * fit.n_col..(c + 1) * fit.n_col];
+            let s = noise[c].max(1e-300).sqrt();
+            lines
+                .iter()
+                .map(|&f| {
+                    let w = omega[f];
+                    let mut v = data.h[c * nf + f];
+                    for j in (0..np).filter(|j| !g.contains(j)) {
+                        v -= modal(lambdas[j], x[2 * j], x[2 * j + 1], w);
+                    }
+                    (v - Complex64::new(-x[2 * np] / (w * w) + x[2 * np + 1], 0.0)) / s
+                })
+                .collect()
+        })
+        .collect();
+    Some(Local {
+        omega: lines.iter().map(|&f| omega[f]).collect(),
+        y,
+        w0: 0.5 * (lo + hi),
+    })
 }
 
 /// One refinement sweep: new poles for `lambdas` (sorted by frequency)
@@ -132,65 +192,14 @@ pub fn refine_sweep(
     lambdas: &[Complex64],
     fit: &GramFit,
 ) -> Vec<Complex64> {
-    let omega: Vec<f64> = data.frequencies_hz.iter().map(|f| 2.0 * PI * f).collect();
-    let n_ch = data.n_out() * data.n_ref();
-    let nf = data.n_lines();
-    let np = lambdas.len();
     let mut out = lambdas.to_vec();
-    for g in groups(lambdas) {
-        let band: Vec<(f64, f64)> = g
-            .iter()
-            .map(|&k| {
-                let w = lambdas[k].norm();
-                let z = -lambdas[k].re / w;
-                (w * (1.0 - 4.0 * z), w * (1.0 + 4.0 * z))
-            })
-            .collect();
-        let lo = band.iter().map(|b| b.0).fold(f64::INFINITY, f64::min);
-        let hi = band.iter().map(|b| b.1).fold(f64::NEG_INFINITY, f64::max);
-        let lines: Vec<usize> = (0..nf)
-            .filter(|&f| omega[f] >= lo && omega[f] <= hi)
-            .collect();
-        if lines.len() < 4 * g.len() + 8 {
+    for k in 0..lambdas.len() {
+        let g = neighbourhood(lambdas, k);
+        let Some(local) = local_problem(data, noise, lambdas, fit, &g) else {
             continue;
-        }
-        // Channels where the group stands highest above the noise.
-        let mut strength: Vec<(f64, usize)> = (0..n_ch)
-            .map(|c| {
-                (
-                    g.iter().map(|&k| fit.residue(k, c).norm_sqr()).sum::<f64>()
-                        / noise[c].max(1e-300),
-                    c,
-                )
-            })
-            .collect();
-        strength.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
-        let y: Vec<Vec<Complex64>> = strength
-            .iter()
-            .take(CHANNELS)
-            .map(|&(_, c)| {
-                let x = &fit.x[c * fit.n_col..(c + 1) * fit.n_col];
-                let s = noise[c].max(1e-300).sqrt();
-                lines
-                    .iter()
-                    .map(|&f| {
-                        let w = omega[f];
-                        let mut v = data.h[c * nf + f];
-                        for j in (0..np).filter(|j| !g.contains(j)) {
-                            v -= modal(lambdas[j], x[2 * j], x[2 * j + 1], w);
-                        }
-                        (v - Complex64::new(-x[2 * np] / (w * w) + x[2 * np + 1], 0.0)) / s
-                    })
-                    .collect()
-            })
-            .collect();
-        let local = Local {
-            omega: lines.iter().map(|&f| omega[f]).collect(),
-            y,
-            w0: 0.5 * (lo + hi),
         };
-        if let Some(new) = refine_group(&local, &g.iter().map(|&k| lambdas[k]).collect::<Vec<_>>())
-        {
+        let start: Vec<Complex64> = g.iter().map(|&j| out[j]).collect();
+        if let Some((new, _)) = refine_group(&local, &start) {
             for (&k, l) in g.iter().zip(new) {
                 out[k] = l;
             }
@@ -199,8 +208,43 @@ pub fn refine_sweep(
     out
 }
 
-/// LM over (ω, ζ) of the group's poles; None when nothing improved.
-fn refine_group(local: &Local, start: &[Complex64]) -> Option<Vec<Complex64>> {
+/// The likelihood-ratio statistic of pole `k` with the other poles of its
+/// group re-optimized without it (nested models, nuisance poles refitted):
+/// t = Σ_c (‖y_c − ŷ_c^(−k)‖² − ‖y_c − ŷ_c‖²)·2/σ_c² over the group's band
+/// and channels, with its degrees of freedom (2 per channel for the residue
+/// and 2 for the pole). None when `k` is alone in its group (then the
+/// global ΔRSS is the same test) or the band is too short.
+pub fn nested_statistic(
+    data: &FrfData,
+    noise: &[f64],
+    lambdas: &[Complex64],
+    fit: &GramFit,
+    k: usize,
+) -> Option<(f64, f64)> {
+    let g = neighbourhood(lambdas, k);
+    if g.len() < 2 {
+        return None;
+    }
+    let local = local_problem(data, noise, lambdas, fit, &g)?;
+    let with: Vec<Complex64> = g.iter().map(|&j| lambdas[j]).collect();
+    let without: Vec<Complex64> = g.iter().filter(|&&j| j != k).map(|&j| lambdas[j]).collect();
+    let cost = |l: &[Complex64]| {
+        local
+            .residuals(l)
+            .map(|r| r.iter().map(|v| v * v).sum::<f64>())
+    };
+    let c_with = cost(&with)?;
+    let c_without = match refine_group(&local, &without) {
+        Some((_, c)) => c,
+        None => cost(&without)?,
+    };
+    let dof = 2.0 * local.y.len() as f64 + 2.0;
+    Some((2.0 * (c_without - c_with).max(0.0), dof))
+}
+
+/// LM over (ω, ζ) of the group's poles, with the misfit Σ r² reached;
+/// None when nothing improved.
+fn refine_group(local: &Local, start: &[Complex64]) -> Option<(Vec<Complex64>, f64)> {
     let to_pole = |x: &[f64]| -> Vec<Complex64> {
         x.chunks_exact(2)
             .map(|p| pole_of(p[0] / (2.0 * PI), p[1]))
@@ -233,7 +277,7 @@ fn refine_group(local: &Local, start: &[Complex64]) -> Option<Vec<Complex64>> {
         ..LmParams::default()
     };
     let r = minimize(&bounds, &residuals, &x0, 40 * x0.len() + 20, &params).ok()?;
-    (2.0 * r.cost < c0 && r.cost.is_finite()).then(|| to_pole(&r.x_best))
+    (2.0 * r.cost < c0 && r.cost.is_finite()).then(|| (to_pole(&r.x_best), 2.0 * r.cost))
 }
 
 #[cfg(test)]
@@ -294,12 +338,15 @@ mod tests {
     }
 
     #[test]
-    fn overlapping_bands_group() {
-        let g = groups(&[
+    fn neighbourhoods_are_the_overlapping_bands() {
+        let l = [
             pole_of(100.0, 0.01),
             pole_of(104.0, 0.01),
+            pole_of(108.5, 0.01),
             pole_of(150.0, 0.01),
-        ]);
-        assert_eq!(g, vec![vec![0, 1], vec![2]]);
+        ];
+        assert_eq!(neighbourhood(&l, 0), vec![0, 1]);
+        assert_eq!(neighbourhood(&l, 1), vec![0, 1, 2]);
+        assert_eq!(neighbourhood(&l, 3), vec![3]);
     }
 }

@@ -21,9 +21,9 @@ use super::lsfd::{lsfd_roots, LsfdFit};
 use super::noise::{cmif, noise_variance, peak_at};
 use super::polymax::{Pole, PoleOrder};
 use super::projection::{FitOutcome, Projector};
-use super::refine::refine_sweep;
+use super::refine::{nested_statistic, refine_sweep};
 use super::roots::{multiplicity_over_all_orders, roots_from_clusters, Root};
-use super::significance::{Rejection, Validation};
+use super::significance::{chi2_isf, Reason, Rejection, Validation};
 use super::stabilization::{stabilize, PoleFlags, StabilizationParams};
 use super::{EmaError, FrfData};
 use num_complex::Complex64;
@@ -276,27 +276,19 @@ pub fn refine_selection(
         r.multiplicity = m;
     }
     for _sweep in 0..2 {
-        let lambdas: Vec<Complex64> = roots.iter().map(|r| r.pole(orders).s).collect();
-        let FitOutcome::Fit(fit) = screening.projector.fit(&lambdas) else {
-            break;
-        };
-        let new = refine_sweep(data, &screening.noise, &lambdas, &fit);
-        for (r, l) in roots.iter_mut().zip(new) {
-            if l != r.pole(orders).s {
-                let w = l.norm();
-                r.refined = Some(Pole {
-                    s: l,
-                    frequency_hz: w / (2.0 * std::f64::consts::PI),
-                    damping_ratio: -l.re / w,
-                    participation: r.representative_pole(orders).participation.clone(),
-                });
-            }
-        }
-        roots.sort_by(|a, b| {
-            a.pole(orders)
-                .frequency_hz
-                .total_cmp(&b.pole(orders).frequency_hz)
+        refine_roots(screening, orders, &mut roots);
+    }
+    let mut rejected = s.rejected.clone();
+    while let Some((k, reason)) = weakest_nested(screening, orders, &roots) {
+        let p = roots[k].pole(orders);
+        rejected.push(Rejection {
+            frequency_hz: p.frequency_hz,
+            damping_ratio: p.damping_ratio,
+            n_orders: roots[k].n_orders,
+            reason,
         });
+        roots.remove(k);
+        refine_roots(screening, orders, &mut roots);
     }
     let validated = Validation {
         projector: &mut screening.projector,
@@ -310,7 +302,6 @@ pub fn refine_selection(
     .run(roots);
     let mean_frac = validated.fit.mean_frac();
     let n_modes: usize = validated.roots.iter().map(|r| r.multiplicity).sum();
-    let mut rejected = s.rejected.clone();
     rejected.extend(validated.rejected);
     Selection {
         hyperparameters: s.hyperparameters.clone(),
@@ -321,6 +312,58 @@ pub fn refine_selection(
         rejected,
         mean_frac,
     }
+}
+
+/// One refinement sweep of the roots' poles ([`refine_sweep`]), roots kept
+/// sorted by frequency.
+fn refine_roots(screening: &mut Screening<'_>, orders: &[PoleOrder], roots: &mut [Root]) {
+    let lambdas: Vec<Complex64> = roots.iter().map(|r| r.pole(orders).s).collect();
+    let FitOutcome::Fit(fit) = screening.projector.fit(&lambdas) else {
+        return;
+    };
+    let new = refine_sweep(screening.data, &screening.noise, &lambdas, &fit);
+    for (r, l) in roots.iter_mut().zip(new) {
+        if l != r.pole(orders).s {
+            let w = l.norm();
+            r.refined = Some(Pole {
+                s: l,
+                frequency_hz: w / (2.0 * std::f64::consts::PI),
+                damping_ratio: -l.re / w,
+                participation: r.representative_pole(orders).participation.clone(),
+            });
+        }
+    }
+    roots.sort_by(|a, b| {
+        a.pole(orders)
+            .frequency_hz
+            .total_cmp(&b.pole(orders).frequency_hz)
+    });
+}
+
+/// The root whose nested likelihood-ratio statistic falls furthest below
+/// its threshold χ²_dof(1 − α/(2 n_r)), if any falls below.
+fn weakest_nested(
+    screening: &mut Screening<'_>,
+    orders: &[PoleOrder],
+    roots: &[Root],
+) -> Option<(usize, Reason)> {
+    let lambdas: Vec<Complex64> = roots.iter().map(|r| r.pole(orders).s).collect();
+    let FitOutcome::Fit(fit) = screening.projector.fit(&lambdas) else {
+        return None;
+    };
+    let n = roots.len().max(1) as f64;
+    (0..roots.len())
+        .filter_map(|k| {
+            let (t, dof) = nested_statistic(screening.data, &screening.noise, &lambdas, &fit, k)?;
+            let threshold = chi2_isf(dof, screening.params.alpha / (2.0 * n));
+            (t < threshold).then_some((
+                k,
+                t / threshold,
+                Reason::NotSignificantNested { t, threshold },
+            ))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+        .map(|(k, _, r)| (k, r))
 }
 
 /// The final LSFD fit (Householder QR) of a selection: shapes and the

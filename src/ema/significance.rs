@@ -55,6 +55,9 @@ pub enum Reason {
         t_max: f64,
         threshold_max: f64,
     },
+    /// With its group's other poles refitted without it, the fit is as good
+    /// within the noise ([`super::refine::nested_statistic`]).
+    NotSignificantNested { t: f64, threshold: f64 },
     /// Fewer independent modes than the participation vectors suggested.
     MultiplicityReduced { from: usize, to: usize },
 }
