@@ -3,9 +3,9 @@
 //! (close modes pull each other, damping of a weak mode next to a strong
 //! one); the final poles minimize the misfit of the modal model instead.
 //!
-//! Each pole is refined together with the poles whose bands (±3ζf) overlap
-//! its own (its neighbourhood, Gauss–Seidel over the poles) by variable
-//! projection (Golub & Pereyra 1973,
+//! Each pole is refined together with its nearest neighbour on either side
+//! whose band (±3ζf) overlaps its own (its neighbourhood; Gauss–Seidel over
+//! the poles) by variable projection (Golub & Pereyra 1973,
 //! doi:10.1137/0710036): within the group's band W, with the other roots'
 //! contributions of the current global LSFD fit subtracted (y_c), each
 //! channel's local model
@@ -16,7 +16,9 @@
 //! squares, so the misfit Σ_c ‖y_c − ŷ_c‖²/σ_c² depends on the poles only.
 //! It is minimized by Levenberg–Marquardt ([`crate::optimize::levenberg_marquardt`])
 //! over (ω_k, ζ_k) within ±max(ζ_k, 0.2 %) in frequency and [ζ_k/2, 2ζ_k],
-//! on the 48 channels where the group stands highest above the noise. A
+//! on the 24 channels where the group stands highest above the noise (at
+//! most 160 lines; for the refinement the channels are compressed to their
+//! 2|G| + 2 dominant combinations). A
 //! refined pole replaces the PolyMAX one only when the misfit falls; the
 //! global fit is then redone and the sweep repeated once.
 
@@ -30,7 +32,9 @@ use num_complex::Complex64;
 use std::f64::consts::PI;
 
 /// Channels used per group.
-const CHANNELS: usize = 48;
+const CHANNELS: usize = 24;
+/// Lines used per group.
+const MAX_LINES: usize = 160;
 
 /// A group's refinement problem.
 struct Local {
@@ -41,6 +45,46 @@ struct Local {
 }
 
 impl Local {
+    /// The same problem on the `r` dominant channel combinations: the
+    /// eigenvectors v_k of YᴴY (channels × channels) give ỹ_k = Σ_c v_kc y_c;
+    /// the misfit is invariant to this rotation and the dropped combinations
+    /// hold noise that no pole position changes much.
+    fn compressed(&self, r: usize) -> Local {
+        let n = self.y.len();
+        if n <= r {
+            return Local {
+                omega: self.omega.clone(),
+                y: self.y.clone(),
+                w0: self.w0,
+            };
+        }
+        let mut g = vec![Complex64::new(0.0, 0.0); n * n];
+        for a in 0..n {
+            for b in 0..n {
+                g[a * n + b] = self.y[a]
+                    .iter()
+                    .zip(&self.y[b])
+                    .map(|(x, y)| x.conj() * y)
+                    .sum();
+            }
+        }
+        let (_, vectors) = super::hermitian::hermitian_eigen(&g, n);
+        let y = vectors
+            .iter()
+            .take(r)
+            .map(|v| {
+                (0..self.omega.len())
+                    .map(|f| (0..n).map(|c| self.y[c][f] * v[c]).sum())
+                    .collect()
+            })
+            .collect();
+        Local {
+            omega: self.omega.clone(),
+            y,
+            w0: self.w0,
+        }
+    }
+
     /// Whitened residual vector (re, im stacked) of the local fit for poles `l`.
     fn residuals(&self, l: &[Complex64]) -> Option<Vec<f64>> {
         let nw = self.omega.len();
@@ -105,7 +149,8 @@ fn modal(l: Complex64, xa: f64, xb: f64, w: f64) -> Complex64 {
     (p + q) * xa + Complex64::new(0.0, 1.0) * (p - q) * xb
 }
 
-/// Pole `k` and the poles whose ±3ζf bands overlap its own (sorted).
+/// Pole `k` and its nearest pole on either side when their ±3ζf bands
+/// overlap `k`'s (sorted; at most three poles).
 fn neighbourhood(lambdas: &[Complex64], k: usize) -> Vec<usize> {
     let band = |l: Complex64| {
         let w = l.norm();
@@ -113,12 +158,22 @@ fn neighbourhood(lambdas: &[Complex64], k: usize) -> Vec<usize> {
         (w * (1.0 - 3.0 * z), w * (1.0 + 3.0 * z))
     };
     let (lo, hi) = band(lambdas[k]);
-    (0..lambdas.len())
-        .filter(|&j| {
-            let (a, b) = band(lambdas[j]);
-            j == k || (a <= hi && b >= lo)
-        })
-        .collect()
+    let overlaps = |j: usize| {
+        let (a, b) = band(lambdas[j]);
+        a <= hi && b >= lo
+    };
+    let w = |j: usize| lambdas[j].norm();
+    let below = (0..lambdas.len())
+        .filter(|&j| w(j) < w(k) || (w(j) == w(k) && j < k))
+        .max_by(|&a, &b| w(a).total_cmp(&w(b)).then(a.cmp(&b)))
+        .filter(|&j| overlaps(j));
+    let above = (0..lambdas.len())
+        .filter(|&j| j != k && !(w(j) < w(k) || (w(j) == w(k) && j < k)))
+        .min_by(|&a, &b| w(a).total_cmp(&w(b)).then(a.cmp(&b)))
+        .filter(|&j| overlaps(j));
+    let mut g: Vec<usize> = below.into_iter().chain([k]).chain(above).collect();
+    g.sort_unstable();
+    g
 }
 
 /// The local problem of group `g` (indices into `lambdas`, the poles of
@@ -144,12 +199,15 @@ fn local_problem(
         .iter()
         .map(|&k| band(k).1)
         .fold(f64::NEG_INFINITY, f64::max);
-    let lines: Vec<usize> = (0..nf)
+    let all: Vec<usize> = (0..nf)
         .filter(|&f| omega[f] >= lo && omega[f] <= hi)
         .collect();
-    if lines.len() < 4 * g.len() + 8 {
+    if all.len() < 4 * g.len() + 8 {
         return None;
     }
+    // At most MAX_LINES lines, evenly taken.
+    let step = all.len().div_ceil(MAX_LINES);
+    let lines: Vec<usize> = all.into_iter().step_by(step).collect();
     // Channels where the group stands highest above the noise.
     let mut strength: Vec<(f64, usize)> = (0..n_ch)
         .map(|c| {
@@ -199,6 +257,7 @@ pub fn refine_sweep(
             continue;
         };
         let start: Vec<Complex64> = g.iter().map(|&j| out[j]).collect();
+        let local = local.compressed(2 * g.len() + 2);
         if let Some((new, _)) = refine_group(&local, &start) {
             for (&k, l) in g.iter().zip(new) {
                 out[k] = l;
@@ -273,10 +332,10 @@ fn refine_group(local: &Local, start: &[Complex64]) -> Option<(Vec<Complex64>, f
     let params = LmParams {
         max_step: 0.25,
         ftol: 1e-8,
-        max_iterations: 30,
+        max_iterations: 12,
         ..LmParams::default()
     };
-    let r = minimize(&bounds, &residuals, &x0, 40 * x0.len() + 20, &params).ok()?;
+    let r = minimize(&bounds, &residuals, &x0, 15 * x0.len() + 20, &params).ok()?;
     (2.0 * r.cost < c0 && r.cost.is_finite()).then(|| (to_pole(&r.x_best), 2.0 * r.cost))
 }
 
@@ -348,5 +407,13 @@ mod tests {
         assert_eq!(neighbourhood(&l, 0), vec![0, 1]);
         assert_eq!(neighbourhood(&l, 1), vec![0, 1, 2]);
         assert_eq!(neighbourhood(&l, 3), vec![3]);
+        // Only the nearest on each side, even when a farther band overlaps.
+        let wide = [
+            pole_of(100.0, 0.05),
+            pole_of(101.0, 0.05),
+            pole_of(102.0, 0.05),
+            pole_of(103.0, 0.05),
+        ];
+        assert_eq!(neighbourhood(&wide, 1), vec![0, 1, 2]);
     }
 }

@@ -251,6 +251,15 @@ impl Validation<'_, '_> {
             .max(1)
     }
 
+    /// The significance score of every root of `fit` (≥ 1: significant),
+    /// max(T_sum/threshold, T_max/threshold).
+    pub fn scores(&self, fit: &GramFit, n_roots: usize) -> Vec<f64> {
+        let s2 = self.sigma2(fit);
+        (0..n_roots)
+            .map(|k| self.significance(fit, k, n_roots, &s2).0)
+            .collect()
+    }
+
     /// Duplicates, backward elimination and multiplicities for `roots`.
     pub fn run(&mut self, mut roots: Vec<Root>) -> Validated {
         let mut rejected = Vec::new();
