@@ -14,6 +14,12 @@
 //! - `scale`: one PUB5-size position (the `large` family) with the time of
 //!   each phase: PolyMAX, the search, the final steps.
 //!
+//! - `export DIR FAMILY SEED NOISE [POSITIONS]`: one family member for
+//!   `benchmarks/autoema_compare.py` — `frf.uff` (58b, POSITIONS copies with
+//!   independent noise, for the PUB5-size run of 4 positions), `frf.bin`
+//!   (little-endian f64 re/im, channels × lines, position 0) and
+//!   `case.json` (lines, references, outputs, true modes).
+//!
 //! `cargo bench --bench polymax -- families 20 0.02 0.05`
 //! (`RAYON_NUM_THREADS=1` for CPU time per case).
 
@@ -250,12 +256,80 @@ fn scale() {
     );
 }
 
+/// `export DIR FAMILY SEED NOISE [POSITIONS]`.
+fn export(args: &[String]) -> Result<(), String> {
+    let [dir, name, seed, noise, rest @ ..] = args else {
+        return Err("usage: export DIR FAMILY SEED NOISE [POSITIONS]".into());
+    };
+    let seed: u64 = seed.parse().map_err(|e| format!("seed: {e}"))?;
+    let noise: f64 = noise.parse().map_err(|e| format!("noise: {e}"))?;
+    let positions: u32 = rest
+        .first()
+        .map_or(Ok(1), |p| p.parse())
+        .map_err(|e| format!("positions: {e}"))?;
+    let c = case(name, seed).ok_or(format!("unknown family {name}"))?;
+    let dir = std::path::Path::new(dir);
+    let sets: Vec<_> = (0..positions)
+        .map(|p| {
+            let noise_seed = seed + 1000 * u64::from(p);
+            let mut set = modal_superposition(
+                &c.modes,
+                &c.references,
+                &c.frequencies_hz,
+                noise,
+                noise_seed,
+            );
+            set.position = modalflow::frf::Position {
+                index: p,
+                label: format!("p{p}"),
+            };
+            set
+        })
+        .collect();
+    let io = |e: std::io::Error| e.to_string();
+    std::fs::write(
+        dir.join("frf.uff"),
+        modalflow::io::write_frf_artifact(&sets),
+    )
+    .map_err(io)?;
+    let mut bin = Vec::new();
+    for ch in &sets[0].channels {
+        for v in &ch.values {
+            bin.extend_from_slice(&v.re.to_le_bytes());
+            bin.extend_from_slice(&v.im.to_le_bytes());
+        }
+    }
+    std::fs::write(dir.join("frf.bin"), bin).map_err(io)?;
+    let modes: Vec<serde_json::Value> = c
+        .modes
+        .iter()
+        .map(|m| {
+            serde_json::json!({"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio, "shape": m.shape})
+        })
+        .collect();
+    let json = serde_json::json!({
+        "family": name, "seed": seed, "noise": noise,
+        "frequencies_hz": c.frequencies_hz,
+        "references": c.references,
+        "n_out": c.modes[0].shape.len(),
+        "visibility": modalflow::ema::families::visibility(&c, noise),
+        "modes": modes,
+    });
+    std::fs::write(dir.join("case.json"), json.to_string()).map_err(io)
+}
+
 fn main() {
     let args: Vec<String> = std::env::args()
         .skip(1)
         .filter(|a| a != "--bench")
         .collect();
     match args.first().map(String::as_str) {
+        Some("export") => {
+            if let Err(e) = export(&args[1..]) {
+                eprintln!("export: {e}");
+                std::process::exit(2);
+            }
+        }
         Some("families") => families(&args[1..]),
         Some("scale") => scale(),
         _ => polymax_reuse(),
