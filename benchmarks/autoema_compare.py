@@ -32,6 +32,12 @@ AgglomerativeClustering's `affinity=` to `metric=`):
     cargo build --release && cargo bench --bench polymax --no-run
     /tmp/aeenv/bin/python benchmarks/autoema_compare.py --seeds 5            # families
     /tmp/aeenv/bin/python benchmarks/autoema_compare.py --pub5-size          # 600 FRFs x 2001 lines x 4 positions
+    /tmp/aeenv/bin/python benchmarks/autoema_compare.py --test-bench         # pipelines/autoema_study.yaml
+
+`--test-bench` runs `pipelines/autoema_study.yaml` (test bench, 4 positions,
+2 % noise) with an added CSV export, runs the PUB5 code per position on the
+same FRFs, and scores both against the noise-free model's modes (visibility
+from the modal model: |φ_o φ_i|/(2ζω²) over 2 % of each channel's RMS).
 """
 import argparse
 import csv
@@ -195,6 +201,88 @@ def run_case(binary, family, seed, noise, pub5_evals, positions=1):
         return mf, ae
 
 
+def read_csv_frf(path):
+    with open(path) as f:
+        rows = list(csv.reader(line for line in f if not line.startswith("#")))
+    head, data = rows[0], rows[1:]
+    pos = head.index("position") if "position" in head else None
+    chans = [h[3:] for h in head if h.startswith("re:")]
+    out = {}
+    for r in data:
+        p = int(r[pos]) if pos is not None else 0
+        out.setdefault(p, []).append(r)
+    sets = {}
+    for p, rs in out.items():
+        a = np.array([[float(x) if x else np.nan for x in r] for r in rs])
+        f = a[:, head.index("frequency_hz")]
+        h = np.array([a[:, head.index("re:" + c)] + 1j * a[:, head.index("im:" + c)] for c in chans])
+        sets[p] = (f, h)
+    return chans, sets
+
+
+def bench_modes(res, stage, position):
+    modes = [r for r in csv.DictReader(open(os.path.join(res, stage, "modes/modes.csv"))) if r.get("position", "0") == str(position)]
+    shapes = {}
+    for r in csv.DictReader(open(os.path.join(res, stage, "modes/mode_shapes.csv"))):
+        if r.get("position", "0") == str(position):
+            shapes.setdefault(int(r["mode"]), {})[r["node"] + r["direction"]] = complex(float(r["real"]), float(r["imag"]))
+    return [(float(r["frequency_hz"]), float(r["damping_ratio"]), shapes[int(r["mode"])]) for r in modes]
+
+
+def test_bench(pub5_evals):
+    import shutil
+    with tempfile.TemporaryDirectory() as d:
+        shutil.copytree(os.path.join(ROOT, "pipelines"), os.path.join(d, "pipelines"))
+        path = os.path.join(d, "pipelines/autoema_study.yaml")
+        with open(path, "a") as fh:
+            fh.write("  csv:\n    kind: export\n    inputs: {frf: measured.frf}\n    params: {format: csv}\n")
+        mf_cpu, mf_mem = run_measured([os.path.join(ROOT, "target/release/modalflow"), "run", path, "--progress", "none"], d)
+        res = os.path.join(d, "results/autoema_study")
+        csv_path = glob.glob(os.path.join(res, "csv/**/*.csv"), recursive=True)[0]
+        chans, sets = read_csv_frf(csv_path)
+        dofs = sorted({c.split("/")[0] for c in chans})
+        refs = sorted({c.split("/")[1] for c in chans})
+        rows = []
+        for p in sorted(sets):
+            f, h = sets[p]
+            keep = ~np.isnan(h).any(axis=0)
+            f, h = f[keep], h[:, keep]
+            truth = bench_modes(res, "truth", p)
+            rms = np.sqrt(np.mean(np.abs(h) ** 2, axis=1))
+            modes, vis = [], []
+            for fr, z, sh in truth:
+                modes.append({"frequency_hz": fr, "damping_ratio": z, "shape": [sh.get(o, 0).real for o in dofs]})
+                w = 2 * np.pi * fr
+                vis.append(max(abs(sh.get(c.split("/")[0], 0) * sh.get(c.split("/")[1], 0)) / (2 * z * w * w) / (0.02 * rms[k])
+                               for k, c in enumerate(chans)))
+            case = {"modes": modes, "visibility": vis, "noise": 0.02}
+            est = [{"frequency_hz": fr, "damping_ratio": z, "shape": np.array([sh.get(o, 0) for o in dofs])}
+                   for fr, z, sh in bench_modes(res, "ema", p)]
+            frac = json.load(open(os.path.join(res, "ema/metrics.json")))["positions"][p]["mean_frac"]
+            mf = score(case, est, frac)
+            mf.update(cpu=mf_cpu / len(sets), mem=mf_mem)
+            np.asarray(np.column_stack([h.real, h.imag]).reshape(len(chans), 2, -1).transpose(0, 2, 1), "<f8").tofile(os.path.join(d, "frf.bin"))
+            json.dump({"frequencies_hz": list(f)}, open(os.path.join(d, "case.json"), "w"))
+            with open(os.path.join(d, "pub5_run.py"), "w") as fh:
+                fh.write(PUB5_RUNNER)
+            ae_cpu, ae_mem = run_measured([sys.executable, "pub5_run.py", str(pub5_evals // 2), str(pub5_evals - pub5_evals // 2)], d)
+            r = json.load(open(os.path.join(d, "pub5.json")))
+            resid = np.array(r["residues_re"]) + 1j * np.array(r["residues_im"])
+            est = []
+            for k, (fr, z) in enumerate(zip(r["frequency_hz"], r["damping_ratio"])):
+                m = np.zeros((len(dofs), len(refs)), complex)
+                for c, name in enumerate(chans):
+                    o, i = name.split("/")
+                    m[dofs.index(o), refs.index(i)] = resid[c, k]
+                est.append({"frequency_hz": fr, "damping_ratio": z, "shape": np.linalg.svd(m)[0][:, 0]})
+            ae = score(case, est, r["mean_frac"])
+            ae.update(cpu=ae_cpu, mem=ae_mem)
+            rows += [(f"test bench position {p}", "modalflow", mf), (f"test bench position {p}", "PUB5", ae)]
+            print(f"position {p}: modalflow {mf['found']}/{mf['visible']} spur {mf['spurious']} dup {mf['duplicate']} | "
+                  f"PUB5 {ae['found']}/{ae['visible']} spur {ae['spurious']} dup {ae['duplicate']}", flush=True)
+        report(rows, "test bench (autoema_study.yaml), 2 % noise; modalflow CPU is the whole pipeline / 4")
+
+
 def med(v):
     return float(np.median(v)) if v else float("nan")
 
@@ -231,7 +319,11 @@ def main():
     ap.add_argument("--families", nargs="+", default=["close_pair", "repeated_root", "high_damping"])
     ap.add_argument("--pub5-evaluations", type=int, default=40)
     ap.add_argument("--pub5-size", action="store_true", help="one PUB5-size case: 600 FRFs x 2001 lines x 4 positions")
+    ap.add_argument("--test-bench", action="store_true", help="pipelines/autoema_study.yaml beside the PUB5 code")
     a = ap.parse_args()
+    if a.test_bench:
+        test_bench(a.pub5_evaluations)
+        return
     binary = bench_binary()
     rows = []
     if a.pub5_size:
