@@ -32,7 +32,7 @@ const PARAMS: &[ParamSpec] = &[
     ParamSpec { name: "max_order", ty: ParamType::Any, required: false, doc: "maximum model order: an integer, or [min, max] to let the optimization choose (default: a range fitted to the number of CMIF peaks and references)" },
     ParamSpec { name: "iterations", ty: ParamType::Integer, required: false, doc: "Bayesian-optimization evaluations per position, initial design included (default 40)" },
     ParamSpec { name: "initial", ty: ParamType::Integer, required: false, doc: "Latin-hypercube points before the Gaussian process takes over (default 12)" },
-    ParamSpec { name: "significance", ty: ParamType::Number, required: false, doc: "false-alarm probability α of the test that keeps a root only when it explains more than the noise (default 0.001)" },
+    ParamSpec { name: "significance", ty: ParamType::Number, required: false, doc: "false-alarm probability α of the test that keeps a root only when it explains more than the noise (default 1e-6)" },
     ParamSpec { name: "penalty", ty: ParamType::Number, required: false, doc: "optional objective penalty per mode as in PUB5: mean FRAC − penalty · modes (default 0: modes are admitted by significance instead)" },
     ParamSpec { name: "seed", ty: ParamType::Integer, required: false, doc: "seed of the optimization (default: the pipeline seed)" },
     ParamSpec { name: "fixed", ty: ParamType::Mapping, required: false, doc: "hyperparameters pinned to a value: frequency_tol, damping_tol, mac_tol, max_damping, cluster_distance, min_cluster_fraction, damping_weight, mac_weight, max_order" },
@@ -163,7 +163,7 @@ fn settings(params: &Mapping, seed: u64) -> Result<Settings, ParamProblem> {
                 return Err(problem(
                     &["significance"],
                     format!("significance {} is not in (0, 0.5)", show(v)),
-                    "a false-alarm probability such as 0.001",
+                    "a false-alarm probability such as 1e-6",
                 ))
             }
         }
