@@ -213,7 +213,8 @@ def read_csv_frf(path):
         out.setdefault(p, []).append(r)
     sets = {}
     for p, rs in out.items():
-        a = np.array([[float(x) if x else np.nan for x in r] for r in rs])
+        skip = {head.index(k) for k in ("position_label",) if k in head}
+        a = np.array([[np.nan if (j in skip or not x) else float(x) for j, x in enumerate(r)] for r in rs])
         f = a[:, head.index("frequency_hz")]
         h = np.array([a[:, head.index("re:" + c)] + 1j * a[:, head.index("im:" + c)] for c in chans])
         sets[p] = (f, h)
