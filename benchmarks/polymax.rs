@@ -1,13 +1,36 @@
-//! PolyMAX for every order up to 60 on 30 outputs × 3 references × 1601
-//! lines: normal equations built once and reused across orders (the
-//! implementation) against the per-order rebuild of the normal equations
-//! from the data (the reference), in the same run; plus the cost of one
-//! Bayesian-optimization step (re-selection from the computed poles).
+//! AutoEMA benchmarks (issue 14), three parts, each a separate argument:
 //!
-//! `cargo bench --bench polymax`
+//! - `polymax` (default): PolyMAX for every order up to 60 on 30 outputs ×
+//!   3 references × 1601 lines, normal equations built once and reused
+//!   across orders against the per-order rebuild, in the same run; then the
+//!   cost of one Bayesian-optimization step (re-selection from the poles).
+//! - `families [seeds] [noise…]`: the synthetic families of
+//!   `modalflow::ema::families` (close pair 1 % apart, repeated root with 3
+//!   references, damping 5–8 %, 600 FRFs × 2001 lines with 20 modes) over
+//!   many seeds and noise levels with default settings: success rate (every
+//!   visible mode found with NFD < 0.5 %, NDD < 20 %, MAC ≥ 0.9; no spurious
+//!   or duplicate mode; mean FRAC ≥ 1/(1 + r²) − 0.001), spurious and
+//!   duplicate counts, median NFD/NDD/MAC, CPU seconds per case.
+//! - `scale`: one PUB5-size position (the `large` family) with the time of
+//!   each phase: PolyMAX, the search, the final steps.
+//!
+//! - `export DIR FAMILY SEED NOISE [POSITIONS]`: one family member for
+//!   `benchmarks/autoema_compare.py` — `frf.uff` (58b, POSITIONS copies with
+//!   independent noise, for the PUB5-size run of 4 positions), `frf.bin`
+//!   (little-endian f64 re/im, channels × lines, position 0) and
+//!   `case.json` (lines, references, outputs, true modes).
+//!
+//! `cargo bench --bench polymax -- families 20 0.02 0.05`
+//! (`RAYON_NUM_THREADS=1` for CPU time per case).
 
 mod timing;
 
+use modalflow::ema::families::{case, estimates, frf_data, score, Score, FAMILIES};
+use modalflow::ema::synthetic::{lines, modal_superposition, SyntheticMode};
+use modalflow::ema::{
+    auto_ema, polymax, polymax_rebuild_per_order, select_modes, AutoEmaParams, FrfData,
+    Hyperparameters, PolymaxParams, Screening, SelectionParams, Weighting,
+};
 use timing::best;
 
 /// [`best`] in milliseconds.
@@ -15,12 +38,6 @@ fn best_ms<T>(n: usize, f: impl FnMut() -> T) -> (f64, T) {
     let (s, out) = best(n, f);
     (s * 1e3, out)
 }
-
-use modalflow::ema::synthetic::{lines, modal_superposition, SyntheticMode};
-use modalflow::ema::{
-    polymax, polymax_rebuild_per_order, select_modes, FrfData, Hyperparameters, PolymaxParams,
-    Weighting,
-};
 
 fn system() -> Vec<SyntheticMode> {
     (0..12)
@@ -37,7 +54,7 @@ fn system() -> Vec<SyntheticMode> {
         .collect()
 }
 
-fn main() {
+fn polymax_reuse() {
     let set = modal_superposition(&system(), &[0, 11, 22], &lines(10.0, 810.0, 0.5), 0.01, 1);
     let data = FrfData::from_set(&set, None, Weighting::Uniform).expect("synthetic data");
     let params = PolymaxParams { max_order: 60 };
@@ -84,32 +101,237 @@ fn main() {
         mac_weight: 0.5,
         max_order: 60,
     };
-    let (t_step, sel) = best_ms(10, || {
-        select_modes(&data, &orders, &h, 0.002).expect("selection")
-    });
+    let mut screening = Screening::new(&data, SelectionParams::default());
+    let (t_first, sel) = best_ms(1, || select_modes(&mut screening, &orders, &h));
+    let (t_step, _) = best_ms(10, || select_modes(&mut screening, &orders, &h));
     println!(
-        "one BO step (stabilize, cluster, LSFD, FRAC): {:.2} ms; {} modes, mean FRAC {:.4}",
+        "one BO step (stabilize, cluster, roots, validate, FRAC): first {:.2} ms (projections of new poles), then {:.2} ms; {} modes, mean FRAC {:.5}",
+        t_first,
         t_step,
-        sel.clusters.len(),
+        sel.n_modes(),
         sel.mean_frac
     );
-    // The loosest corner of the search box: most poles pass as stable.
-    let loose = Hyperparameters {
-        frequency_tol: 0.05,
-        damping_tol: 0.5,
-        mac_tol: 0.2,
-        max_damping: 0.2,
-        cluster_distance: 0.1,
-        ..h
-    };
-    let (t_loose, sel) = best_ms(3, || {
-        select_modes(&data, &orders, &loose, 0.002).expect("selection")
-    });
-    let stable = sel.flags.iter().flatten().filter(|f| f.stable()).count();
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// One family at one noise level over `seeds` seeds.
+fn family(name: &str, noise: f64, seeds: u64) {
+    let (mut ok, mut spurious, mut duplicate, mut missed, mut secs) = (0, 0, 0, 0, 0.0);
+    let (mut nfd, mut ndd, mut mac) = (Vec::new(), Vec::new(), Vec::new());
+    let mut failures = Vec::new();
+    for seed in 1..=seeds {
+        let Some(c) = case(name, seed) else { return };
+        let d = frf_data(&c, noise, seed);
+        let t = cpu_seconds();
+        let r = match auto_ema(
+            &d,
+            &AutoEmaParams {
+                seed,
+                ..AutoEmaParams::default()
+            },
+            &|| {},
+        ) {
+            Ok(r) => r,
+            Err(e) => {
+                failures.push(format!("seed {seed}: {e}"));
+                continue;
+            }
+        };
+        secs += cpu_seconds() - t;
+        let s: Score = score(&c, noise, &estimates(&r), r.best.mean_frac);
+        ok += usize::from(s.success);
+        spurious += s.spurious;
+        duplicate += s.duplicate;
+        missed += s.visible - s.found;
+        if !s.success {
+            failures.push(format!(
+                "seed {seed}: found {}/{}, spurious {}, duplicate {}, FRAC {:.5}",
+                s.found, s.visible, s.spurious, s.duplicate, r.best.mean_frac
+            ));
+        }
+        nfd.extend(s.nfd);
+        ndd.extend(s.ndd);
+        mac.extend(s.mac);
+    }
     println!(
-        "one BO step, loosest tolerances: {:.2} ms; {} stable poles clustered, {} modes",
-        t_loose,
-        stable,
-        sel.clusters.len()
+        "{name:<14} {noise:>5.2} {:>6}/{:<3} {missed:>7} {spurious:>9} {duplicate:>9} {:>10.2e} {:>9.3} {:>8.4} {:>9.2}",
+        ok,
+        seeds,
+        median(nfd),
+        median(ndd),
+        median(mac),
+        secs / seeds as f64
     );
+    for f in failures {
+        println!("    {f}");
+    }
+}
+
+/// CPU time of this process (user + system), for the shared 2-core machine.
+fn cpu_seconds() -> f64 {
+    let stat = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let fields: Vec<&str> = stat
+        .rsplit(')')
+        .next()
+        .unwrap_or("")
+        .split_whitespace()
+        .collect();
+    let tick = |i: usize| {
+        fields
+            .get(i)
+            .and_then(|v| v.parse::<f64>().ok())
+            .unwrap_or(0.0)
+    };
+    (tick(11) + tick(12)) / 100.0
+}
+
+fn families(args: &[String]) {
+    let seeds: u64 = args.first().and_then(|s| s.parse().ok()).unwrap_or(20);
+    let noises: Vec<f64> = args.iter().skip(1).filter_map(|s| s.parse().ok()).collect();
+    let noises = if noises.is_empty() {
+        vec![0.02, 0.05]
+    } else {
+        noises
+    };
+    println!(
+        "{:<14} {:>5} {:>10} {:>7} {:>9} {:>9} {:>10} {:>9} {:>8} {:>9}",
+        "family",
+        "noise",
+        "success",
+        "missed",
+        "spurious",
+        "duplicate",
+        "med NFD",
+        "med NDD",
+        "med MAC",
+        "CPU s"
+    );
+    for &noise in &noises {
+        for name in FAMILIES {
+            // The large family costs seconds per case: a quarter of the seeds.
+            let n = if name == "large" {
+                (seeds / 4).max(1)
+            } else {
+                seeds
+            };
+            family(name, noise, n);
+        }
+    }
+}
+
+fn scale() {
+    let c = case("large", 1).unwrap_or_else(|| unreachable!("a known family"));
+    let d = frf_data(&c, 0.02, 1);
+    println!(
+        "PUB5 size: {} outputs × {} references × {} lines, {} threads",
+        d.n_out(),
+        d.n_ref(),
+        d.n_lines(),
+        rayon::current_num_threads()
+    );
+    let t = cpu_seconds();
+    let orders = polymax(&d, &PolymaxParams { max_order: 50 }).expect("polymax");
+    println!("PolyMAX orders 1..=50: {:.2} s CPU", cpu_seconds() - t);
+    drop(orders);
+    let t = cpu_seconds();
+    let r = auto_ema(&d, &AutoEmaParams::default(), &|| {}).expect("auto_ema");
+    let s = score(&c, 0.02, &estimates(&r), r.best.mean_frac);
+    println!(
+        "auto_ema (orders up to {}, {} BO steps): {:.2} s CPU; found {}/{}, spurious {}, duplicate {}, mean FRAC {:.5}",
+        r.orders.len(),
+        r.trace.len(),
+        cpu_seconds() - t,
+        s.found,
+        s.visible,
+        s.spurious,
+        s.duplicate,
+        r.best.mean_frac
+    );
+}
+
+/// `export DIR FAMILY SEED NOISE [POSITIONS]`.
+fn export(args: &[String]) -> Result<(), String> {
+    let [dir, name, seed, noise, rest @ ..] = args else {
+        return Err("usage: export DIR FAMILY SEED NOISE [POSITIONS]".into());
+    };
+    let seed: u64 = seed.parse().map_err(|e| format!("seed: {e}"))?;
+    let noise: f64 = noise.parse().map_err(|e| format!("noise: {e}"))?;
+    let positions: u32 = rest
+        .first()
+        .map_or(Ok(1), |p| p.parse())
+        .map_err(|e| format!("positions: {e}"))?;
+    let c = case(name, seed).ok_or(format!("unknown family {name}"))?;
+    let dir = std::path::Path::new(dir);
+    let sets: Vec<_> = (0..positions)
+        .map(|p| {
+            let noise_seed = seed + 1000 * u64::from(p);
+            let mut set = modal_superposition(
+                &c.modes,
+                &c.references,
+                &c.frequencies_hz,
+                noise,
+                noise_seed,
+            );
+            set.position = modalflow::frf::Position {
+                index: p,
+                label: format!("p{p}"),
+            };
+            set
+        })
+        .collect();
+    let io = |e: std::io::Error| e.to_string();
+    std::fs::write(
+        dir.join("frf.uff"),
+        modalflow::io::write_frf_artifact(&sets),
+    )
+    .map_err(io)?;
+    let mut bin = Vec::new();
+    for ch in &sets[0].channels {
+        for v in &ch.values {
+            bin.extend_from_slice(&v.re.to_le_bytes());
+            bin.extend_from_slice(&v.im.to_le_bytes());
+        }
+    }
+    std::fs::write(dir.join("frf.bin"), bin).map_err(io)?;
+    let modes: Vec<serde_json::Value> = c
+        .modes
+        .iter()
+        .map(|m| {
+            serde_json::json!({"frequency_hz": m.frequency_hz, "damping_ratio": m.damping_ratio, "shape": m.shape})
+        })
+        .collect();
+    let json = serde_json::json!({
+        "family": name, "seed": seed, "noise": noise,
+        "frequencies_hz": c.frequencies_hz,
+        "references": c.references,
+        "n_out": c.modes[0].shape.len(),
+        "visibility": modalflow::ema::families::visibility(&c, noise),
+        "modes": modes,
+    });
+    std::fs::write(dir.join("case.json"), json.to_string()).map_err(io)
+}
+
+fn main() {
+    let args: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| a != "--bench")
+        .collect();
+    match args.first().map(String::as_str) {
+        Some("export") => {
+            if let Err(e) = export(&args[1..]) {
+                eprintln!("export: {e}");
+                std::process::exit(2);
+            }
+        }
+        Some("families") => families(&args[1..]),
+        Some("scale") => scale(),
+        _ => polymax_reuse(),
+    }
 }

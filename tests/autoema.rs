@@ -158,3 +158,118 @@ fn positions_are_analysed_separately() {
         }
     }
 }
+
+/// Issue 14, CI-sized: members of the synthetic families with default
+/// settings (only the band, from the data) — every visible mode found
+/// (NFD < 0.5 %, NDD < 20 %, MAC ≥ 0.9; the span of a repeated root), no
+/// spurious or duplicate mode, mean FRAC ≥ 1/(1 + r²) − 0.001. The success
+/// rates over many seeds are measured by `cargo bench --bench polymax --
+/// families` (README).
+#[test]
+fn synthetic_families_with_default_settings() {
+    use modalflow::ema::families::{case, estimates, frf_data, score};
+    use modalflow::ema::{auto_ema, AutoEmaParams};
+    for (family, noise, seed) in [
+        ("close_pair", 0.02, 1),
+        ("close_pair", 0.05, 2),
+        ("repeated_root", 0.02, 1),
+        ("high_damping", 0.02, 2),
+    ] {
+        let c = case(family, seed).unwrap();
+        let d = frf_data(&c, noise, seed);
+        let r = auto_ema(
+            &d,
+            &AutoEmaParams {
+                seed,
+                ..AutoEmaParams::default()
+            },
+            &|| {},
+        )
+        .unwrap();
+        let s = score(&c, noise, &estimates(&r), r.best.mean_frac);
+        assert!(
+            s.success,
+            "{family} at {noise}, seed {seed}: {s:?}, FRAC {}",
+            r.best.mean_frac
+        );
+        if family == "repeated_root" {
+            let doubles = r.best.roots.iter().filter(|x| x.multiplicity == 2).count();
+            assert_eq!(doubles, 2, "both repeated roots hold two modes");
+        }
+    }
+}
+
+/// metrics.json states per position what validation rejected and why, the
+/// search box and any bound the result sits on, the noise floor, residual
+/// structure and whether the goal was reached; poles.csv has the classes;
+/// the diagram draws them with the CMIF curves.
+#[test]
+fn autoema_outputs_say_what_was_decided() {
+    let ws = Workspace::new();
+    let c = modalflow::ema::families::case("close_pair", 3).unwrap();
+    let mut set = modal_superposition(&c.modes, &c.references, &c.frequencies_hz, 0.02, 3);
+    set.position = modalflow::frf::Position {
+        index: 0,
+        label: "p".into(),
+    };
+    std::fs::write(ws.path().join("truth.uff"), write_frf_artifact(&[set])).unwrap();
+    ws.write(
+        "p.yaml",
+        "name: ema\nseed: 3\nstages:\n  measured:\n    kind: import\n    params: {path: truth.uff}\n  ema:\n    kind: autoema\n    inputs: {frf: measured.frf}\n    params: {band: [20, 260]}\n",
+    );
+    ws.run(&[], 0);
+    let m: serde_json::Value =
+        serde_json::from_str(&ws.read("results/ema/ema/metrics.json")).unwrap();
+    let p = &m["positions"][0];
+    assert_eq!(m["n_modes"], 6, "{m}");
+    assert!(m["goal_reached"].is_boolean() && p["goal_reached"].is_boolean());
+    for key in [
+        "rejected",
+        "at_bound",
+        "residual_peaks",
+        "warnings",
+        "modes",
+        "trace",
+    ] {
+        assert!(p[key].is_array(), "{key}: {p}");
+    }
+    assert!(p["noise"]["median_relative"].as_f64().unwrap() > 0.01);
+    assert!(p["noise"]["median_relative"].as_f64().unwrap() < 0.04);
+    assert!(
+        p["bounds"]["max_order"][1].as_f64().unwrap()
+            > p["bounds"]["max_order"][0].as_f64().unwrap()
+    );
+    assert!(p["data"]["cmif_peaks"].as_u64().unwrap() >= 5);
+    // Every rejection says why.
+    for r in p["rejected"].as_array().unwrap() {
+        assert!(
+            r["reason"].is_string() && r["frequency_hz"].is_number(),
+            "{r}"
+        );
+    }
+    // A bound the result sits on is a warning, in metrics.json.
+    let warned = m["warnings"].as_array().unwrap();
+    for b in p["at_bound"].as_array().unwrap() {
+        let name = b["name"].as_str().unwrap();
+        assert!(
+            warned.iter().any(|w| w.as_str().unwrap().contains(name)),
+            "{b}"
+        );
+    }
+    let poles = ws.read("results/ema/ema/poles.csv");
+    assert!(poles
+        .lines()
+        .next()
+        .unwrap()
+        .contains(",class,cluster,root,selected"));
+    let svg = ws.read("results/ema/ema/stabilization.svg");
+    for needle in [
+        "CMIF σ1",
+        "CMIF σ2",
+        "stable f, ζ, vector",
+        "selected mode",
+        "rejected root",
+    ] {
+        assert!(svg.contains(needle), "{needle}");
+    }
+}

@@ -148,6 +148,75 @@ fn binary_58b_little_endian() {
     );
 }
 
+/// `frf_58b_pyuff.uff`, written by pyuff 2.5.8 itself
+/// (`tests/fixtures/uff/make_pyuff_58b.py`): two complex-double FRFs in 58b
+/// whose header declares 101 × 8 = 808 data bytes while record 7 (type 6,
+/// 101 points, even) and the `-1` delimiter say 1616. Read by record 7 with
+/// one warning for the file naming the writer's mistake.
+#[test]
+fn binary_58b_written_by_pyuff() {
+    let bytes = fixture("frf_58b_pyuff.uff");
+    let file = read_uff(&bytes, "frf_58b_pyuff.uff").unwrap();
+    assert_eq!(file.functions().count(), 2);
+    assert_eq!(file.warnings.len(), 1, "{:?}", file.warnings);
+    let UffWarning::HeaderByteCount {
+        declared,
+        needed,
+        count,
+        ..
+    } = &file.warnings[0]
+    else {
+        panic!("{:?}", file.warnings);
+    };
+    assert_eq!((*declared, *needed, *count), (808, 1616, 2));
+    let text = file.warnings[0].to_string();
+    assert!(
+        text.contains("808") && text.contains("1616") && text.contains("pyuff"),
+        "{text}"
+    );
+    let sets = frf_sets_from_uff(&file, "frf_58b_pyuff.uff", &FrfImportOptions::default())
+        .unwrap()
+        .sets;
+    let s = &sets[0];
+    assert_eq!(s.frequencies_hz.len(), 101);
+    assert_eq!((s.frequencies_hz[0], s.frequencies_hz[100]), (10.0, 60.0));
+    for (dof, scale) in [(Dof::new(101, 1), 1.0), (Dof::new(102, 2), -0.5)] {
+        let c = s.channel(dof, Dof::new(1, 3)).unwrap();
+        for (k, &f) in s.frequencies_hz.iter().enumerate() {
+            assert!(close(c.values[k], h(f, scale), 1e-12), "{dof} at {f} Hz");
+        }
+    }
+}
+
+/// A 58b block that matches neither the header's byte count nor record 7
+/// (eight bytes cut from the data) is a located error naming both counts.
+#[test]
+fn binary_58b_inconsistent_with_both_counts_is_an_error() {
+    let mut bytes = fixture("frf_58b_pyuff.uff");
+    let header_end = {
+        let mut newlines = 0;
+        bytes
+            .iter()
+            .position(|&b| {
+                newlines += usize::from(b == b'\n');
+                newlines == 13
+            })
+            .unwrap()
+            + 1
+    };
+    bytes.drain(header_end..header_end + 8);
+    let e = read_uff(&bytes, "cut.uff").unwrap_err();
+    let text = e.to_string();
+    assert!(
+        text.contains("cut.uff") && text.contains("808") && text.contains("1616"),
+        "{text}"
+    );
+    assert!(
+        text.contains("line 2"),
+        "located at the 58b header line: {text}"
+    );
+}
+
 /// `frf_crlf.uff`: CRLF line ends; complex double, uneven abscissa
 /// (f_i = 1.5^i Hz, i = 0..11, in E13.5) as E13.5,2E20.12; load case 2,
 /// driving point 5+X/5+X.

@@ -6,13 +6,17 @@
 //! d(p, q) = |f_p − f_q|/max(f_p, f_q) + w_ζ |ζ_p − ζ_q|/max(ζ_p, ζ_q)
 //!           + w_MAC (1 − MAC(L_p, L_q)),
 //!
-//! cut at a threshold; a cluster is a mode when it holds poles of at least a
-//! given fraction of the model orders and its frequencies stay within the
-//! threshold of their median. Each mode is represented by the member nearest
+//! cut at a threshold; a cluster is a mode candidate when it holds poles of
+//! at least a given fraction of the model orders, and of no fewer than
+//! [`MIN_COLUMN`] orders (a stable column, whatever the fraction), and its
+//! frequencies stay within the threshold of their median. Each mode is represented by the member nearest
 //! the cluster median (frequency and damping).
 
 use super::PoleOrder;
 use crate::metrics::mac;
+
+/// The fewest model orders a cluster must span to be a mode candidate.
+pub const MIN_COLUMN: usize = 5;
 
 /// Clustering hyperparameters (three of the eight of PUB5, plus the order count).
 #[derive(Clone, Debug, PartialEq)]
@@ -97,7 +101,8 @@ pub fn cluster_poles(
         }
         groups[group_of[r]].push(k);
     }
-    let min_orders = (p.min_fraction * p.n_orders as f64).ceil().max(1.0) as usize;
+    let min_orders = ((p.min_fraction * p.n_orders as f64).ceil() as usize)
+        .max(MIN_COLUMN.min(p.n_orders.max(1)));
     let mut clusters: Vec<(f64, Cluster)> = groups
         .into_iter()
         .filter_map(|g| {

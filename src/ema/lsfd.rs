@@ -9,10 +9,16 @@
 //! the real design matrix [Re; Im] (sequential, so bit-identical on any
 //! thread count). The shape of mode r is the dominant left
 //! singular vector of its residue matrix R_r = ψ_r L_rᵀ (outputs × references).
-//! The fitted model reconstructs the FRFs, scored by FRAC (eq. 2.66).
+//! A repeated root of multiplicity m has one pole and a residue matrix of
+//! rank m, R = Σ_k ψ_k L_kᵀ: its m shapes are the m leading left singular
+//! vectors, an orthonormal basis of the modal subspace (the individual
+//! shapes of an exactly repeated root are not determined by FRFs, only
+//! their span). The fitted model reconstructs the FRFs, scored by FRAC
+//! (eq. 2.66).
 
 #![allow(non_snake_case)]
 
+use super::hermitian::left_singular;
 use super::{EmaError, FrfData};
 use crate::dense::least_squares;
 use crate::metrics::frac;
@@ -28,8 +34,11 @@ pub struct LsfdFit {
     pub lower: Vec<f64>,
     /// Upper residual per channel.
     pub upper: Vec<f64>,
-    /// Per mode, the shape over the outputs: unit norm, largest entry real positive.
+    /// Per mode, the shape over the outputs: unit norm, largest entry real
+    /// positive. A root of multiplicity m contributes m consecutive shapes.
     pub shapes: Vec<Vec<Complex64>>,
+    /// Per shape, the index of its pole in the fitted pole list.
+    pub shape_pole: Vec<usize>,
     /// Reconstructed FRFs in the layout of [`FrfData::h`].
     pub reconstructed: Vec<Complex64>,
 }
@@ -51,8 +60,23 @@ impl LsfdFit {
     }
 }
 
-/// Fit residues for the poles `lambdas` (rad/s, positive imaginary parts).
+/// Fit residues for the poles `lambdas` (rad/s, positive imaginary parts),
+/// one mode per pole.
 pub fn lsfd(data: &FrfData, lambdas: &[Complex64]) -> Result<LsfdFit, EmaError> {
+    lsfd_roots(data, lambdas, &vec![1; lambdas.len()])
+}
+
+/// As [`lsfd`], with `multiplicity[r]` modes at pole r.
+pub fn lsfd_roots(
+    data: &FrfData,
+    lambdas: &[Complex64],
+    multiplicity: &[usize],
+) -> Result<LsfdFit, EmaError> {
+    assert_eq!(
+        lambdas.len(),
+        multiplicity.len(),
+        "one multiplicity per pole"
+    );
     let nf = data.n_lines();
     let n_ch = data.n_out() * data.n_ref();
     let n_col = 2 * lambdas.len() + 2;
@@ -141,44 +165,21 @@ pub fn lsfd(data: &FrfData, lambdas: &[Complex64]) -> Result<LsfdFit, EmaError> 
             reconstructed[ch * nf + f] = row.iter().enumerate().map(|(c, b)| b * x(c, ch)).sum();
         }
     }
-    let shapes = residues
-        .iter()
-        .map(|r| dominant_shape(r, data.n_out(), data.n_ref()))
-        .collect();
+    let mut shapes = Vec::new();
+    let mut shape_pole = Vec::new();
+    for (r, (res, &m)) in residues.iter().zip(multiplicity).enumerate() {
+        let (_, u) = left_singular(res, data.n_out(), data.n_ref());
+        for v in u.into_iter().take(m.max(1)) {
+            shapes.push(super::polymax::normalize(v));
+            shape_pole.push(r);
+        }
+    }
     Ok(LsfdFit {
         residues,
         lower,
         upper,
         shapes,
+        shape_pole,
         reconstructed,
     })
-}
-
-/// Dominant left singular vector of the `n_out × n_ref` residue matrix by
-/// power iteration on R Rᴴ, started from its largest column.
-fn dominant_shape(R: &[Complex64], n_out: usize, n_ref: usize) -> Vec<Complex64> {
-    let col = |i: usize| (0..n_out).map(move |o| R[o * n_ref + i]);
-    let start = (0..n_ref)
-        .max_by(|&a, &b| {
-            let na: f64 = col(a).map(|v| v.norm_sqr()).sum();
-            let nb: f64 = col(b).map(|v| v.norm_sqr()).sum();
-            na.total_cmp(&nb).then(b.cmp(&a))
-        })
-        .unwrap_or(0);
-    let mut u: Vec<Complex64> = col(start).collect();
-    for _ in 0..30 {
-        // v = Rᴴ u, u = R v.
-        let v: Vec<Complex64> = (0..n_ref)
-            .map(|i| (0..n_out).map(|o| R[o * n_ref + i].conj() * u[o]).sum())
-            .collect();
-        u = (0..n_out)
-            .map(|o| (0..n_ref).map(|i| R[o * n_ref + i] * v[i]).sum())
-            .collect();
-        let n = u.iter().map(Complex64::norm_sqr).sum::<f64>().sqrt();
-        if n == 0.0 || !n.is_finite() {
-            break;
-        }
-        u.iter_mut().for_each(|x| *x /= n);
-    }
-    super::polymax::normalize(u)
 }

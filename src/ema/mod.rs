@@ -1,33 +1,52 @@
 //! Automated experimental modal analysis (AutoEMA, seed section 5.2.2, PUB5):
 //! PolyMAX poles for every model order ([`polymax`]), stabilization between
 //! consecutive orders ([`stabilization`]), hierarchical clustering of the
-//! stable poles ([`clustering`]), mode shapes by LSFD with residuals
-//! ([`lsfd`]) and the hyperparameter search by Bayesian optimization that
-//! maximizes the mean FRAC (eq. 2.66) of the reconstructed FRFs
-//! ([`selection`]).
+//! stable poles ([`clustering`]), clusters to roots with their multiplicity
+//! ([`roots`]), validation of every root against the noise floor of the
+//! data — duplicates, significance, repeated roots ([`significance`],
+//! [`noise`]) — mode shapes by LSFD with residuals ([`lsfd`]), and the
+//! hyperparameter search by Bayesian optimization over a box fitted to the
+//! data ([`search`], [`hyperbox`]) maximizing the mean FRAC (eq. 2.66) of
+//! the validated modes ([`selection`]). The final fit is checked for
+//! residual structure above the noise ([`residual`]).
 //!
-//! The poles are computed once for the highest order; every hyperparameter
+//! The poles are computed once for the highest order and each pole's
+//! projections on the data once ([`projection`]); every hyperparameter
 //! candidate only re-selects from them, so one optimization step costs
-//! milliseconds.
+//! milliseconds even on hundreds of FRFs.
 
 pub mod clustering;
+pub mod families;
 pub mod frf_data;
+pub mod hermitian;
+pub mod hyperbox;
 pub mod lsfd;
+pub mod noise;
 pub mod polymax;
+pub mod projection;
+pub mod refine;
+pub mod residual;
+pub mod roots;
+pub mod search;
 pub mod selection;
+pub mod significance;
 pub mod stabilization;
 pub mod stabilization_diagram;
+pub mod summary;
 pub mod synthetic;
 
 pub use clustering::{cluster_poles, Cluster, ClusterParams};
 pub use frf_data::{FrfData, Weighting};
-pub use lsfd::{lsfd, LsfdFit};
+pub use lsfd::{lsfd, lsfd_roots, LsfdFit};
 pub use polymax::{polymax, polymax_rebuild_per_order, Pole, PoleOrder, PolymaxParams};
+pub use roots::Root;
+pub use search::{auto_ema, AutoEmaParams, AutoEmaResult, TraceEntry};
 pub use selection::{
-    auto_ema, select_modes, AutoEmaParams, AutoEmaResult, Hyperparameters, Selection,
+    final_fit, select_modes, Hyperparameters, Screening, Selection, SelectionParams,
     HYPERPARAMETER_NAMES,
 };
-pub use stabilization::{stabilize, PoleFlags, StabilizationParams};
+pub use significance::{Reason, Rejection};
+pub use stabilization::{stabilize, PoleClass, PoleFlags, StabilizationParams};
 
 /// Why an AutoEMA step failed.
 #[derive(Debug, thiserror::Error)]

@@ -1,17 +1,32 @@
-//! AutoEMA (seed section 5.2.2, PUB5): pole selection from the PolyMAX poles
-//! of every order with eight classification and clustering hyperparameters
-//! plus the maximum order, scored by the mean FRAC (eq. 2.66) of the LSFD
-//! reconstruction minus a small penalty per mode, and tuned by Bayesian
-//! optimization ([`crate::optimize::bayesian`]). The poles are computed once
-//! for the highest order; each optimization step only re-selects.
+//! Mode selection for one point of the hyperparameter space (seed section
+//! 5.2.2, PUB5, with the model selection of issue 14): stabilization of the
+//! PolyMAX poles ([`super::stabilization`]), hierarchical clustering of the
+//! stable ones ([`super::clustering`]), clusters to roots with their
+//! multiplicity ([`super::roots`]), then duplicates, significance and
+//! multiplicity against the noise floor ([`super::significance`]) on the
+//! cached normal equations of LSFD ([`super::projection`]).
+//!
+//! The score of a hyperparameter point θ is the mean FRAC (eq. 2.66) of the
+//! LSFD fit with the roots that pass validation,
+//!
+//! J(θ) = (1/n_ch) Σ_c FRAC(H_c, Ĥ_c(θ)) − p · n_modes(θ),
+//!
+//! with p = 0 by default: a root enters the fit only when the data support
+//! it beyond the noise (significance) and is not a second copy of another
+//! (duplicate rule), so more modes raise J only when they are real. The
+//! optional per-mode penalty p of PUB5 remains for comparison.
 
 use super::clustering::{cluster_poles, Cluster, ClusterParams};
-use super::lsfd::{lsfd, LsfdFit};
-use super::polymax::{polymax, PoleOrder, PolymaxParams};
+use super::lsfd::{lsfd_roots, LsfdFit};
+use super::noise::{cmif, noise_variance, peak_at};
+use super::polymax::{Pole, PoleOrder};
+use super::projection::{FitOutcome, Projector};
+use super::refine::{nested_statistic, refine_sweep};
+use super::roots::{multiplicity_over_all_orders, roots_from_clusters, Root};
+use super::significance::{chi2_isf, Reason, Rejection, Validation};
 use super::stabilization::{stabilize, PoleFlags, StabilizationParams};
 use super::{EmaError, FrfData};
-use crate::optimize::bayesian::{maximize, BayesianParams};
-use std::collections::BTreeMap;
+use num_complex::Complex64;
 
 /// The tuned quantities, in the order of [`Hyperparameters::to_array`].
 pub const HYPERPARAMETER_NAMES: [&str; 9] = [
@@ -25,9 +40,6 @@ pub const HYPERPARAMETER_NAMES: [&str; 9] = [
     "mac_weight",
     "max_order",
 ];
-
-/// Searched on a log scale (tolerances spanning decades).
-const LOG_SCALE: [bool; 9] = [true, true, true, false, true, false, false, false, false];
 
 /// One point of the hyperparameter space.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -73,19 +85,50 @@ impl Hyperparameters {
     }
 }
 
-/// Search bounds of every hyperparameter for a maximum-order range.
-pub fn bounds(max_order: (usize, usize)) -> [(f64, f64); 9] {
-    [
-        (1e-3, 0.05),
-        (0.02, 0.5),
-        (1e-3, 0.2),
-        (0.02, 0.2),
-        (2e-3, 0.1),
-        (0.05, 0.6),
-        (0.0, 1.0),
-        (0.0, 1.0),
-        (max_order.0 as f64, max_order.1 as f64),
-    ]
+/// Settings of the validation that every hyperparameter point shares.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SelectionParams {
+    /// Family-wise false-alarm probability α of the significance test;
+    /// 10⁻⁶ by default: measured FRFs carry some model error (hysteretic or
+    /// non-proportional damping, nonlinearity) that a test at 10⁻³ calls
+    /// significant at high SNR. On the test bench 10⁻⁶ removes most
+    /// "shoulder" roots beside strong modes and loses no mode (README).
+    pub alpha: f64,
+    /// Optional objective penalty per mode (PUB5); 0 by default.
+    pub penalty: f64,
+}
+
+impl Default for SelectionParams {
+    fn default() -> Self {
+        SelectionParams {
+            alpha: 1e-6,
+            penalty: 0.0,
+        }
+    }
+}
+
+/// What every selection of one FRF matrix shares: the poles' projections
+/// and the noise floor.
+pub struct Screening<'d> {
+    pub data: &'d FrfData,
+    pub projector: Projector<'d>,
+    /// Noise variance per channel ([`noise_variance`]).
+    pub noise: Vec<f64>,
+    /// CMIF curves ([`cmif`]).
+    pub cmif: Vec<Vec<f64>>,
+    pub params: SelectionParams,
+}
+
+impl<'d> Screening<'d> {
+    pub fn new(data: &'d FrfData, params: SelectionParams) -> Screening<'d> {
+        Screening {
+            data,
+            projector: Projector::new(data),
+            noise: noise_variance(data),
+            cmif: cmif(data),
+            params,
+        }
+    }
 }
 
 /// The modes chosen for one hyperparameter point.
@@ -94,21 +137,32 @@ pub struct Selection {
     pub hyperparameters: Hyperparameters,
     /// Flags of every pole of the considered orders.
     pub flags: Vec<Vec<PoleFlags>>,
-    /// Validated clusters, one mode each, by frequency.
+    /// Validated clusters, by frequency.
     pub clusters: Vec<Cluster>,
-    pub fit: LsfdFit,
+    /// Roots that passed validation, by frequency; each holds
+    /// `multiplicity` modes.
+    pub roots: Vec<Root>,
+    /// Roots removed or changed by validation, with the reason.
+    pub rejected: Vec<Rejection>,
     pub mean_frac: f64,
-    /// mean FRAC − penalty · modes.
+    /// J(θ), the optimized score.
     pub objective: f64,
 }
 
-/// Classify, cluster and fit for one hyperparameter point.
+impl Selection {
+    /// Number of modes (roots counted with their multiplicity).
+    pub fn n_modes(&self) -> usize {
+        self.roots.iter().map(|r| r.multiplicity).sum()
+    }
+}
+
+/// Classify, cluster, validate and score one hyperparameter point.
 pub fn select_modes(
-    data: &FrfData,
+    screening: &mut Screening<'_>,
     orders: &[PoleOrder],
     h: &Hyperparameters,
-    penalty: f64,
-) -> Result<Selection, EmaError> {
+) -> Selection {
+    let data = screening.data;
     let n_orders = orders.iter().take_while(|o| o.order <= h.max_order).count();
     let band = (
         data.frequencies_hz.first().copied().unwrap_or(0.0),
@@ -146,184 +200,184 @@ pub fn select_modes(
             n_orders,
         },
     );
-    let lambdas: Vec<_> = clusters
-        .iter()
-        .map(|c| orders[c.representative.0].poles[c.representative.1].s)
-        .collect();
-    let fit = lsfd(data, &lambdas)?;
-    let mean_frac = fit.mean_frac(data);
-    Ok(Selection {
+    let roots = roots_from_clusters(orders, &clusters, &candidates, data.n_ref());
+    let validated = Validation {
+        projector: &mut screening.projector,
+        orders,
+        noise: &screening.noise,
+        n_out: data.n_out(),
+        n_ref: data.n_ref(),
+        n_lines: data.n_lines(),
+        alpha: screening.params.alpha,
+    }
+    .run(roots);
+    let mean_frac = validated.fit.mean_frac();
+    let n_modes: usize = validated.roots.iter().map(|r| r.multiplicity).sum();
+    Selection {
         hyperparameters: h.clone(),
         flags,
-        objective: mean_frac - penalty * clusters.len() as f64,
         clusters,
-        fit,
+        objective: mean_frac - screening.params.penalty * n_modes as f64,
+        roots: validated.roots,
+        rejected: validated.rejected,
         mean_frac,
-    })
-}
-
-/// Settings of [`auto_ema`].
-#[derive(Clone, Debug, PartialEq)]
-pub struct AutoEmaParams {
-    /// Range of the maximum model order; poles are computed up to its upper end.
-    pub max_order: (usize, usize),
-    /// Objective evaluations of the Bayesian optimization (initial design included).
-    pub evaluations: usize,
-    /// Latin-hypercube points before the surrogate takes over.
-    pub initial: usize,
-    /// Objective penalty per mode.
-    pub penalty: f64,
-    pub seed: u64,
-    /// Hyperparameters pinned to a value (names of [`HYPERPARAMETER_NAMES`]).
-    pub fixed: BTreeMap<String, f64>,
-}
-
-impl Default for AutoEmaParams {
-    fn default() -> Self {
-        AutoEmaParams {
-            max_order: (10, 40),
-            evaluations: 40,
-            initial: 12,
-            penalty: 0.002,
-            seed: 0,
-            fixed: BTreeMap::new(),
-        }
     }
 }
 
-/// One optimization step.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
-pub struct TraceEntry {
-    pub hyperparameters: Hyperparameters,
-    pub mean_frac: f64,
-    pub n_modes: usize,
-    pub objective: f64,
-}
-
-/// Poles of all orders, the best selection and the optimization trace.
-#[derive(Clone, Debug, PartialEq)]
-pub struct AutoEmaResult {
-    pub orders: Vec<PoleOrder>,
-    pub best: Selection,
-    pub trace: Vec<TraceEntry>,
-}
-
-/// PolyMAX up to the highest order, then Bayesian optimization of the
-/// selection hyperparameters; `on_step` is called after every evaluation.
-pub fn auto_ema(
-    data: &FrfData,
-    p: &AutoEmaParams,
-    on_step: &(dyn Fn() + Sync),
-) -> Result<AutoEmaResult, EmaError> {
-    if p.max_order.0 == 0 || p.max_order.0 > p.max_order.1 {
-        return Err(EmaError::InvalidParam {
-            name: "max_order".into(),
-            message: format!(
-                "range [{}, {}] is empty or starts at 0",
-                p.max_order.0, p.max_order.1
+/// The final steps for the chosen selection: multiplicities on the
+/// evidence of every computed order
+/// ([`super::roots::multiplicity_over_all_orders`]), poles refined on the
+/// FRFs ([`super::refine`], two sweeps with a global refit between), and
+/// validation again.
+pub fn refine_selection(
+    screening: &mut Screening<'_>,
+    orders: &[PoleOrder],
+    s: &Selection,
+) -> Selection {
+    let data = screening.data;
+    let mut roots = s.roots.clone();
+    // Multiplicities on the evidence of every computed order.
+    let h = &s.hyperparameters;
+    let flags = stabilize(
+        orders,
+        orders.len(),
+        &StabilizationParams {
+            frequency_tol: h.frequency_tol,
+            damping_tol: h.damping_tol,
+            mac_tol: h.mac_tol,
+            max_damping: h.max_damping,
+            band_hz: (
+                data.frequencies_hz.first().copied().unwrap_or(0.0),
+                data.frequencies_hz.last().copied().unwrap_or(0.0),
             ),
-        });
-    }
-    let mut fixed = [None; 9];
-    for (name, &v) in &p.fixed {
-        let k = HYPERPARAMETER_NAMES
-            .iter()
-            .position(|n| n == name)
-            .ok_or_else(|| EmaError::InvalidParam {
-                name: format!("fixed.{name}"),
-                message: format!(
-                    "unknown hyperparameter; known: {}",
-                    HYPERPARAMETER_NAMES.join(", ")
-                ),
-            })?;
-        if !v.is_finite() || v < 0.0 {
-            return Err(EmaError::InvalidParam {
-                name: format!("fixed.{name}"),
-                message: format!("{v} must be finite and non-negative"),
-            });
-        }
-        fixed[k] = Some(v);
-    }
-    // A one-point order range is not searched.
-    if p.max_order.0 == p.max_order.1 && fixed[8].is_none() {
-        fixed[8] = Some(p.max_order.0 as f64);
-    }
-    let orders = polymax(
-        data,
-        &PolymaxParams {
-            max_order: fixed[8].map_or(p.max_order.1, |v| v.round().max(1.0) as usize),
         },
-    )?;
-    let all = bounds(p.max_order);
-    let free: Vec<usize> = (0..9).filter(|&k| fixed[k].is_none()).collect();
-    let search: Vec<(f64, f64)> = free
+    );
+    let stable: Vec<(usize, usize)> = flags
         .iter()
-        .map(|&k| {
-            if LOG_SCALE[k] {
-                (all[k].0.ln(), all[k].1.ln())
-            } else {
-                all[k]
-            }
+        .enumerate()
+        .flat_map(|(j, fl)| {
+            fl.iter()
+                .enumerate()
+                .filter(|(_, f)| f.stable())
+                .map(move |(k, _)| (j, k))
         })
         .collect();
-    let point = |x: &[f64]| {
-        let mut a = [0.0; 9];
-        for k in 0..9 {
-            a[k] = fixed[k].unwrap_or(0.0);
-        }
-        for (&k, &v) in free.iter().zip(x) {
-            a[k] = if LOG_SCALE[k] { v.exp() } else { v };
-        }
-        Hyperparameters::from_array(a)
+    let freqs = &data.frequencies_hz;
+    let step = freqs
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(f64::INFINITY, f64::min);
+    let cmif_peak = |m: usize, f: f64, hw: f64| {
+        screening
+            .cmif
+            .get(m - 1)
+            .is_some_and(|c| peak_at(c, freqs, f, hw.max(step)))
     };
-    let mut trace = Vec::new();
-    let mut objective = |x: &[f64]| {
-        let h = point(x);
-        let value = match select_modes(data, &orders, &h, p.penalty) {
-            Ok(s) => {
-                trace.push(TraceEntry {
-                    hyperparameters: h,
-                    mean_frac: s.mean_frac,
-                    n_modes: s.clusters.len(),
-                    objective: s.objective,
-                });
-                s.objective
-            }
-            Err(_) => {
-                trace.push(TraceEntry {
-                    hyperparameters: h,
-                    mean_frac: 0.0,
-                    n_modes: 0,
-                    objective: -1.0,
-                });
-                -1.0
-            }
-        };
-        on_step();
-        value
-    };
-    let best_x = if free.is_empty() {
-        objective(&[]);
-        Vec::new()
-    } else {
-        let params = BayesianParams {
-            initial: p.initial,
-            evaluations: p.evaluations.max(1),
-            seed: p.seed,
-            ..BayesianParams::default()
-        };
-        maximize(&mut objective, &search, &params)
-            .map_err(|e| EmaError::InvalidParam {
-                name: "iterations".into(),
-                message: e.to_string(),
-            })?
-            .best
-            .x
-    };
-    let best = select_modes(data, &orders, &point(&best_x), p.penalty)?;
-    Ok(AutoEmaResult {
+    let m: Vec<usize> = (0..roots.len())
+        .map(|k| multiplicity_over_all_orders(orders, &roots, k, &stable, data.n_ref(), &cmif_peak))
+        .collect();
+    for (r, m) in roots.iter_mut().zip(m) {
+        r.multiplicity = m;
+    }
+    for _sweep in 0..2 {
+        refine_roots(screening, orders, &mut roots);
+    }
+    let mut rejected = s.rejected.clone();
+    while let Some((k, reason)) = weakest_nested(screening, orders, &roots) {
+        let p = roots[k].pole(orders);
+        rejected.push(Rejection {
+            frequency_hz: p.frequency_hz,
+            damping_ratio: p.damping_ratio,
+            n_orders: roots[k].n_orders,
+            reason,
+        });
+        roots.remove(k);
+        refine_roots(screening, orders, &mut roots);
+    }
+    let validated = Validation {
+        projector: &mut screening.projector,
         orders,
-        best,
-        trace,
-    })
+        noise: &screening.noise,
+        n_out: data.n_out(),
+        n_ref: data.n_ref(),
+        n_lines: data.n_lines(),
+        alpha: screening.params.alpha,
+    }
+    .run(roots);
+    let mean_frac = validated.fit.mean_frac();
+    let n_modes: usize = validated.roots.iter().map(|r| r.multiplicity).sum();
+    rejected.extend(validated.rejected);
+    Selection {
+        hyperparameters: s.hyperparameters.clone(),
+        flags: s.flags.clone(),
+        clusters: s.clusters.clone(),
+        objective: mean_frac - screening.params.penalty * n_modes as f64,
+        roots: validated.roots,
+        rejected,
+        mean_frac,
+    }
+}
+
+/// One refinement sweep of the roots' poles ([`refine_sweep`]), roots kept
+/// sorted by frequency.
+fn refine_roots(screening: &mut Screening<'_>, orders: &[PoleOrder], roots: &mut [Root]) {
+    let lambdas: Vec<Complex64> = roots.iter().map(|r| r.pole(orders).s).collect();
+    let FitOutcome::Fit(fit) = screening.projector.fit(&lambdas) else {
+        return;
+    };
+    let new = refine_sweep(screening.data, &screening.noise, &lambdas, &fit);
+    for (r, l) in roots.iter_mut().zip(new) {
+        if l != r.pole(orders).s {
+            let w = l.norm();
+            r.refined = Some(Pole {
+                s: l,
+                frequency_hz: w / (2.0 * std::f64::consts::PI),
+                damping_ratio: -l.re / w,
+                participation: r.representative_pole(orders).participation.clone(),
+            });
+        }
+    }
+    roots.sort_by(|a, b| {
+        a.pole(orders)
+            .frequency_hz
+            .total_cmp(&b.pole(orders).frequency_hz)
+    });
+}
+
+/// The root whose nested likelihood-ratio statistic falls furthest below
+/// its threshold χ²_dof(1 − α/(2 n_r)), if any falls below.
+fn weakest_nested(
+    screening: &mut Screening<'_>,
+    orders: &[PoleOrder],
+    roots: &[Root],
+) -> Option<(usize, Reason)> {
+    let lambdas: Vec<Complex64> = roots.iter().map(|r| r.pole(orders).s).collect();
+    let FitOutcome::Fit(fit) = screening.projector.fit(&lambdas) else {
+        return None;
+    };
+    let n = roots.len().max(1) as f64;
+    (0..roots.len())
+        .filter_map(|k| {
+            let (t, dof) = nested_statistic(screening.data, &screening.noise, &lambdas, &fit, k)?;
+            let threshold = chi2_isf(dof, screening.params.alpha / (2.0 * n));
+            (t < threshold).then_some((
+                k,
+                t / threshold,
+                Reason::NotSignificantNested { t, threshold },
+            ))
+        })
+        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+        .map(|(k, _, r)| (k, r))
+}
+
+/// The final LSFD fit (Householder QR) of a selection: shapes and the
+/// reconstructed FRFs.
+pub fn final_fit(
+    data: &FrfData,
+    orders: &[PoleOrder],
+    selection: &Selection,
+) -> Result<LsfdFit, EmaError> {
+    let lambdas: Vec<_> = selection.roots.iter().map(|r| r.pole(orders).s).collect();
+    let mult: Vec<usize> = selection.roots.iter().map(|r| r.multiplicity).collect();
+    lsfd_roots(data, &lambdas, &mult)
 }

@@ -1,21 +1,56 @@
-//! The stabilization diagram as a self-contained SVG, written as text: poles
-//! over model order on top of the sum of the FRF magnitudes (log scale),
-//! stable poles filled, unstable ones as small rings, selected modes as
-//! vertical lines. One panel per position.
+//! The stabilization diagram as analysts read it, as a self-contained SVG
+//! written as text: poles over model order, one symbol per stability class
+//! ([`PoleClass`]: new ○, frequency +, frequency and damping □, frequency
+//! and vector △, all three ●), the selected modes as red lines with their
+//! representative pole ringed (×m at a repeated root), roots rejected by
+//! validation as grey ticks at the top, and under it all the CMIF curves
+//! (singular values of the FRF matrix per line, log scale; one curve per
+//! reference, so a repeated root shows as two curves peaking together).
+//! One panel per position.
 
-use super::{FrfData, PoleOrder, Selection};
+use super::search::AutoEmaResult;
+use super::stabilization::PoleClass;
+use super::FrfData;
 use std::fmt::Write;
 
 /// One position's panel content.
 pub struct Panel<'a> {
     pub title: String,
     pub data: &'a FrfData,
-    pub orders: &'a [PoleOrder],
-    pub selection: &'a Selection,
+    pub result: &'a AutoEmaResult,
+}
+
+const CMIF_COLORS: [&str; 4] = ["#1f77b4", "#9467bd", "#17becf", "#8c564b"];
+
+/// SVG of one pole symbol of `class` at (x, y); None for unphysical poles.
+fn symbol(class: PoleClass, x: f64, y: f64) -> Option<String> {
+    Some(match class {
+        PoleClass::Unphysical => return None,
+        PoleClass::New => {
+            format!(r##"<circle cx="{x:.1}" cy="{y:.1}" r="1.6" fill="none" stroke="#bbb"/>"##)
+        }
+        PoleClass::Frequency => format!(
+            r##"<path d="M{:.1} {y:.1}h5M{x:.1} {:.1}v5" stroke="#999" stroke-width="1"/>"##,
+            x - 2.5,
+            y - 2.5
+        ),
+        PoleClass::Damping => format!(
+            r##"<rect x="{:.1}" y="{:.1}" width="4.4" height="4.4" fill="none" stroke="#ff7f0e"/>"##,
+            x - 2.2,
+            y - 2.2
+        ),
+        PoleClass::Vector => format!(
+            r##"<path d="M{x:.1} {:.1}l2.6 4.6h-5.2z" fill="none" stroke="#1f77b4"/>"##,
+            y - 3.0
+        ),
+        PoleClass::Stable => {
+            format!(r##"<circle cx="{x:.1}" cy="{y:.1}" r="2.4" fill="#2ca02c"/>"##)
+        }
+    })
 }
 
 const W: f64 = 900.0;
-const PANEL_H: f64 = 430.0;
+const PANEL_H: f64 = 460.0;
 const LEFT: f64 = 70.0;
 const RIGHT: f64 = 830.0;
 const TOP: f64 = 40.0;
@@ -71,26 +106,118 @@ fn panel(s: &mut String, p: &Panel) {
         f.first().copied().unwrap_or(0.0),
         f.last().copied().unwrap_or(1.0),
     );
-    let n_max = p.orders.last().map_or(1, |o| o.order).max(1) as f64;
+    let r = p.result;
+    let n_max = r.orders.last().map_or(1, |o| o.order).max(1) as f64;
     let x = |v: f64| LEFT + (v - f_lo) / (f_hi - f_lo).max(1e-12) * (RIGHT - LEFT);
     let y_order = |n: f64| BOTTOM - n / n_max * (BOTTOM - TOP);
-    // Sum of magnitudes over channels, log10 scale on the right axis.
-    let nf = p.data.n_lines();
-    let n_ch = p.data.n_out() * p.data.n_ref();
-    let sum: Vec<f64> = (0..nf)
-        .map(|i| {
-            (0..n_ch)
-                .map(|c| p.data.h[c * nf + i].norm())
-                .sum::<f64>()
-                .max(1e-300)
-                .log10()
-        })
-        .collect();
-    let (m_lo, m_hi) = sum
+    let logs: Vec<Vec<f64>> = r
+        .cmif
         .iter()
+        .map(|c| c.iter().map(|v| v.max(1e-300).log10()).collect())
+        .collect();
+    let first = logs.first().map(Vec::as_slice).unwrap_or(&[]);
+    let (m_lo, m_hi) = logs
+        .iter()
+        .flatten()
+        .filter(|v| v.is_finite() && **v > -299.0)
         .fold((f64::MAX, f64::MIN), |(a, b), &v| (a.min(v), b.max(v)));
-    let (m_lo, m_hi) = (m_lo.floor(), m_hi.ceil().max(m_lo.floor() + 1.0));
-    let y_mag = |v: f64| BOTTOM - (v - m_lo) / (m_hi - m_lo) * (BOTTOM - TOP);
+    // The top three decades of the first curve and whatever the others reach in them.
+    let top = first.iter().cloned().fold(f64::MIN, f64::max);
+    let m_lo = m_lo.max(top - 4.0).floor();
+    let m_hi = m_hi.ceil().max(m_lo + 1.0);
+    let y_mag = |v: f64| BOTTOM - ((v - m_lo) / (m_hi - m_lo)).clamp(0.0, 1.0) * (BOTTOM - TOP);
+    frame(
+        s,
+        p,
+        (f_lo, f_hi),
+        n_max,
+        (m_lo, m_hi),
+        &x,
+        &y_order,
+        &y_mag,
+    );
+    for (k, curve) in logs.iter().enumerate() {
+        let pts: Vec<String> = f
+            .iter()
+            .zip(curve)
+            .map(|(&fv, &m)| format!("{:.1},{:.1}", x(fv), y_mag(m)))
+            .collect();
+        let _ = writeln!(
+            s,
+            r##"<polyline fill="none" stroke="{}" stroke-width="1" stroke-opacity="{}" points="{}"/>"##,
+            CMIF_COLORS[k % CMIF_COLORS.len()],
+            if k == 0 { 0.9 } else { 0.6 },
+            pts.join(" ")
+        );
+    }
+    for rej in &r.best.rejected {
+        if matches!(rej.reason, super::Reason::MultiplicityReduced { .. }) {
+            continue;
+        }
+        let _ = writeln!(
+            s,
+            r##"<path d="M{0:.1} {1}v8" stroke="#777" stroke-width="1.5"><title>rejected {2:.3} Hz: {3}</title></path>"##,
+            x(rej.frequency_hz),
+            TOP,
+            rej.frequency_hz,
+            esc(&serde_json::to_string(&rej.reason).unwrap_or_default())
+        );
+    }
+    for (j, flags) in r.best.flags.iter().enumerate() {
+        let order = &r.orders[j];
+        for (pole, fl) in order.poles.iter().zip(flags) {
+            if pole.frequency_hz < f_lo || pole.frequency_hz > f_hi {
+                continue;
+            }
+            if let Some(sym) = symbol(
+                fl.class(),
+                x(pole.frequency_hz),
+                y_order(order.order as f64),
+            ) {
+                s.push_str(&sym);
+                s.push('\n');
+            }
+        }
+    }
+    for root in &r.best.roots {
+        let pole = root.pole(&r.orders);
+        let order = r.orders[root.representative.0].order as f64;
+        let (cx, cy) = (x(pole.frequency_hz), y_order(order));
+        let mult = if root.multiplicity > 1 {
+            format!(" ×{}", root.multiplicity)
+        } else {
+            String::new()
+        };
+        let _ = writeln!(
+            s,
+            r##"<g><title>{0:.3} Hz, ζ = {1:.4}{2}, stable over {3} orders</title><line x1="{cx:.1}" y1="{TOP}" x2="{cx:.1}" y2="{BOTTOM}" stroke="#d62728" stroke-opacity="0.7" stroke-dasharray="4,3"/><circle cx="{cx:.1}" cy="{cy:.1}" r="5" fill="none" stroke="#d62728" stroke-width="1.5"/></g>"##,
+            pole.frequency_hz, pole.damping_ratio, mult, root.n_orders
+        );
+        if root.multiplicity > 1 {
+            let _ = writeln!(
+                s,
+                r##"<text x="{:.1}" y="{}" fill="#d62728" font-size="11">×{}</text>"##,
+                cx + 3.0,
+                TOP + 12.0,
+                root.multiplicity
+            );
+        }
+    }
+    legend(s, r.cmif.len());
+}
+
+/// Axes, ticks, labels and title.
+#[allow(clippy::too_many_arguments)]
+fn frame(
+    s: &mut String,
+    p: &Panel,
+    (f_lo, f_hi): (f64, f64),
+    n_max: f64,
+    (m_lo, m_hi): (f64, f64),
+    x: &dyn Fn(f64) -> f64,
+    y_order: &dyn Fn(f64) -> f64,
+    y_mag: &dyn Fn(f64) -> f64,
+) {
     let _ = writeln!(
         s,
         r#"<text x="{}" y="22" text-anchor="middle" font-size="14" font-weight="bold">{}</text>"#,
@@ -117,7 +244,7 @@ fn panel(s: &mut String, p: &Panel) {
         s,
         r#"<text x="{}" y="{}" text-anchor="middle">Frequency [Hz]</text>"#,
         (LEFT + RIGHT) / 2.0,
-        BOTTOM + 38.0
+        BOTTOM + 34.0
     );
     for t in ticks(0.0, n_max) {
         let _ = writeln!(
@@ -150,66 +277,59 @@ fn panel(s: &mut String, p: &Panel) {
     }
     let _ = writeln!(
         s,
-        r##"<text transform="translate({},{}) rotate(90)" text-anchor="middle" fill="#1f77b4">Sum of |H| (log)</text>"##,
+        r##"<text transform="translate({},{}) rotate(90)" text-anchor="middle" fill="#1f77b4">CMIF singular values (log)</text>"##,
         W - 12.0,
         (TOP + BOTTOM) / 2.0
     );
-    let pts: Vec<String> = f
-        .iter()
-        .zip(&sum)
-        .map(|(&fv, &m)| format!("{:.2},{:.2}", x(fv), y_mag(m)))
-        .collect();
+}
+
+/// The symbol legend under the axes.
+fn legend(s: &mut String, n_curves: usize) {
+    let ly = BOTTOM + 52.0;
+    let mut lx = LEFT;
+    let entries = [
+        (PoleClass::Stable, "stable f, ζ, vector"),
+        (PoleClass::Vector, "stable f, vector"),
+        (PoleClass::Damping, "stable f, ζ"),
+        (PoleClass::Frequency, "stable f"),
+        (PoleClass::New, "new"),
+    ];
+    for (class, label) in entries {
+        if let Some(sym) = symbol(class, lx, ly) {
+            s.push_str(&sym);
+        }
+        let _ = write!(
+            s,
+            r#"<text x="{:.1}" y="{:.1}">{label}</text>"#,
+            lx + 7.0,
+            ly + 4.0
+        );
+        lx += 20.0 + 6.2 * label.len() as f64;
+    }
     let _ = writeln!(
         s,
-        r##"<polyline fill="none" stroke="#1f77b4" stroke-width="1" points="{}"/>"##,
-        pts.join(" ")
+        r##"<circle cx="{0:.1}" cy="{1:.1}" r="5" fill="none" stroke="#d62728" stroke-width="1.5"/><text x="{2:.1}" y="{3:.1}">selected mode</text><path d="M{4:.1} {5:.1}v8" stroke="#777" stroke-width="1.5"/><text x="{6:.1}" y="{3:.1}">rejected root</text>"##,
+        LEFT,
+        ly + 20.0,
+        LEFT + 9.0,
+        ly + 24.0,
+        LEFT + 110.0,
+        ly + 16.0,
+        LEFT + 117.0
     );
-    for c in &p.selection.clusters {
-        let pole = &p.orders[c.representative.0].poles[c.representative.1];
+    for k in 0..n_curves {
+        let x0 = LEFT + 220.0 + 90.0 * k as f64;
         let _ = writeln!(
             s,
-            r##"<line x1="{0:.2}" y1="{TOP}" x2="{0:.2}" y2="{BOTTOM}" stroke="#d62728" stroke-dasharray="4,3"><title>{1:.3} Hz, ζ = {2:.4}</title></line>"##,
-            x(pole.frequency_hz),
-            pole.frequency_hz,
-            pole.damping_ratio
+            r##"<line x1="{x0:.1}" y1="{0:.1}" x2="{1:.1}" y2="{0:.1}" stroke="{2}"/><text x="{3:.1}" y="{4:.1}">CMIF σ{5}</text>"##,
+            ly + 20.0,
+            x0 + 16.0,
+            CMIF_COLORS[k % CMIF_COLORS.len()],
+            x0 + 20.0,
+            ly + 24.0,
+            k + 1
         );
     }
-    for (j, flags) in p.selection.flags.iter().enumerate() {
-        let order = &p.orders[j];
-        for (pole, fl) in order.poles.iter().zip(flags) {
-            if pole.frequency_hz < f_lo || pole.frequency_hz > f_hi {
-                continue;
-            }
-            let (cx, cy) = (x(pole.frequency_hz), y_order(order.order as f64));
-            if fl.stable() {
-                let _ = writeln!(
-                    s,
-                    r##"<circle cx="{cx:.2}" cy="{cy:.2}" r="2.5" fill="#2ca02c"/>"##
-                );
-            } else {
-                let _ = writeln!(
-                    s,
-                    r##"<circle cx="{cx:.2}" cy="{cy:.2}" r="1.8" fill="none" stroke="#999"/>"##
-                );
-            }
-        }
-    }
-    let ly = BOTTOM + 52.0;
-    let _ = writeln!(
-        s,
-        r##"<circle cx="{LEFT}" cy="{ly}" r="3" fill="#2ca02c"/><text x="{}" y="{}">stable pole</text><circle cx="{}" cy="{ly}" r="2" fill="none" stroke="#999"/><text x="{}" y="{}">other pole</text><line x1="{}" y1="{}" x2="{}" y2="{}" stroke="#d62728" stroke-dasharray="4,3"/><text x="{}" y="{}">selected mode</text>"##,
-        LEFT + 8.0,
-        ly + 4.0,
-        LEFT + 110.0,
-        LEFT + 118.0,
-        ly + 4.0,
-        LEFT + 220.0,
-        ly - 6.0,
-        LEFT + 220.0,
-        ly + 6.0,
-        LEFT + 228.0,
-        ly + 4.0
-    );
 }
 
 #[cfg(test)]

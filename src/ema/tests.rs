@@ -167,7 +167,7 @@ fn auto_ema_finds_the_four_modes() {
     let modes = four_mode_system();
     let d = data(&modes, &[0, 3], 0.01);
     let params = AutoEmaParams {
-        max_order: (8, 24),
+        max_order: Some((8, 24)),
         evaluations: 30,
         initial: 10,
         seed: 4,
@@ -176,13 +176,13 @@ fn auto_ema_finds_the_four_modes() {
     let r = auto_ema(&d, &params, &|| {}).unwrap();
     assert_eq!(r.trace.len(), 30);
     assert_eq!(
-        r.best.clusters.len(),
+        r.best.roots.len(),
         4,
         "selected {:?}",
         r.best.hyperparameters
     );
-    for (c, m) in r.best.clusters.iter().zip(&modes) {
-        let p = &r.orders[c.representative.0].poles[c.representative.1];
+    for (c, m) in r.best.roots.iter().zip(&modes) {
+        let p = c.pole(&r.orders);
         assert!(
             (p.frequency_hz - m.frequency_hz).abs() / m.frequency_hz < 5e-3,
             "{} vs {}",
@@ -191,7 +191,7 @@ fn auto_ema_finds_the_four_modes() {
         );
         assert!((p.damping_ratio - m.damping_ratio).abs() / m.damping_ratio < 0.1);
     }
-    for (shape, m) in r.best.fit.shapes.iter().zip(&modes) {
+    for (shape, m) in r.fit.shapes.iter().zip(&modes) {
         let truth: Vec<Complex64> = m.shape.iter().map(|&v| Complex64::new(v, 0.0)).collect();
         assert!(mac(&truth, shape) > 0.99);
     }
@@ -208,14 +208,14 @@ fn auto_ema_finds_the_four_modes() {
     };
     let again = auto_ema(&d, &pinned, &|| {}).unwrap();
     assert_eq!(again.trace.len(), 1);
-    assert_eq!(again.best.clusters.len(), 4);
+    assert_eq!(again.best.roots.len(), 4);
 }
 
 #[test]
 fn results_do_not_depend_on_the_thread_count() {
     let d = data(&four_mode_system(), &[0, 3], 0.01);
     let params = AutoEmaParams {
-        max_order: (6, 14),
+        max_order: Some((6, 14)),
         evaluations: 8,
         initial: 5,
         seed: 1,
@@ -267,7 +267,7 @@ fn auto_ema_separates_close_modes_with_two_references() {
     let set = modal_superposition(&modes, &[0, 3], &lines(40.0, 260.0, 0.25), 0.02, 7);
     let d = FrfData::from_set(&set, None, Weighting::Uniform).unwrap();
     let params = AutoEmaParams {
-        max_order: (8, 30),
+        max_order: Some((8, 30)),
         evaluations: 40,
         initial: 12,
         seed: 2,
@@ -275,17 +275,17 @@ fn auto_ema_separates_close_modes_with_two_references() {
     };
     let r = auto_ema(&d, &params, &|| {}).unwrap();
     assert_eq!(
-        r.best.clusters.len(),
+        r.best.roots.len(),
         modes.len(),
         "modes {:?}",
         r.best
-            .clusters
+            .roots
             .iter()
-            .map(|c| r.orders[c.representative.0].poles[c.representative.1].frequency_hz)
+            .map(|c| c.pole(&r.orders).frequency_hz)
             .collect::<Vec<_>>()
     );
-    for (k, (c, m)) in r.best.clusters.iter().zip(&modes).enumerate() {
-        let p = &r.orders[c.representative.0].poles[c.representative.1];
+    for (k, (c, m)) in r.best.roots.iter().zip(&modes).enumerate() {
+        let p = c.pole(&r.orders);
         let nfd = (p.frequency_hz - m.frequency_hz).abs() / m.frequency_hz;
         let ndd = (p.damping_ratio - m.damping_ratio).abs() / m.damping_ratio;
         assert!(
@@ -297,7 +297,7 @@ fn auto_ema_separates_close_modes_with_two_references() {
             m.damping_ratio
         );
         let truth: Vec<Complex64> = m.shape.iter().map(|&v| Complex64::new(v, 0.0)).collect();
-        let mac_k = mac(&truth, &r.best.fit.shapes[k]);
+        let mac_k = mac(&truth, &r.fit.shapes[k]);
         assert!(mac_k > 0.98, "mode {k}: MAC {mac_k}");
     }
     assert!(r.best.mean_frac > 0.998, "mean FRAC {}", r.best.mean_frac);

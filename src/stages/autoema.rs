@@ -1,15 +1,20 @@
 //! The `autoema` kind: automated experimental modal analysis of an `frf`
 //! artifact (seed section 5.2.2, PUB5) with [`crate::ema`]: PolyMAX poles up
-//! to the highest order, selection hyperparameters tuned by Bayesian
-//! optimization on mean FRAC, mode shapes by LSFD. Every position of the
-//! input is analysed on its own (in parallel; results do not depend on the
-//! thread count).
+//! to the highest order, roots validated against the noise floor (duplicates,
+//! significance, repeated roots), selection hyperparameters tuned by
+//! Bayesian optimization on the mean FRAC of the validated modes over a box
+//! fitted to the data, mode shapes by LSFD. Every position of the input is
+//! analysed on its own (in parallel; results do not depend on the thread
+//! count). metrics.json states per position what was rejected and why, any
+//! hyperparameter at a bound, residual structure above the noise and whether
+//! the goal was reached.
 
 use super::{
     artifacts, InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError,
     StageOutputs,
 };
 use crate::ema::stabilization_diagram::{render, Panel};
+use crate::ema::summary::PositionSummary;
 use crate::ema::{
     auto_ema, AutoEmaParams, AutoEmaResult, FrfData, Weighting, HYPERPARAMETER_NAMES,
 };
@@ -24,12 +29,14 @@ pub struct AutoEma;
 
 const PARAMS: &[ParamSpec] = &[
     ParamSpec { name: "band", ty: ParamType::Any, required: false, doc: "frequency band [low, high] in Hz analysed (default: all lines above 0 Hz)" },
-    ParamSpec { name: "max_order", ty: ParamType::Any, required: false, doc: "maximum model order: an integer, or [min, max] to let the optimization choose (default [10, 40])" },
+    ParamSpec { name: "max_order", ty: ParamType::Any, required: false, doc: "maximum model order: an integer, or [min, max] to let the optimization choose (default: a range fitted to the number of CMIF peaks and references)" },
     ParamSpec { name: "iterations", ty: ParamType::Integer, required: false, doc: "Bayesian-optimization evaluations per position, initial design included (default 40)" },
     ParamSpec { name: "initial", ty: ParamType::Integer, required: false, doc: "Latin-hypercube points before the Gaussian process takes over (default 12)" },
-    ParamSpec { name: "penalty", ty: ParamType::Number, required: false, doc: "objective penalty per mode: mean FRAC − penalty · modes (default 0.002)" },
+    ParamSpec { name: "significance", ty: ParamType::Number, required: false, doc: "false-alarm probability α of the test that keeps a root only when it explains more than the noise (default 1e-6)" },
+    ParamSpec { name: "penalty", ty: ParamType::Number, required: false, doc: "optional objective penalty per mode as in PUB5: mean FRAC − penalty · modes (default 0: modes are admitted by significance instead)" },
     ParamSpec { name: "seed", ty: ParamType::Integer, required: false, doc: "seed of the optimization (default: the pipeline seed)" },
     ParamSpec { name: "fixed", ty: ParamType::Mapping, required: false, doc: "hyperparameters pinned to a value: frequency_tol, damping_tol, mac_tol, max_damping, cluster_distance, min_cluster_fraction, damping_weight, mac_weight, max_order" },
+    ParamSpec { name: "bounds", ty: ParamType::Mapping, required: false, doc: "search ranges [low, high] replacing the ones fitted to the data, e.g. {max_damping: [0.05, 0.4]}" },
     ParamSpec { name: "weighting", ty: ParamType::Enum(&["uniform", "coherence"]), required: false, doc: "PolyMAX weighting: uniform per output, or by coherence when present (default uniform)" },
 ];
 
@@ -107,7 +114,7 @@ fn settings(params: &Mapping, seed: u64) -> Result<Settings, ParamProblem> {
                         && lo.fract() == 0.0
                         && hi.fract() == 0.0 =>
                 {
-                    ema.max_order = (lo as usize, hi as usize)
+                    ema.max_order = Some((lo as usize, hi as usize))
                 }
                 _ => {
                     return Err(problem(
@@ -139,13 +146,59 @@ fn settings(params: &Mapping, seed: u64) -> Result<Settings, ParamProblem> {
     ema.initial = int("initial", ema.initial, 1)?;
     if let Some(v) = params.get("penalty") {
         match v.as_f64() {
-            Some(x) if (0.0..1.0).contains(&x) => ema.penalty = x,
+            Some(x) if (0.0..1.0).contains(&x) => ema.selection.penalty = x,
             _ => {
                 return Err(problem(
                     &["penalty"],
                     format!("penalty {} is not in [0, 1)", show(v)),
-                    "a small number such as 0.002 per mode",
+                    "a small number such as 0.002 per mode, or leave it out",
                 ))
+            }
+        }
+    }
+    if let Some(v) = params.get("significance") {
+        match v.as_f64() {
+            Some(x) if x > 0.0 && x < 0.5 => ema.selection.alpha = x,
+            _ => {
+                return Err(problem(
+                    &["significance"],
+                    format!("significance {} is not in (0, 0.5)", show(v)),
+                    "a false-alarm probability such as 1e-6",
+                ))
+            }
+        }
+    }
+    if let Some(v) = params.get("bounds") {
+        let Some(m) = v.as_mapping() else {
+            return Err(problem(
+                &["bounds"],
+                "`bounds` must be a mapping".into(),
+                "e.g. bounds: {max_damping: [0.05, 0.4]}",
+            ));
+        };
+        for (k, v) in m {
+            let name = k.as_str().unwrap_or_default();
+            if !HYPERPARAMETER_NAMES.contains(&name) || name == "max_order" {
+                return Err(problem(
+                    &["bounds", name],
+                    format!("no search range for `{name}`"),
+                    &format!(
+                        "known: {} (the order range is `max_order: [min, max]`)",
+                        HYPERPARAMETER_NAMES[..8].join(", ")
+                    ),
+                ));
+            }
+            match pair(v) {
+                Some((lo, hi)) if lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo <= hi => {
+                    ema.bounds.insert(name.to_string(), (lo, hi));
+                }
+                _ => {
+                    return Err(problem(
+                        &["bounds", name],
+                        format!("{} is not [low, high] with 0 <= low <= high", show(v)),
+                        "give the range as two numbers",
+                    ))
+                }
             }
         }
     }
@@ -196,10 +249,10 @@ impl Stage for AutoEma {
         "autoema"
     }
     fn version(&self) -> u32 {
-        1
+        2
     }
     fn summary(&self) -> &'static str {
-        "automated modal analysis: PolyMAX, stabilization, clustering, LSFD, tuned by Bayesian optimization"
+        "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"
     }
     fn params(&self) -> &'static [ParamSpec] {
         PARAMS
@@ -258,26 +311,33 @@ impl Stage for AutoEma {
     }
 }
 
-fn write_outputs(
-    ctx: &StageContext,
-    sets: &[FrfSet],
-    data: &[FrfData],
-    results: &[AutoEmaResult],
-) -> Result<StageOutputs, StageError> {
-    let models: Vec<ModalModel> = sets
-        .iter()
+/// The metrics.json of the stage.
+#[derive(serde::Serialize)]
+struct Metrics {
+    /// Every position reached its goal (no visible mode missed, no result
+    /// limited by the search box).
+    goal_reached: bool,
+    mean_frac: f64,
+    n_modes: usize,
+    /// The positions' warnings, each prefixed with its position.
+    warnings: Vec<String>,
+    positions: Vec<PositionSummary>,
+}
+
+fn modal_models(sets: &[FrfSet], data: &[FrfData], results: &[AutoEmaResult]) -> Vec<ModalModel> {
+    sets.iter()
         .zip(data)
         .zip(results)
         .map(|((set, d), r)| ModalModel {
             position: set.position.clone(),
             dofs: d.responses.clone(),
             modes: r
-                .best
-                .clusters
+                .fit
+                .shapes
                 .iter()
-                .zip(&r.best.fit.shapes)
-                .map(|(c, shape)| {
-                    let p = &r.orders[c.representative.0].poles[c.representative.1];
+                .zip(&r.fit.shape_pole)
+                .map(|(shape, &k)| {
+                    let p = r.best.roots[k].pole(&r.orders);
                     Mode {
                         frequency_hz: p.frequency_hz,
                         damping_ratio: p.damping_ratio,
@@ -286,16 +346,24 @@ fn write_outputs(
                 })
                 .collect(),
         })
-        .collect();
-    let modes_dir = ctx.scratch.join(artifacts::MODES_DIR);
-    artifacts::write_modes(&modes_dir, &models)?;
+        .collect()
+}
 
-    let mut poles = String::from("position,order,frequency_hz,damping_ratio,physical,stable_frequency,stable_damping,stable_vector,cluster,selected\n");
+/// poles.csv: every pole with its stabilization flags and class, its
+/// cluster and root, and whether it represents a mode.
+fn poles_csv(sets: &[FrfSet], results: &[AutoEmaResult]) -> String {
+    let mut out = String::from("position,order,frequency_hz,damping_ratio,physical,stable_frequency,stable_damping,stable_vector,class,cluster,root,selected\n");
     for (set, r) in sets.iter().zip(results) {
-        let mut cluster_of: BTreeMap<(usize, usize), (usize, bool)> = BTreeMap::new();
+        let mut cluster_of: BTreeMap<(usize, usize), usize> = BTreeMap::new();
         for (k, c) in r.best.clusters.iter().enumerate() {
             for &m in &c.members {
-                cluster_of.insert(m, (k, m == c.representative));
+                cluster_of.insert(m, k);
+            }
+        }
+        let mut root_of: BTreeMap<(usize, usize), (usize, bool)> = BTreeMap::new();
+        for (k, root) in r.best.roots.iter().enumerate() {
+            for &m in &root.members {
+                root_of.insert(m, (k, m == root.representative));
             }
         }
         for (j, order) in r.orders.iter().enumerate() {
@@ -307,13 +375,16 @@ fn write_outputs(
                     .and_then(|f| f.get(k))
                     .copied()
                     .unwrap_or_default();
-                let (cluster, selected) = cluster_of
+                let cluster = cluster_of
+                    .get(&(j, k))
+                    .map_or(String::new(), ToString::to_string);
+                let (root, selected) = root_of
                     .get(&(j, k))
                     .map_or((String::new(), false), |&(c, s)| (c.to_string(), s));
                 let b = |v: bool| u8::from(v);
                 let _ = writeln!(
-                    poles,
-                    "{},{},{},{},{},{},{},{},{},{}",
+                    out,
+                    "{},{},{},{},{},{},{},{},{},{},{},{}",
                     set.position.index,
                     order.order,
                     p.frequency_hz,
@@ -322,17 +393,19 @@ fn write_outputs(
                     b(fl.stable_frequency),
                     b(fl.stable_damping),
                     b(fl.stable_vector),
+                    fl.class().code(),
                     cluster,
+                    root,
                     b(selected)
                 );
             }
         }
     }
-    let poles_path = ctx.scratch.join("poles.csv");
-    write(&poles_path, poles.as_bytes())?;
+    out
+}
 
-    let fits: Vec<FrfSet> = sets
-        .iter()
+fn fitted_sets(sets: &[FrfSet], data: &[FrfData], results: &[AutoEmaResult]) -> Vec<FrfSet> {
+    sets.iter()
         .zip(data)
         .zip(results)
         .map(|((set, d), r)| {
@@ -344,7 +417,7 @@ fn write_outputs(
                     channels.push(FrfChannel {
                         response: resp,
                         reference: rf,
-                        values: r.best.fit.reconstructed[c * nf..(c + 1) * nf].to_vec(),
+                        values: r.fit.reconstructed[c * nf..(c + 1) * nf].to_vec(),
                         coherence: None,
                     });
                 }
@@ -356,10 +429,53 @@ fn write_outputs(
                 channels,
             }
         })
-        .collect();
-    let fit_path = ctx.scratch.join("frf_fit.uff");
-    artifacts::write_frf(&fit_path, &fits)?;
+        .collect()
+}
 
+fn metrics(sets: &[FrfSet], data: &[FrfData], results: &[AutoEmaResult]) -> Metrics {
+    let positions: Vec<PositionSummary> = sets
+        .iter()
+        .zip(data)
+        .zip(results)
+        .map(|((set, d), r)| {
+            PositionSummary::of(
+                set.position.index,
+                &set.position.label,
+                &d.h,
+                d.n_lines(),
+                r,
+            )
+        })
+        .collect();
+    Metrics {
+        goal_reached: positions.iter().all(|p| p.goal_reached),
+        mean_frac: positions.iter().map(|p| p.mean_frac).sum::<f64>()
+            / positions.len().max(1) as f64,
+        n_modes: positions.iter().map(|p| p.n_modes).sum(),
+        warnings: positions
+            .iter()
+            .flat_map(|p| {
+                p.warnings
+                    .iter()
+                    .map(move |w| format!("position {} ({}): {w}", p.index, p.label))
+            })
+            .collect(),
+        positions,
+    }
+}
+
+fn write_outputs(
+    ctx: &StageContext,
+    sets: &[FrfSet],
+    data: &[FrfData],
+    results: &[AutoEmaResult],
+) -> Result<StageOutputs, StageError> {
+    let modes_dir = ctx.scratch.join(artifacts::MODES_DIR);
+    artifacts::write_modes(&modes_dir, &modal_models(sets, data, results))?;
+    let poles_path = ctx.scratch.join("poles.csv");
+    write(&poles_path, poles_csv(sets, results).as_bytes())?;
+    let fit_path = ctx.scratch.join("frf_fit.uff");
+    artifacts::write_frf(&fit_path, &fitted_sets(sets, data, results))?;
     let panels: Vec<Panel> = sets
         .iter()
         .zip(data)
@@ -370,33 +486,16 @@ fn write_outputs(
                 set.position.index, set.position.label
             ),
             data: d,
-            orders: &r.orders,
-            selection: &r.best,
+            result: r,
         })
         .collect();
     let svg_path = ctx.scratch.join("stabilization.svg");
     write(&svg_path, render(&panels).as_bytes())?;
-
-    let n_modes: usize = results.iter().map(|r| r.best.clusters.len()).sum();
-    let mean_frac =
-        results.iter().map(|r| r.best.mean_frac).sum::<f64>() / results.len().max(1) as f64;
-    let metrics = serde_json::json!({
-        "mean_frac": mean_frac,
-        "n_modes": n_modes,
-        "positions": sets.iter().zip(results).map(|(set, r)| serde_json::json!({
-            "index": set.position.index,
-            "label": set.position.label,
-            "mean_frac": r.best.mean_frac,
-            "n_modes": r.best.clusters.len(),
-            "objective": r.best.objective,
-            "hyperparameters": r.best.hyperparameters,
-            "trace": r.trace,
-        })).collect::<Vec<_>>(),
-    });
+    let m = metrics(sets, data, results);
     let metrics_path = ctx.scratch.join("metrics.json");
     write(
         &metrics_path,
-        &serde_json::to_vec_pretty(&metrics).map_err(|e| StageError::Failed(e.to_string()))?,
+        &serde_json::to_vec_pretty(&m).map_err(|e| StageError::Failed(e.to_string()))?,
     )?;
     let iterations: usize = results.iter().map(|r| r.trace.len()).sum();
     let orders: usize = results.iter().map(|r| r.orders.len()).sum();
@@ -436,7 +535,7 @@ mod tests {
             9,
         )
         .unwrap();
-        assert_eq!(s.ema.max_order, (30, 30));
+        assert_eq!(s.ema.max_order, Some((30, 30)));
         assert_eq!((s.ema.evaluations, s.ema.seed), (5, 9));
         assert_eq!(s.ema.fixed.get("mac_weight"), Some(&0.5));
         let s = settings(
@@ -444,7 +543,7 @@ mod tests {
             0,
         )
         .unwrap();
-        assert_eq!(s.ema.max_order, (10, 50));
+        assert_eq!(s.ema.max_order, Some((10, 50)));
         assert_eq!(s.band, Some((5.0, 400.0)));
         assert_eq!(s.weighting, Weighting::Coherence);
         for bad in [
@@ -452,6 +551,9 @@ mod tests {
             "{max_order: 2.5}",
             "{band: [400]}",
             "{penalty: -1}",
+            "{significance: 0}",
+            "{bounds: {max_order: [1, 2]}}",
+            "{bounds: {max_damping: [0.3, 0.1]}}",
             "{fixed: {max_damp: 0.1}}",
             "{iterations: 0}",
         ] {

@@ -281,14 +281,22 @@ pub(crate) fn values_per_point(complex: bool, even: bool) -> usize {
 
 /// Parses records 1–12 and the closing `-1`, the cursor standing after the
 /// dataset number line.
-pub(crate) fn parse(cur: &mut Cursor<'_>, binary: Option<BinaryHeader>) -> Result<Uff58, IoError> {
+pub(crate) fn parse(
+    cur: &mut Cursor<'_>,
+    binary: Option<BinaryHeader>,
+) -> Result<(Uff58, Option<ds58_binary::ByteCountMismatch>), IoError> {
     let src = cur.source;
     let (mut d, form, r7) = ds58_records::parse_header(cur)?;
     let n = form.points;
     let vpp = values_per_point(form.complex, form.even);
     let n_values = n.checked_mul(vpp).ok_or_else(|| too_many(src, r7, n))?;
+    let mut mismatch = None;
     let values = match binary {
-        Some(h) => ds58_binary::read_data(cur, &h, n_values, form.precision)?,
+        Some(h) => {
+            let (v, m) = ds58_binary::read_data(cur, &h, n_values, form.precision)?;
+            mismatch = m;
+            v
+        }
         None => {
             if n_values > cur.remaining() / 2 + 1 {
                 return Err(IoError::truncated(
@@ -309,7 +317,7 @@ pub(crate) fn parse(cur: &mut Cursor<'_>, binary: Option<BinaryHeader>) -> Resul
     cur.expect_delimiter("58")?;
 
     (d.abscissa, d.ordinate) = split_values(values, &form);
-    Ok(d)
+    Ok((d, mismatch))
 }
 
 fn too_many(src: &str, place: Place, n: usize) -> IoError {

@@ -11,6 +11,17 @@
 //! and 8-byte floats for double precision (uneven abscissae in the ordinate's
 //! precision, as pyuff and the test-software exports do). Writers end the
 //! block with `    -1` directly or after a stray CR/LF; both read.
+//!
+//! **A wrong byte count.** pyuff (through 2.5) writes the count as
+//! points × 8 whatever the layout, so a complex-double record declares half
+//! its bytes (`58b … 8008` for 1001 points that need 16016). Record 7 (type,
+//! points, spacing) and the `-1` delimiter are the authority, as in pyuff's
+//! own reader: when the header's count disagrees with record 7 but exactly
+//! record 7's bytes lie between record 11 and the delimiter, the data are
+//! read and the file gets one [`super::UffWarning::HeaderByteCount`]. A count
+//! larger than needed with the delimiter after it is padding and reads
+//! silently. Anything else — neither count ends at a delimiter — is a
+//! located error naming both counts.
 
 use super::ds58::{ByteOrder, Precision};
 use super::text::{Cursor, Line};
@@ -94,14 +105,22 @@ pub(crate) fn parse_binary_header(
     })
 }
 
+/// A 58b header whose byte count disagrees with record 7 (read by record 7).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) struct ByteCountMismatch {
+    pub declared: usize,
+    pub needed: usize,
+    pub place: Place,
+}
+
 /// Reads the binary record 12 (`n_values` numbers), leaving the cursor after
-/// the declared block.
+/// the block; reports a header byte count that record 7 overrules.
 pub(crate) fn read_data(
     cur: &mut Cursor<'_>,
     h: &BinaryHeader,
     n_values: usize,
     precision: Precision,
-) -> Result<Vec<f64>, IoError> {
+) -> Result<(Vec<f64>, Option<ByteCountMismatch>), IoError> {
     let src = cur.source;
     let size = match precision {
         Precision::Single => 4,
@@ -118,22 +137,36 @@ pub(crate) fn read_data(
         )
     })?;
     let declared = if h.n_bytes == 0 { needed } else { h.n_bytes };
-    if declared < needed {
+    let (take, mismatch) = if declared == needed {
+        (needed, None)
+    } else if declared > needed && cur.delimiter_after(declared) {
+        (declared, None)
+    } else if cur.delimiter_after(needed) {
+        let m = ByteCountMismatch {
+            declared,
+            needed,
+            place: h.place,
+        };
+        (needed, Some(m))
+    } else if declared < needed || cur.remaining() < declared {
         return Err(IoError::record_length(
             src,
             h.place,
             format!(
                 "58b header declares {declared} data bytes but record 7 needs {needed} \
-                 ({n_values} values of {size} bytes)"
+                 ({n_values} values of {size} bytes), and no `-1` delimiter follows either \
+                 count; the file is truncated or record 7 is wrong"
             ),
         ));
-    }
-    let block = cur.take_bytes(declared).ok_or_else(|| {
+    } else {
+        (declared, None)
+    };
+    let block = cur.take_bytes(take).ok_or_else(|| {
         IoError::truncated(
             src,
             Place::Byte(start),
             format!(
-                "58b data block of {declared} bytes starting here, only {} bytes remain",
+                "58b data block of {take} bytes starting here, only {} bytes remain",
                 cur.remaining()
             ),
         )
@@ -163,7 +196,7 @@ pub(crate) fn read_data(
             value: out[i],
         });
     }
-    Ok(out)
+    Ok((out, mismatch))
 }
 
 fn arr8(c: &[u8]) -> [u8; 8] {

@@ -58,6 +58,15 @@ pub enum UffWarning {
     UnusedFunctions { function_type: i32, count: usize },
     /// A coherence function without an FRF of the same DOFs and position.
     UnmatchedCoherence { channel: String, position: u32 },
+    /// Datasets 58b whose header byte count disagrees with record 7 while the
+    /// data up to the `-1` delimiter match record 7 (the writer's mistake,
+    /// e.g. pyuff's points × 8 for complex doubles); read by record 7.
+    HeaderByteCount {
+        declared: usize,
+        needed: usize,
+        count: usize,
+        first: Place,
+    },
     /// Datasets 55 that are not modes (analysis type other than 2, 3, 7)
     /// or have no mode-shape layout (data characteristic other than 1, 2, 3).
     UnusedDataAtNodes {
@@ -81,6 +90,12 @@ impl fmt::Display for UffWarning {
             UffWarning::UnmatchedCoherence { channel, position } => write!(
                 f,
                 "coherence {channel} in position {position} has no FRF of the same DOFs; ignored"
+            ),
+            UffWarning::HeaderByteCount { declared, needed, count, first } => write!(
+                f,
+                "{count} dataset(s) 58b declare a wrong data byte count in the header (first at {first}: \
+                 {declared} bytes, record 7 and the `-1` delimiter say {needed}); read by record 7 — \
+                 the writer counts points × 8 regardless of the layout (a known pyuff mistake)"
             ),
             UffWarning::UnusedDataAtNodes { analysis_type, data_characteristic, count } => write!(
                 f,
@@ -167,10 +182,14 @@ pub fn read_uff(bytes: &[u8], source: &str) -> Result<UffFile, IoError> {
         let binary = t.get(digits).is_some_and(|b| b.eq_ignore_ascii_case(&b'b'));
         let after_b = t.get(digits + 1..).unwrap_or(&[]);
         let dataset = match (number, binary) {
-            (58, false) => UffDataset::Function(Box::new(ds58::parse(&mut cur, None)?)),
+            (58, false) => UffDataset::Function(Box::new(ds58::parse(&mut cur, None)?.0)),
             (58, true) => {
                 let h = ds58_binary::parse_binary_header(source, &number_line, after_b)?;
-                UffDataset::Function(Box::new(ds58::parse(&mut cur, Some(h))?))
+                let (d, mismatch) = ds58::parse(&mut cur, Some(h))?;
+                if let Some(m) = mismatch {
+                    note_byte_count(&mut file.warnings, m);
+                }
+                UffDataset::Function(Box::new(d))
             }
             (55, false) => UffDataset::DataAtNodes(Box::new(ds55::parse(&mut cur)?)),
             (15, false) => UffDataset::Nodes(ds15_2411::parse15(&mut cur)?),
@@ -187,6 +206,21 @@ pub fn read_uff(bytes: &[u8], source: &str) -> Result<UffFile, IoError> {
         });
     }
     Ok(file)
+}
+
+fn note_byte_count(warnings: &mut Vec<UffWarning>, m: ds58_binary::ByteCountMismatch) {
+    for w in warnings.iter_mut() {
+        if let UffWarning::HeaderByteCount { count, .. } = w {
+            *count += 1;
+            return;
+        }
+    }
+    warnings.push(UffWarning::HeaderByteCount {
+        declared: m.declared,
+        needed: m.needed,
+        count: 1,
+        first: m.place,
+    });
 }
 
 fn note_skipped(warnings: &mut Vec<UffWarning>, number: u32, at: Place) {

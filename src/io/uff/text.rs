@@ -113,6 +113,21 @@ impl<'a> Cursor<'a> {
         Some(chunk)
     }
 
+    /// Whether skipping `n` raw bytes lands exactly on a `    -1` delimiter
+    /// line (I6: four spaces, then -1; directly or after one stray CR/LF),
+    /// which is how the 58b byte-count check tells data from the next line.
+    pub fn delimiter_after(&self, n: usize) -> bool {
+        let Some(rest) = self.pos.checked_add(n).and_then(|at| self.bytes.get(at..)) else {
+            return false;
+        };
+        let rest = rest
+            .strip_prefix(b"\r\n")
+            .or_else(|| rest.strip_prefix(b"\n"))
+            .unwrap_or(rest);
+        rest.strip_prefix(b"    -1")
+            .is_some_and(|t| t.is_empty() || t[0] == b'\n' || t[0] == b'\r' || t[0] == b' ')
+    }
+
     /// Next line, or a "file ends early" error naming `what` was expected.
     pub fn expect_line(&mut self, what: &str) -> Result<Line<'a>, IoError> {
         let place = self.next_place();

@@ -1,0 +1,176 @@
+//! The search box of the AutoEMA hyperparameters, fitted to the data, and
+//! the check of a result that ends at one of its bounds.
+//!
+//! | hyperparameter | range | from the data |
+//! |---|---|---|
+//! | frequency_tol | [2·10⁻³, 0.03] (log) | — |
+//! | damping_tol | [0.05, 0.5] (log) | — |
+//! | mac_tol | [5·10⁻³, 0.2] (log) | fixed at 0.2 with one reference (no vector to compare) |
+//! | max_damping | [0.05, ζ_top] | ζ_top = clamp((f_hi − f_lo)/(4 f_hi), 0.08, 0.3): a half-power band 2ζf wider than half the band cannot be a mode of it |
+//! | cluster_distance | [3·10⁻³, 0.05] (log) | — |
+//! | min_cluster_fraction | [0.1, 0.6] | (a cluster needs ≥ 5 orders in any case, [`super::clustering::MIN_COLUMN`]) |
+//!
+//! The lower ends of the tolerances are loose on purpose: a tolerance
+//! tighter than the scatter of a mode's poles across orders only loses
+//! modes, while a loose one costs nothing since every root is validated
+//! against the noise afterwards (duplicates, significance). Tight corners
+//! of a box with three tolerances that must all pass would otherwise fill
+//! most of a 40-point search with empty selections.
+//! | damping_weight | [0, 1] | — |
+//! | mac_weight | [0, 1] | fixed at 0 with one reference |
+//! | max_order | [n_lo, n_hi] | from the number N of CMIF peaks and n_ref: n_lo = clamp(⌈1.5 N/n_ref⌉ + 4, 8, 60), n_hi = min(max(n_lo + 20, ⌈6 N/n_ref⌉ + 20), 100, n_f − 2) (a wide band needs several poles per mode before the low modes converge, and the second pole of a repeated root often stabilizes only at high orders) |
+//!
+//! A chosen value within 2 % (of the searched range) of a bound is "at the
+//! bound"; the search then evaluates the selection a quarter of the range
+//! beyond that bound and reports whether the result would change there.
+
+use super::noise::peaks;
+use super::FrfData;
+
+/// Searched on a log scale (tolerances spanning decades).
+pub const LOG_SCALE: [bool; 9] = [true, true, true, false, true, false, false, false, false];
+
+/// What the box is fitted to.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct DataSummary {
+    pub band_hz: (f64, f64),
+    /// Median line spacing.
+    pub line_spacing_hz: f64,
+    pub n_ref: usize,
+    pub n_lines: usize,
+    /// Peaks of the CMIF curves (a first estimate of the number of modes).
+    pub cmif_peaks: usize,
+}
+
+impl DataSummary {
+    pub fn of(data: &FrfData, cmif: &[Vec<f64>]) -> DataSummary {
+        let f = &data.frequencies_hz;
+        let mut steps: Vec<f64> = f.windows(2).map(|w| w[1] - w[0]).collect();
+        steps.sort_by(f64::total_cmp);
+        let reach = (data.n_lines() / 50).max(5);
+        // First curve: every mode; further curves: repeated roots.
+        let cmif_peaks = cmif
+            .iter()
+            .enumerate()
+            .map(|(k, c)| peaks(c, if k == 0 { 1.5 } else { 3.0 }, reach).len())
+            .sum();
+        DataSummary {
+            band_hz: (
+                f.first().copied().unwrap_or(0.0),
+                f.last().copied().unwrap_or(0.0),
+            ),
+            line_spacing_hz: steps.get(steps.len() / 2).copied().unwrap_or(0.0),
+            n_ref: data.n_ref(),
+            n_lines: data.n_lines(),
+            cmif_peaks,
+        }
+    }
+
+    /// Default range of the maximum model order.
+    pub fn max_order_range(&self) -> (usize, usize) {
+        let per_ref =
+            |k: f64| (k * self.cmif_peaks as f64 / self.n_ref.max(1) as f64).ceil() as usize;
+        let cap = self.n_lines.saturating_sub(2).max(1);
+        let lo = (per_ref(1.5) + 4).clamp(8, 60).min(cap);
+        let hi = (lo + 20).max(per_ref(6.0) + 20).min(100).min(cap).max(lo);
+        (lo, hi)
+    }
+
+    /// Search bounds of every hyperparameter, for a maximum-order range.
+    pub fn bounds(&self, max_order: (usize, usize)) -> [(f64, f64); 9] {
+        let (lo, hi) = self.band_hz;
+        let z_top = if hi > 0.0 {
+            ((hi - lo) / (4.0 * hi)).clamp(0.08, 0.3)
+        } else {
+            0.2
+        };
+        [
+            (2e-3, 0.03),
+            (0.05, 0.5),
+            (5e-3, 0.2),
+            (0.05, z_top),
+            (3e-3, 0.05),
+            (0.1, 0.6),
+            (0.0, 1.0),
+            (0.0, 1.0),
+            (max_order.0 as f64, max_order.1 as f64),
+        ]
+    }
+
+    /// Hyperparameters without meaning for these data, with their value.
+    pub fn implied(&self) -> Vec<(usize, f64)> {
+        if self.n_ref < 2 {
+            vec![(2, 0.2), (7, 0.0)]
+        } else {
+            Vec::new()
+        }
+    }
+}
+
+/// A hyperparameter of the result at the edge of its search range.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct AtBound {
+    pub name: String,
+    pub value: f64,
+    pub bound: f64,
+    /// "lower" or "upper".
+    pub side: &'static str,
+    /// The value tried beyond the bound (None when it cannot be tried).
+    pub beyond: Option<f64>,
+    /// Modes and objective at the chosen point and beyond the bound.
+    pub modes_at: usize,
+    pub modes_beyond: Option<usize>,
+    pub objective_at: f64,
+    pub objective_beyond: Option<f64>,
+    /// Whether the result changes beyond the bound (more or fewer modes, or
+    /// a better objective).
+    pub sensitive: bool,
+}
+
+impl AtBound {
+    /// The warning for metrics.json.
+    pub fn warning(&self) -> String {
+        let beyond = match (self.beyond, self.modes_beyond, self.objective_beyond) {
+            (Some(b), Some(m), Some(o)) => format!(
+                "; at {b:.4} beyond it the selection has {m} modes and objective {o:.6} (here {} and {:.6}){}",
+                self.modes_at,
+                self.objective_at,
+                if self.sensitive { ": the box limits the result, widen it with `bounds`" } else { ": the result does not depend on it" }
+            ),
+            _ => " (not tried beyond it)".to_string(),
+        };
+        format!(
+            "hyperparameter `{}` = {:.4} is at the {} bound {:.4} of its search range{beyond}",
+            self.name, self.value, self.side, self.bound
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn bounds_follow_the_data() {
+        let s = DataSummary {
+            band_hz: (20.0, 260.0),
+            line_spacing_hz: 0.25,
+            n_ref: 2,
+            n_lines: 961,
+            cmif_peaks: 8,
+        };
+        assert_eq!(s.max_order_range(), (10, 44));
+        let b = s.bounds((10, 44));
+        assert!((b[3].1 - 240.0 / 1040.0).abs() < 1e-12);
+        assert!(s.implied().is_empty());
+        let one = DataSummary {
+            n_ref: 1,
+            cmif_peaks: 40,
+            ..s.clone()
+        };
+        assert_eq!(one.max_order_range(), (60, 100));
+        assert_eq!(one.implied(), vec![(2, 0.2), (7, 0.0)]);
+        let short = DataSummary { n_lines: 30, ..one };
+        assert_eq!(short.max_order_range(), (28, 28));
+    }
+}

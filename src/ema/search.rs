@@ -1,0 +1,371 @@
+//! AutoEMA end to end (seed section 5.2.2, PUB5): PolyMAX poles once up to
+//! the highest order, then Bayesian optimization
+//! ([`crate::optimize::bayesian`]) of the selection hyperparameters over a
+//! box fitted to the data ([`super::hyperbox`]), maximizing J(θ) of
+//! [`super::selection`].
+//!
+//! Among the evaluated points whose score is within max(10⁻⁶, 1 % of
+//! 1 − J*) of the best J* and that have as many modes, the one farthest from
+//! the box's faces (in the searched, partly logarithmic, coordinates) is
+//! kept, so a flat optimum does not end at a bound by chance. A result still
+//! at a bound is probed beyond it ([`super::hyperbox::AtBound`]). The final
+//! fit is checked against the noise floor ([`super::residual`]); both go to
+//! the result's warnings.
+
+use super::hyperbox::{AtBound, DataSummary, LOG_SCALE};
+use super::lsfd::LsfdFit;
+use super::polymax::{polymax, PoleOrder, PolymaxParams};
+use super::residual::{residual_peaks, ResidualPeak};
+use super::selection::{
+    final_fit, refine_selection, select_modes, Hyperparameters, Screening, Selection,
+    SelectionParams, HYPERPARAMETER_NAMES,
+};
+use super::{EmaError, FrfData};
+use crate::optimize::bayesian::{maximize, BayesianParams};
+use std::collections::BTreeMap;
+
+/// Settings of [`auto_ema`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct AutoEmaParams {
+    /// Range of the maximum model order; `None`: fitted to the data
+    /// ([`DataSummary::max_order_range`]).
+    pub max_order: Option<(usize, usize)>,
+    /// Objective evaluations of the Bayesian optimization (initial design included).
+    pub evaluations: usize,
+    /// Latin-hypercube points before the surrogate takes over.
+    pub initial: usize,
+    pub selection: SelectionParams,
+    pub seed: u64,
+    /// Hyperparameters pinned to a value (names of [`HYPERPARAMETER_NAMES`]).
+    pub fixed: BTreeMap<String, f64>,
+    /// Search ranges replacing the fitted ones.
+    pub bounds: BTreeMap<String, (f64, f64)>,
+}
+
+impl Default for AutoEmaParams {
+    fn default() -> Self {
+        AutoEmaParams {
+            max_order: None,
+            evaluations: 40,
+            initial: 12,
+            selection: SelectionParams::default(),
+            seed: 0,
+            fixed: BTreeMap::new(),
+            bounds: BTreeMap::new(),
+        }
+    }
+}
+
+/// One optimization step.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TraceEntry {
+    pub hyperparameters: Hyperparameters,
+    pub mean_frac: f64,
+    pub n_modes: usize,
+    pub n_rejected: usize,
+    pub objective: f64,
+}
+
+/// Poles of all orders, the chosen selection, its final fit and what the
+/// search and the checks found.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AutoEmaResult {
+    pub orders: Vec<PoleOrder>,
+    pub best: Selection,
+    pub fit: LsfdFit,
+    pub trace: Vec<TraceEntry>,
+    pub summary: DataSummary,
+    /// The search box, per hyperparameter (fixed ones as a point).
+    pub bounds: [(f64, f64); 9],
+    pub at_bound: Vec<AtBound>,
+    /// Lines where the final fit leaves structure above the noise.
+    pub residual_peaks: Vec<ResidualPeak>,
+    /// CMIF curves (singular values per line).
+    pub cmif: Vec<Vec<f64>>,
+    /// Noise variance per channel.
+    pub noise: Vec<f64>,
+    /// Everything a user must know, as sentences.
+    pub warnings: Vec<String>,
+}
+
+impl AutoEmaResult {
+    /// Whether the analysis reached its goal: no fit residual standing 10×
+    /// above the noise (a visible mode missed) and no result limited by the box.
+    pub fn goal_reached(&self) -> bool {
+        self.residual_peaks.iter().all(|p| p.ratio < 10.0)
+            && self.at_bound.iter().all(|b| !b.sensitive)
+    }
+}
+
+fn invalid(name: &str, message: String) -> EmaError {
+    EmaError::InvalidParam {
+        name: name.into(),
+        message,
+    }
+}
+
+fn index_of(name: &str, what: &str) -> Result<usize, EmaError> {
+    HYPERPARAMETER_NAMES
+        .iter()
+        .position(|n| *n == name)
+        .ok_or_else(|| {
+            invalid(
+                &format!("{what}.{name}"),
+                format!(
+                    "unknown hyperparameter; known: {}",
+                    HYPERPARAMETER_NAMES.join(", ")
+                ),
+            )
+        })
+}
+
+/// The search box and the pinned values, per hyperparameter.
+type Space = ([(f64, f64); 9], [Option<f64>; 9]);
+
+/// The box and the pinned values.
+fn search_space(p: &AutoEmaParams, summary: &DataSummary) -> Result<Space, EmaError> {
+    let range = p.max_order.unwrap_or_else(|| summary.max_order_range());
+    if range.0 == 0 || range.0 > range.1 {
+        return Err(invalid(
+            "max_order",
+            format!("range [{}, {}] is empty or starts at 0", range.0, range.1),
+        ));
+    }
+    let mut bounds = summary.bounds(range);
+    for (name, &(lo, hi)) in &p.bounds {
+        let k = index_of(name, "bounds")?;
+        if !(lo.is_finite()
+            && hi.is_finite()
+            && lo <= hi
+            && (lo > 0.0 || !LOG_SCALE[k])
+            && lo >= 0.0)
+        {
+            return Err(invalid(&format!("bounds.{name}"), format!("[{lo}, {hi}] is not a range of non-negative numbers (positive for a log-scale tolerance)")));
+        }
+        if k == 8 {
+            return Err(invalid(
+                "bounds.max_order",
+                "give the order range as `max_order: [min, max]`".into(),
+            ));
+        }
+        bounds[k] = (lo, hi);
+    }
+    let mut fixed = [None; 9];
+    for (k, v) in summary.implied() {
+        fixed[k] = Some(v);
+    }
+    for (name, &v) in &p.fixed {
+        let k = index_of(name, "fixed")?;
+        if !v.is_finite() || v < 0.0 {
+            return Err(invalid(
+                &format!("fixed.{name}"),
+                format!("{v} must be finite and non-negative"),
+            ));
+        }
+        fixed[k] = Some(v);
+    }
+    if range.0 == range.1 && fixed[8].is_none() {
+        fixed[8] = Some(range.0 as f64);
+    }
+    for k in 0..9 {
+        if let Some(v) = fixed[k] {
+            bounds[k] = (v, v);
+        }
+    }
+    Ok((bounds, fixed))
+}
+
+/// PolyMAX up to the highest order, then Bayesian optimization of the
+/// selection hyperparameters; `on_step` is called after every evaluation.
+pub fn auto_ema(
+    data: &FrfData,
+    p: &AutoEmaParams,
+    on_step: &(dyn Fn() + Sync),
+) -> Result<AutoEmaResult, EmaError> {
+    if !(p.selection.alpha > 0.0 && p.selection.alpha < 1.0) {
+        return Err(invalid(
+            "significance",
+            format!("α = {} must lie in (0, 1)", p.selection.alpha),
+        ));
+    }
+    let mut screening = Screening::new(data, p.selection.clone());
+    let summary = DataSummary::of(data, &screening.cmif);
+    let (bounds, fixed) = search_space(p, &summary)?;
+    let top_order = bounds[8].1.round().max(1.0) as usize;
+    let orders = polymax(
+        data,
+        &PolymaxParams {
+            max_order: top_order,
+        },
+    )?;
+    let free: Vec<usize> = (0..9).filter(|&k| fixed[k].is_none()).collect();
+    let to_search = |k: usize, v: f64| if LOG_SCALE[k] { v.ln() } else { v };
+    let search: Vec<(f64, f64)> = free
+        .iter()
+        .map(|&k| (to_search(k, bounds[k].0), to_search(k, bounds[k].1)))
+        .collect();
+    let point = |x: &[f64]| {
+        let mut a = [0.0; 9];
+        for k in 0..9 {
+            a[k] = fixed[k].unwrap_or(0.0);
+        }
+        for (&k, &v) in free.iter().zip(x) {
+            a[k] = if LOG_SCALE[k] { v.exp() } else { v };
+        }
+        Hyperparameters::from_array(a)
+    };
+    let mut trace = Vec::new();
+    let mut xs: Vec<Vec<f64>> = Vec::new();
+    let mut objective = |x: &[f64]| {
+        let h = point(x);
+        let s = select_modes(&mut screening, &orders, &h);
+        trace.push(TraceEntry {
+            hyperparameters: h,
+            mean_frac: s.mean_frac,
+            n_modes: s.n_modes(),
+            n_rejected: s.rejected.len(),
+            objective: s.objective,
+        });
+        xs.push(x.to_vec());
+        on_step();
+        s.objective
+    };
+    if free.is_empty() {
+        objective(&[]);
+    } else {
+        let params = BayesianParams {
+            initial: p.initial,
+            evaluations: p.evaluations.max(1),
+            seed: p.seed,
+            ..BayesianParams::default()
+        };
+        maximize(&mut objective, &search, &params)
+            .map_err(|e| invalid("iterations", e.to_string()))?;
+    }
+    let chosen = choose(&trace, &xs, &search);
+    let best = select_modes(&mut screening, &orders, &point(&xs[chosen]));
+    let at_bound = probe_bounds(
+        &mut screening,
+        &orders,
+        &best,
+        &xs[chosen],
+        &search,
+        &free,
+        &point,
+    );
+    let best = refine_selection(&mut screening, &orders, &best);
+    let fit = final_fit(data, &orders, &best)?;
+    let residual_peaks = residual_peaks(data, &fit.reconstructed, &screening.noise);
+    let mut warnings: Vec<String> = at_bound.iter().map(AtBound::warning).collect();
+    warnings.extend(
+        residual_peaks
+            .iter()
+            .filter(|r| r.ratio >= 5.0)
+            .map(ResidualPeak::warning),
+    );
+    Ok(AutoEmaResult {
+        orders,
+        best,
+        fit,
+        trace,
+        summary,
+        bounds,
+        at_bound,
+        residual_peaks,
+        cmif: screening.cmif,
+        noise: screening.noise,
+        warnings,
+    })
+}
+
+/// Smallest distance to a face of the box in unit coordinates.
+fn centrality(x: &[f64], search: &[(f64, f64)]) -> f64 {
+    x.iter()
+        .zip(search)
+        .map(|(&v, &(lo, hi))| {
+            if hi > lo {
+                ((v - lo) / (hi - lo)).min((hi - v) / (hi - lo))
+            } else {
+                0.5
+            }
+        })
+        .fold(0.5, f64::min)
+}
+
+/// Index of the kept evaluation: the best score, ties broken toward the centre.
+fn choose(trace: &[TraceEntry], xs: &[Vec<f64>], search: &[(f64, f64)]) -> usize {
+    let Some(best) = (0..trace.len()).max_by(|&a, &b| {
+        trace[a]
+            .objective
+            .total_cmp(&trace[b].objective)
+            .then(b.cmp(&a))
+    }) else {
+        return 0;
+    };
+    let j = trace[best].objective;
+    let tol = (0.01 * (1.0 - j)).max(1e-6);
+    (0..trace.len())
+        .filter(|&k| trace[k].objective >= j - tol && trace[k].n_modes == trace[best].n_modes)
+        .max_by(|&a, &b| {
+            centrality(&xs[a], search)
+                .total_cmp(&centrality(&xs[b], search))
+                .then(trace[a].objective.total_cmp(&trace[b].objective))
+                .then(b.cmp(&a))
+        })
+        .unwrap_or(best)
+}
+
+/// For every free hyperparameter of `x` within 2 % of a bound, the result a
+/// quarter of the range beyond it.
+fn probe_bounds(
+    screening: &mut Screening<'_>,
+    orders: &[PoleOrder],
+    best: &Selection,
+    x: &[f64],
+    search: &[(f64, f64)],
+    free: &[usize],
+    point: &dyn Fn(&[f64]) -> Hyperparameters,
+) -> Vec<AtBound> {
+    let mut out = Vec::new();
+    for (i, &k) in free.iter().enumerate() {
+        let (lo, hi) = search[i];
+        let w = hi - lo;
+        if w <= 0.0 {
+            continue;
+        }
+        let u = (x[i] - lo) / w;
+        let (side, bound_s, beyond_s) = if u <= 0.02 {
+            ("lower", lo, lo - 0.25 * w)
+        } else if u >= 0.98 {
+            ("upper", hi, hi + 0.25 * w)
+        } else {
+            continue;
+        };
+        let from = |v: f64| if LOG_SCALE[k] { v.exp() } else { v };
+        // Beyond the order range there are no poles; negative weights and
+        // fractions are meaningless.
+        let feasible = k != 8 && (LOG_SCALE[k] || beyond_s >= 0.0);
+        let probe = feasible.then(|| {
+            let mut y = x.to_vec();
+            y[i] = beyond_s;
+            select_modes(screening, orders, &point(&y))
+        });
+        let sensitive = probe.as_ref().is_some_and(|s| {
+            s.n_modes() != best.n_modes()
+                || s.objective > best.objective + (0.01 * (1.0 - best.objective)).max(1e-6)
+        });
+        out.push(AtBound {
+            name: HYPERPARAMETER_NAMES[k].to_string(),
+            value: from(x[i]),
+            bound: from(bound_s),
+            side,
+            beyond: feasible.then(|| from(beyond_s)),
+            modes_at: best.n_modes(),
+            modes_beyond: probe.as_ref().map(Selection::n_modes),
+            objective_at: best.objective,
+            objective_beyond: probe.as_ref().map(|s| s.objective),
+            sensitive,
+        });
+    }
+    out
+}

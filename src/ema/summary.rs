@@ -1,0 +1,124 @@
+//! The machine-readable account of one AutoEMA result (one position): the
+//! modes with their stable columns, what validation rejected and why, the
+//! search box and any bound the result sits on, the noise floor, residual
+//! structure above it, and whether the analysis reached its goal. The
+//! `autoema` stage writes these into its metrics.json; nothing here is only
+//! in a log.
+
+use super::hyperbox::{AtBound, DataSummary};
+use super::residual::ResidualPeak;
+use super::search::{AutoEmaResult, TraceEntry};
+use super::selection::{Hyperparameters, HYPERPARAMETER_NAMES};
+use super::significance::Rejection;
+use num_complex::Complex64;
+use std::collections::BTreeMap;
+
+/// One identified mode.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ModeSummary {
+    pub frequency_hz: f64,
+    pub damping_ratio: f64,
+    /// Modes at this root (≥ 2: a repeated root; its shapes span the subspace).
+    pub multiplicity: usize,
+    /// Model orders in the root's stable column.
+    pub stable_orders: usize,
+}
+
+/// Noise floor of the data, relative to each channel's RMS.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct NoiseSummary {
+    pub median_relative: f64,
+    pub max_relative: f64,
+}
+
+/// Everything metrics.json says about one position.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PositionSummary {
+    pub index: u32,
+    pub label: String,
+    pub goal_reached: bool,
+    pub mean_frac: f64,
+    pub objective: f64,
+    pub n_modes: usize,
+    pub modes: Vec<ModeSummary>,
+    pub rejected: Vec<Rejection>,
+    pub hyperparameters: Hyperparameters,
+    /// Search range of every hyperparameter (a point when fixed).
+    pub bounds: BTreeMap<String, [f64; 2]>,
+    pub at_bound: Vec<AtBound>,
+    pub data: DataSummary,
+    pub noise: NoiseSummary,
+    pub residual_peaks: Vec<ResidualPeak>,
+    pub warnings: Vec<String>,
+    pub trace: Vec<TraceEntry>,
+}
+
+fn noise_summary(h: &[Complex64], n_lines: usize, noise: &[f64]) -> NoiseSummary {
+    let mut rel: Vec<f64> = noise
+        .iter()
+        .enumerate()
+        .map(|(c, s2)| {
+            let p = h[c * n_lines..(c + 1) * n_lines]
+                .iter()
+                .map(Complex64::norm_sqr)
+                .sum::<f64>()
+                / n_lines.max(1) as f64;
+            if p > 0.0 {
+                (s2 / p).sqrt()
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    rel.sort_by(f64::total_cmp);
+    NoiseSummary {
+        median_relative: rel.get(rel.len() / 2).copied().unwrap_or(0.0),
+        max_relative: rel.last().copied().unwrap_or(0.0),
+    }
+}
+
+impl PositionSummary {
+    pub fn of(
+        index: u32,
+        label: &str,
+        h: &[Complex64],
+        n_lines: usize,
+        r: &AutoEmaResult,
+    ) -> PositionSummary {
+        PositionSummary {
+            index,
+            label: label.to_string(),
+            goal_reached: r.goal_reached(),
+            mean_frac: r.best.mean_frac,
+            objective: r.best.objective,
+            n_modes: r.best.n_modes(),
+            modes: r
+                .best
+                .roots
+                .iter()
+                .map(|root| {
+                    let p = root.pole(&r.orders);
+                    ModeSummary {
+                        frequency_hz: p.frequency_hz,
+                        damping_ratio: p.damping_ratio,
+                        multiplicity: root.multiplicity,
+                        stable_orders: root.n_orders,
+                    }
+                })
+                .collect(),
+            rejected: r.best.rejected.clone(),
+            hyperparameters: r.best.hyperparameters.clone(),
+            bounds: HYPERPARAMETER_NAMES
+                .iter()
+                .zip(r.bounds)
+                .map(|(n, b)| (n.to_string(), [b.0, b.1]))
+                .collect(),
+            at_bound: r.at_bound.clone(),
+            data: r.summary.clone(),
+            noise: noise_summary(h, n_lines, &r.noise),
+            residual_peaks: r.residual_peaks.clone(),
+            warnings: r.warnings.clone(),
+            trace: r.trace.clone(),
+        }
+    }
+}
