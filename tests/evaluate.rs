@@ -2,7 +2,8 @@
 //! candidates with known answers (identical → MAC = FRAC = CSF = 1, NFD = 0;
 //! a perturbed model → errors that match its perturbation); the pairing's
 //! leftovers on crafted modes (a missed mode, a spurious one, two candidate
-//! modes at nearly one frequency) listed in metrics.json and pairs.csv.
+//! modes at nearly one frequency) listed in metrics.json, pairs.csv and the
+//! report.
 
 mod util;
 
@@ -201,6 +202,9 @@ stages:
     kind: evaluate
     inputs: {reference: modes.ref, candidate: modes.cand}
     params: {window: 0.2, min_mac: 0.3, ambiguity: 0}
+  report:
+    kind: report
+    inputs: {metrics: [score.metrics]}
 "#;
 
 #[test]
@@ -267,4 +271,15 @@ fn missed_spurious_and_ambiguous_modes_are_listed() {
         .lines()
         .skip(1)
         .all(|l| l.ends_with(",false")));
+    // The report names each leftover by number and frequency.
+    let md = ws.read("results/pairing/report/report/report.md");
+    for expected in [
+        "| score | 2/3 | **✗ 1** | **✗ 2** | **✗ 1** |",
+        "score, position 0: reference mode(s) 2 (20.0000 Hz) have no candidate partner (missed)",
+        "candidate mode(s) 2 (21.0000 Hz), 4 (30.1000 Hz) have no reference partner",
+        "reference 3 (30.0000 Hz) ↔ candidate 3 (29.9000 Hz) is ambiguous",
+        "rival candidate 4",
+    ] {
+        assert!(md.contains(expected), "missing `{expected}` in\n{md}");
+    }
 }
