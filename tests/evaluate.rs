@@ -1,9 +1,13 @@
 //! The `evaluate` stage: criteria between synthesized references and
 //! candidates with known answers (identical → MAC = FRAC = CSF = 1, NFD = 0;
-//! a perturbed model → errors that match its perturbation).
+//! a perturbed model → errors that match its perturbation); the pairing's
+//! leftovers on crafted modes (a missed mode, a spurious one, two candidate
+//! modes at nearly one frequency) listed in metrics.json, pairs.csv and the
+//! report.
 
 mod util;
 
+use modalflow::stages::evaluate::{Metrics, ModeRef};
 use util::Workspace;
 
 const MODELS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/models");
@@ -96,7 +100,18 @@ fn evaluate_needs_something_to_compare() {
     );
     let out = ws.cmd(&["validate", "p.yaml"]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(util::text(&out.stderr).contains("window -1 must be > 0"));
+    assert!(util::text(&out.stderr).contains("window -1 must be a positive fraction"));
+    ws.write(
+        "p.yaml",
+        "name: ev\nstages:\n  e:\n    kind: evaluate\n    params: {frequency_scale: 0}\n",
+    );
+    let out = ws.cmd(&["validate", "p.yaml"]);
+    assert_eq!(out.status.code(), Some(2));
+    let err = util::text(&out.stderr);
+    assert!(
+        err.contains("frequency_scale 0 must be a positive fraction"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -155,4 +170,116 @@ fn updated_model_frfs_with_the_initial_model_overlaid() {
         err.contains("input `values`: the model has no parameter `k99`"),
         "{err}"
     );
+}
+
+/// Reference: three modes at 10, 20, 30 Hz with orthogonal shapes on three
+/// DOFs. Candidate: mode 1 found; nothing like the 20 Hz mode (a 21 Hz mode
+/// with mode 1's shape stands in its window but not its shape: spurious);
+/// two modes at 29.9 and 30.1 Hz with mode 3's shape (either could be it).
+const REFERENCE_MODES: &str = "mode,frequency_hz,damping_ratio\n1,10,0.01\n2,20,0.01\n3,30,0.01\n";
+const REFERENCE_SHAPES: &str = "mode,node,direction,real,imag\n\
+    1,1,+X,1,0\n1,2,+X,0,0\n1,3,+X,0,0\n\
+    2,1,+X,0,0\n2,2,+X,1,0\n2,3,+X,0,0\n\
+    3,1,+X,0,0\n3,2,+X,0,0\n3,3,+X,1,0\n";
+const CANDIDATE_MODES: &str =
+    "mode,frequency_hz,damping_ratio\n1,10.05,0.01\n2,21,0.01\n3,29.9,0.01\n4,30.1,0.01\n";
+const CANDIDATE_SHAPES: &str = "mode,node,direction,real,imag\n\
+    1,1,+X,1,0\n1,2,+X,0.01,0\n1,3,+X,0,0\n\
+    2,1,+X,1,0\n2,2,+X,0,0\n2,3,+X,0,0\n\
+    3,1,+X,0,0\n3,2,+X,0,0\n3,3,+X,1,0\n\
+    4,1,+X,0,0\n4,2,+X,0.02,0\n4,3,+X,1,0\n";
+
+const CRAFTED: &str = r#"name: pairing
+stages:
+  modes:
+    kind: command
+    params: {cmd: "mkdir -p ref cand && cp src/ref/*.csv ref/ && cp src/cand/*.csv cand/", deps: [src], outs: [ref, cand]}
+  score:
+    kind: evaluate
+    inputs: {reference: modes.ref, candidate: modes.cand}
+    params: {window: 0.2, min_mac: 0.3}
+  strict:
+    kind: evaluate
+    inputs: {reference: modes.ref, candidate: modes.cand}
+    params: {window: 0.2, min_mac: 0.3, ambiguity: 0}
+  report:
+    kind: report
+    inputs: {metrics: [score.metrics]}
+"#;
+
+#[test]
+fn missed_spurious_and_ambiguous_modes_are_listed() {
+    let ws = Workspace::new();
+    ws.write("src/ref/modes.csv", REFERENCE_MODES);
+    ws.write("src/ref/mode_shapes.csv", REFERENCE_SHAPES);
+    ws.write("src/cand/modes.csv", CANDIDATE_MODES);
+    ws.write("src/cand/mode_shapes.csv", CANDIDATE_SHAPES);
+    ws.write("p.yaml", CRAFTED);
+    ws.run(&[], 0);
+    let read = |stage: &str| -> Metrics {
+        serde_json::from_str(&ws.read(&format!("results/pairing/{stage}/metrics.json"))).unwrap()
+    };
+    let m = read("score");
+    let modes = m.modes.as_ref().unwrap();
+    assert_eq!(
+        (modes.paired, modes.reference_modes, modes.candidate_modes),
+        (2, 3, 4)
+    );
+    assert_eq!(
+        (
+            modes.unpaired_reference,
+            modes.unpaired_candidate,
+            modes.ambiguous
+        ),
+        (1, 2, 1)
+    );
+    let p = &modes.positions[0];
+    assert_eq!(
+        p.unpaired_reference,
+        [ModeRef {
+            mode: 2,
+            frequency_hz: 20.0
+        }],
+        "the 20 Hz mode is missed, not stood in for by the 21 Hz one"
+    );
+    // 29.9 Hz is nearer 30 Hz than 30.1 Hz only by NFD, with a hair better
+    // MAC: it is taken, 30.1 Hz is left over, and the pair is ambiguous.
+    let spurious: Vec<usize> = p.unpaired_candidate.iter().map(|m| m.mode).collect();
+    assert_eq!(spurious, [2, 4]);
+    assert_eq!(p.unpaired_candidate[0].frequency_hz, 21.0);
+    let a = &p.ambiguous[0];
+    assert_eq!((a.reference_mode, a.candidate_mode), (3, 3));
+    assert_eq!((a.rival_candidate, a.rival_reference), (Some(4), None));
+    assert!(a.margin >= 0.0 && a.margin < 0.01, "{a:?}");
+    let pairs = ws.read("results/pairing/score/tables/pairs.csv");
+    assert!(pairs
+        .lines()
+        .next()
+        .unwrap()
+        .ends_with(",MAC,MACXP,cost,margin,ambiguous"));
+    let flags: Vec<&str> = pairs
+        .lines()
+        .skip(1)
+        .map(|l| l.rsplit(',').next().unwrap())
+        .collect();
+    assert_eq!(flags, ["false", "true"], "{pairs}");
+    // The ambiguity threshold is a param: at 0 nothing is ambiguous.
+    let strict = read("strict");
+    assert_eq!(strict.modes.as_ref().unwrap().ambiguous, 0);
+    assert!(ws
+        .read("results/pairing/strict/tables/pairs.csv")
+        .lines()
+        .skip(1)
+        .all(|l| l.ends_with(",false")));
+    // The report names each leftover by number and frequency.
+    let md = ws.read("results/pairing/report/report/report.md");
+    for expected in [
+        "| score | 2/3 | **✗ 1** | **✗ 2** | **✗ 1** |",
+        "score, position 0: reference mode(s) 2 (20.0000 Hz) have no candidate partner (missed)",
+        "candidate mode(s) 2 (21.0000 Hz), 4 (30.1000 Hz) have no reference partner",
+        "reference 3 (30.0000 Hz) ↔ candidate 3 (29.9000 Hz) is ambiguous",
+        "rival candidate 4",
+    ] {
+        assert!(md.contains(expected), "missing `{expected}` in\n{md}");
+    }
 }

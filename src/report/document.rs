@@ -1,15 +1,62 @@
 //! A report as a list of blocks, rendered twice: a self-contained HTML page
 //! (SVG inlined, styles embedded, no external assets) and a Markdown twin
 //! that links the same figures as files.
+//!
+//! Failures must not be overlooked in either rendering: a [`Block::Callout`]
+//! of [`Tone::Failure`] is a red box in HTML and a bold blockquote in
+//! Markdown, and a table cell that starts with [`FAIL`] (✗) is red and bold
+//! in HTML and bold in Markdown (one that starts with [`PASS`], ✓, green).
 
 use super::svg::esc;
 use std::fmt::Write;
+
+/// The mark that starts a failed cell or callout title.
+pub const FAIL: char = '✗';
+/// The mark that starts a passed cell or callout title.
+pub const PASS: char = '✓';
+
+/// How a [`Block::Callout`] is shown.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Tone {
+    /// Everything as it should be (green, ✓).
+    Pass,
+    /// Worth a look (amber, ⚠).
+    Warning,
+    /// Something failed (red, ✗).
+    Failure,
+}
+
+impl Tone {
+    fn mark(self) -> char {
+        match self {
+            Tone::Pass => PASS,
+            Tone::Warning => '⚠',
+            Tone::Failure => FAIL,
+        }
+    }
+
+    fn class(self) -> &'static str {
+        match self {
+            Tone::Pass => "pass",
+            Tone::Warning => "warning",
+            Tone::Failure => "failure",
+        }
+    }
+}
 
 /// One piece of a report.
 #[derive(Clone, Debug)]
 pub enum Block {
     Heading(usize, String),
     Paragraph(String),
+    /// A bulleted list.
+    List(Vec<String>),
+    /// A boxed message: a title (prefixed with the tone's mark) and lines.
+    Callout {
+        tone: Tone,
+        title: String,
+        lines: Vec<String>,
+    },
     Table {
         header: Vec<String>,
         rows: Vec<Vec<String>>,
@@ -31,7 +78,11 @@ pub struct Document {
 const STYLE: &str = "body{font-family:Helvetica,Arial,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;color:#222}\
 table{border-collapse:collapse;margin:1em 0;font-size:0.9em}th,td{border:1px solid #ccc;padding:4px 8px;text-align:right}\
 th{background:#f0f4f8}td:first-child,th:first-child{text-align:left}figure{margin:1.5em 0}figcaption{color:#555;font-size:0.9em}\
-svg{max-width:100%;height:auto}";
+svg{max-width:100%;height:auto}\
+td.fail{background:#fdecea;color:#b71c1c;font-weight:bold}td.pass{color:#1b5e20}\
+.callout{margin:1em 0;padding:0.6em 1em;border-left:6px solid}.callout p{margin:0;font-weight:bold}.callout ul{margin:0.4em 0 0}\
+.callout.failure{border-color:#c62828;background:#fdecea;color:#b71c1c}.callout.failure p{font-size:1.15em}\
+.callout.warning{border-color:#f9a825;background:#fff8e1}.callout.pass{border-color:#2e7d32;background:#edf7ed}";
 
 impl Document {
     pub fn new(title: impl Into<String>) -> Document {
@@ -47,6 +98,20 @@ impl Document {
 
     pub fn paragraph(&mut self, text: impl Into<String>) {
         self.blocks.push(Block::Paragraph(text.into()));
+    }
+
+    pub fn list(&mut self, items: Vec<String>) {
+        if !items.is_empty() {
+            self.blocks.push(Block::List(items));
+        }
+    }
+
+    pub fn callout(&mut self, tone: Tone, title: impl Into<String>, lines: Vec<String>) {
+        self.blocks.push(Block::Callout {
+            tone,
+            title: title.into(),
+            lines,
+        });
     }
 
     pub fn table(&mut self, header: Vec<String>, rows: Vec<Vec<String>>) {
@@ -80,6 +145,18 @@ impl Document {
                 Block::Paragraph(t) => {
                     let _ = writeln!(s, "<p>{}</p>", esc(t));
                 }
+                Block::List(items) => html_list(&mut s, items),
+                Block::Callout { tone, title, lines } => {
+                    let _ = writeln!(
+                        s,
+                        "<div class=\"callout {}\"><p>{} {}</p>",
+                        tone.class(),
+                        tone.mark(),
+                        esc(title)
+                    );
+                    html_list(&mut s, lines);
+                    s.push_str("</div>\n");
+                }
                 Block::Table { header, rows } => {
                     s.push_str("<table><thead><tr>");
                     for h in header {
@@ -89,7 +166,14 @@ impl Document {
                     for r in rows {
                         s.push_str("<tr>");
                         for c in r {
-                            let _ = write!(s, "<td>{}</td>", esc(c));
+                            let class = if c.starts_with(FAIL) {
+                                " class=\"fail\""
+                            } else if c.starts_with(PASS) {
+                                " class=\"pass\""
+                            } else {
+                                ""
+                            };
+                            let _ = write!(s, "<td{class}>{}</td>", esc(c));
                         }
                         s.push_str("</tr>\n");
                     }
@@ -120,8 +204,31 @@ impl Document {
                 Block::Paragraph(t) => {
                     let _ = writeln!(s, "{t}\n");
                 }
+                Block::List(items) => {
+                    for i in items {
+                        let _ = writeln!(s, "- {i}");
+                    }
+                    s.push('\n');
+                }
+                Block::Callout { tone, title, lines } => {
+                    let _ = writeln!(s, "> **{} {title}**", tone.mark());
+                    if !lines.is_empty() {
+                        s.push_str(">\n");
+                    }
+                    for l in lines {
+                        let _ = writeln!(s, "> - {l}");
+                    }
+                    s.push('\n');
+                }
                 Block::Table { header, rows } => {
-                    let cell = |c: &str| c.replace('|', "\\|");
+                    let cell = |c: &str| {
+                        let c = c.replace('|', "\\|");
+                        if c.starts_with(FAIL) {
+                            format!("**{c}**")
+                        } else {
+                            c
+                        }
+                    };
                     let _ = writeln!(
                         s,
                         "| {} |",
@@ -148,6 +255,17 @@ impl Document {
         }
         s
     }
+}
+
+fn html_list(s: &mut String, items: &[String]) {
+    if items.is_empty() {
+        return;
+    }
+    s.push_str("<ul>");
+    for i in items {
+        let _ = write!(s, "<li>{}</li>", esc(i));
+    }
+    s.push_str("</ul>\n");
 }
 
 /// Drop an XML prolog so the SVG can sit inside HTML.
@@ -189,5 +307,45 @@ mod tests {
         assert!(md.contains("| pso\\|seed=1 | 0.98 |"));
         assert!(md.contains("![MAC matrix](figures/mac.svg)"));
         assert_eq!(d.figures().count(), 1);
+    }
+
+    #[test]
+    fn failures_stand_out_in_html_and_markdown() {
+        let mut d = Document::new("Verdicts");
+        d.callout(
+            Tone::Failure,
+            "1 of 2 identifications failed",
+            vec!["fit: stalled <early>".into()],
+        );
+        d.table(
+            vec!["stage".into(), "verdict".into()],
+            vec![
+                vec!["a".into(), "✗ failed".into()],
+                vec!["b".into(), "✓ ok".into()],
+            ],
+        );
+        d.list(vec!["a: 2 modes ambiguous".into()]);
+        d.list(Vec::new());
+        let html = d.to_html();
+        assert!(
+            html.contains("<div class=\"callout failure\"><p>✗ 1 of 2 identifications failed</p>"),
+            "{html}"
+        );
+        assert!(
+            html.contains("<li>fit: stalled &lt;early&gt;</li>"),
+            "{html}"
+        );
+        assert!(html.contains("<td class=\"fail\">✗ failed</td>"), "{html}");
+        assert!(html.contains("<td class=\"pass\">✓ ok</td>"), "{html}");
+        assert!(html.contains("<td>a</td>"), "plain cells stay plain");
+        assert_eq!(html.matches("<ul>").count(), 2, "an empty list is dropped");
+        let md = d.to_markdown("figures");
+        assert!(
+            md.contains("> **✗ 1 of 2 identifications failed**\n>\n> - fit: stalled <early>\n"),
+            "{md}"
+        );
+        assert!(md.contains("| a | **✗ failed** |"), "{md}");
+        assert!(md.contains("| b | ✓ ok |"), "{md}");
+        assert!(md.contains("- a: 2 modes ambiguous\n"), "{md}");
     }
 }

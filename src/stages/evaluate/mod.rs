@@ -1,0 +1,249 @@
+//! The `evaluate` kind: how well a candidate (identified or updated) model
+//! matches a reference, by the criteria of seed section 2.3.4 — MAC matrix,
+//! MACXP, NFD, NDD of paired modes (eq. 2.62–2.65), FRAC and CSF of FRFs
+//! (eq. 2.66–2.67) — and, when the truth is known, parameter errors.
+//!
+//! Modes are paired per position by one optimal assignment on
+//! (1 − MAC) + NFD/`frequency_scale` within the `window` and above
+//! `min_mac` ([`crate::pairing`]), on the DOFs both models share; each
+//! pair's margin says how sure it is, and what the pairing leaves over
+//! (missed reference modes, spurious candidate modes, ambiguous pairs) is
+//! listed in metrics.json. An optional `cost` input (an identify
+//! cost.json) copies the identification's verdict into metrics.json.
+//!
+//! metrics.json has one schema, [`Metrics`], for the writer and readers.
+
+mod frf;
+mod modes;
+mod parameters;
+mod schema;
+
+pub use parameters::read_parameters;
+pub use schema::{
+    AmbiguousPair, FrfMetrics, Metrics, ModeMetrics, ModeRef, ParameterMetrics, PositionFrf,
+    PositionModes,
+};
+
+use super::artifacts::{read_frf, read_modes};
+use super::{
+    InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs,
+};
+use crate::pairing::Pairing;
+use crate::stages::identify::cost::Cost;
+use serde_yaml_ng::{Mapping, Value};
+use std::path::Path;
+
+pub struct Evaluate;
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "window",
+        ty: ParamType::Number,
+        required: false,
+        doc: "relative frequency window for pairing modes (default 0.2 = ±20 %)",
+    },
+    ParamSpec {
+        name: "min_mac",
+        ty: ParamType::Number,
+        required: false,
+        doc: "minimum MAC of a pair (default 0.3)",
+    },
+    ParamSpec {
+        name: "frequency_scale",
+        ty: ParamType::Number,
+        required: false,
+        doc: "pairing cost (1 − MAC) + NFD/frequency_scale: the NFD that costs as much as MAC 0 (default 0.1)",
+    },
+    ParamSpec {
+        name: "ambiguity",
+        ty: ParamType::Number,
+        required: false,
+        doc: "a pair whose margin (cost increase if it were forbidden) is below this is ambiguous (default 0.1)",
+    },
+];
+
+const INPUTS: &[InputSpec] = &[
+    InputSpec {
+        name: "reference",
+        required: false,
+        list: false,
+        doc: "reference modes (e.g. synthesize.modes)",
+    },
+    InputSpec {
+        name: "candidate",
+        required: false,
+        list: false,
+        doc: "candidate modes (e.g. autoema.modes)",
+    },
+    InputSpec {
+        name: "reference_frf",
+        required: false,
+        list: false,
+        doc: "reference FRFs",
+    },
+    InputSpec {
+        name: "candidate_frf",
+        required: false,
+        list: false,
+        doc: "candidate FRFs on the same lines (e.g. autoema.frf_fit)",
+    },
+    InputSpec {
+        name: "initial_frf",
+        required: false,
+        list: false,
+        doc: "FRFs before updating (e.g. a synthesize stage at the start values): a third curve in the overlays and their FRAC/CSF as `initial_mean_frac`/`initial_mean_csf`",
+    },
+    InputSpec {
+        name: "truth",
+        required: false,
+        list: false,
+        doc: "true parameters (synthesize.truth)",
+    },
+    InputSpec {
+        name: "estimate",
+        required: false,
+        list: false,
+        doc: "estimated parameters (parameters.csv)",
+    },
+    InputSpec {
+        name: "cost",
+        required: false,
+        list: false,
+        doc: "the identify cost.json of the candidate: its verdict is copied into metrics.json",
+    },
+];
+
+/// The pairing settings from the params: evaluate's defaults are a window
+/// of 0.2 and a MAC floor of 0.3, the rest [`Pairing::default`].
+fn pairing(params: &Mapping) -> Result<Pairing, ParamProblem> {
+    let mut p = Pairing {
+        window: 0.2,
+        min_mac: 0.3,
+        ..Pairing::default()
+    };
+    for (name, field) in [
+        ("window", &mut p.window),
+        ("min_mac", &mut p.min_mac),
+        ("frequency_scale", &mut p.frequency_scale),
+        ("ambiguity", &mut p.ambiguity),
+    ] {
+        if let Some(v) = params.get(name).and_then(Value::as_f64) {
+            *field = v;
+        }
+    }
+    p.check().map_err(|message| ParamProblem {
+        // The message starts with the setting's name, which is the param's.
+        path: vec![message
+            .split_whitespace()
+            .next()
+            .unwrap_or_default()
+            .to_string()],
+        message,
+        help: Some("see `modalflow kinds` for the evaluate params".into()),
+    })?;
+    Ok(p)
+}
+
+impl Stage for Evaluate {
+    fn kind(&self) -> &'static str {
+        "evaluate"
+    }
+    /// 2: modes paired by frequency and MAC. 3: pair margins, unpaired and
+    /// ambiguous modes, the identification's verdict.
+    fn version(&self) -> u32 {
+        3
+    }
+    fn summary(&self) -> &'static str {
+        "compare candidate modes/FRFs/parameters with a reference: MAC, MACXP, NFD, NDD, FRAC, CSF, parameter errors, unpaired and ambiguous modes, the identification's verdict"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        PARAMS
+    }
+    fn inputs(&self) -> Option<&'static [InputSpec]> {
+        Some(INPUTS)
+    }
+    fn outputs(&self, _params: &Mapping) -> Vec<String> {
+        ["metrics", "tables", "plots"].map(String::from).to_vec()
+    }
+    fn check(&self, params: &Mapping) -> Result<(), ParamProblem> {
+        pairing(params).map(|_| ())
+    }
+
+    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let has = |n: &str| ctx.inputs.contains_key(n);
+        let pairs_ok = (has("reference") && has("candidate"))
+            || (has("reference_frf") && has("candidate_frf"))
+            || (has("truth") && has("estimate"));
+        if !pairs_ok {
+            return Err(StageError::Failed("nothing to compare: bind reference+candidate, reference_frf+candidate_frf, or truth+estimate".into()));
+        }
+        let settings = pairing(ctx.params).map_err(|p| StageError::InvalidParam {
+            param: p.path.join("."),
+            message: p.message,
+        })?;
+        let tables = ctx.scratch.join("tables");
+        let plots = ctx.scratch.join("plots");
+        for d in [&tables, &plots] {
+            std::fs::create_dir_all(d)
+                .map_err(|e| StageError::io("cannot create output directory", e))?;
+        }
+        let mut summary = Metrics::default();
+        if has("reference") && has("candidate") {
+            let reference = read_modes(ctx.input("reference")?, "reference")?;
+            let candidate = read_modes(ctx.input("candidate")?, "candidate")?;
+            summary.modes = Some(modes::compare_modes(
+                &reference, &candidate, &settings, &tables, &plots,
+            )?);
+        }
+        if has("reference_frf") && has("candidate_frf") {
+            let r = read_frf(ctx.input("reference_frf")?, "reference_frf")?;
+            let c = read_frf(ctx.input("candidate_frf")?, "candidate_frf")?;
+            let initial = if has("initial_frf") {
+                Some(read_frf(ctx.input("initial_frf")?, "initial_frf")?)
+            } else {
+                None
+            };
+            summary.frf = Some(frf::compare_frfs(
+                &r,
+                &c,
+                initial.as_deref(),
+                &tables,
+                &plots,
+            )?);
+        }
+        if has("truth") && has("estimate") {
+            let t = read_parameters(ctx.input("truth")?, "truth")?;
+            let e = read_parameters(ctx.input("estimate")?, "estimate")?;
+            summary.parameters = Some(parameters::compare_parameters(&t, &e, &tables)?);
+        }
+        if has("cost") {
+            let cost =
+                Cost::read(ctx.input("cost")?).map_err(|message| StageError::InvalidInput {
+                    input: "cost".into(),
+                    message: format!("{message}; bind an identify stage's `cost` output"),
+                })?;
+            if !cost.verdict.ok {
+                ctx.progress
+                    .set_message(format!("verdict: {}", cost.verdict.message));
+            }
+            summary.verdict = Some(cost.verdict);
+        }
+        let path = ctx.scratch.join("metrics.json");
+        let json = serde_json::to_vec_pretty(&summary)
+            .map_err(|e| StageError::Failed(format!("cannot encode metrics.json: {e}")))?;
+        write(&path, &json)?;
+        Ok(StageOutputs {
+            files: vec![
+                ("metrics".into(), path),
+                ("tables".into(), tables),
+                ("plots".into(), plots),
+            ],
+            counters: Default::default(),
+        })
+    }
+}
+
+fn write(path: &Path, bytes: impl AsRef<[u8]>) -> Result<(), StageError> {
+    std::fs::write(path, bytes)
+        .map_err(|e| StageError::io(format!("cannot write {}", path.display()), e))
+}

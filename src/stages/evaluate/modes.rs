@@ -1,0 +1,255 @@
+//! Mode comparison of the evaluate kind: per position, the MAC matrix on the
+//! DOFs both models share, the pairing of reference and candidate modes
+//! ([`crate::pairing`]: one assignment on (1 − MAC) + NFD/s_f) with each
+//! pair's margin, MACXP, NFD and NDD of the pairs (eq. 2.62–2.65), and what
+//! the pairing left over: unpaired reference modes (missed), unpaired
+//! candidate modes (spurious) and ambiguous pairs.
+//!
+//! Writes `pairs.csv` (one row per pair, with `cost`, `margin` and
+//! `ambiguous`), `mac.csv` and one MAC heatmap per position.
+
+use super::schema::{extreme, mean, AmbiguousPair, ModeMetrics, ModeRef, PositionModes};
+use super::write;
+use crate::metrics;
+use crate::modal::ModalModel;
+use crate::pairing::{self, Pair, Pairing};
+use crate::report::svg::heatmap;
+use crate::stages::StageError;
+use num_complex::Complex64;
+use std::fmt::Write as _;
+use std::path::Path;
+
+const PAIRS_HEADER: &str = "position,reference_mode,candidate_mode,reference_hz,candidate_hz,NFD,reference_damping,candidate_damping,NDD,MAC,MACXP,cost,margin,ambiguous\n";
+
+/// Compare the modes of every reference position with the candidate's.
+pub fn compare_modes(
+    reference: &[ModalModel],
+    candidate: &[ModalModel],
+    settings: &Pairing,
+    tables: &Path,
+    plots: &Path,
+) -> Result<ModeMetrics, StageError> {
+    let mut pairs_csv = String::from(PAIRS_HEADER);
+    let mut mac_csv = String::from("position,reference_mode,candidate_mode,MAC\n");
+    let mut positions = Vec::new();
+    let (mut all_mac, mut all_nfd, mut all_ndd) = (Vec::new(), Vec::new(), Vec::new());
+    for r in reference {
+        let Some(c) = candidate
+            .iter()
+            .find(|c| c.position.index == r.position.index)
+        else {
+            positions.push(PositionModes {
+                position: r.position.index,
+                label: r.position.label.clone(),
+                reference_modes: r.modes.len(),
+                unpaired_reference: mode_refs(r, 0..r.modes.len()),
+                error: Some("no candidate modes for this position".into()),
+                ..PositionModes::default()
+            });
+            continue;
+        };
+        let shared = r.shared_shapes(c);
+        if shared.dofs.is_empty() {
+            return Err(StageError::InvalidInput {
+                input: "candidate".into(),
+                message: format!(
+                    "position {}: no DOF in common with the reference",
+                    r.position.index
+                ),
+            });
+        }
+        let macs = metrics::mac_matrix(&shared.first, &shared.second);
+        for (i, row) in macs.iter().enumerate() {
+            for (j, v) in row.iter().enumerate() {
+                let _ = writeln!(mac_csv, "{},{},{},{v}", r.position.index, i + 1, j + 1);
+            }
+        }
+        mac_heatmap(r, c, &macs, plots)?;
+        let p = compare_position(r, c, &shared.first, &shared.second, &macs, settings);
+        for row in &p.rows {
+            pairs_csv.push_str(row);
+        }
+        all_mac.extend(&p.macs);
+        all_nfd.extend(&p.nfds);
+        all_ndd.extend(&p.ndds);
+        positions.push(PositionModes {
+            common_dofs: shared.dofs.len(),
+            ..p.summary
+        });
+    }
+    write(&tables.join("pairs.csv"), &pairs_csv)?;
+    write(&tables.join("mac.csv"), &mac_csv)?;
+    let total = |f: fn(&PositionModes) -> usize| positions.iter().map(f).sum::<usize>();
+    Ok(ModeMetrics {
+        paired: all_mac.len(),
+        reference_modes: reference.iter().map(|m| m.modes.len()).sum(),
+        candidate_modes: total(|p| p.candidate_modes),
+        unpaired_reference: total(|p| p.unpaired_reference.len()),
+        unpaired_candidate: total(|p| p.unpaired_candidate.len()),
+        ambiguous: total(|p| p.ambiguous.len()),
+        mean_mac: mean(&all_mac),
+        mean_nfd: mean(&all_nfd),
+        mean_ndd: mean(&all_ndd),
+        positions,
+    })
+}
+
+/// `ModeRef`s of the modes `indices` (0-based) of `m`.
+fn mode_refs(m: &ModalModel, indices: impl Iterator<Item = usize>) -> Vec<ModeRef> {
+    indices
+        .map(|k| ModeRef {
+            mode: k + 1,
+            frequency_hz: m.modes[k].frequency_hz,
+        })
+        .collect()
+}
+
+fn mac_heatmap(
+    r: &ModalModel,
+    c: &ModalModel,
+    macs: &[Vec<f64>],
+    plots: &Path,
+) -> Result<(), StageError> {
+    let labels = |m: &ModalModel| {
+        m.modes
+            .iter()
+            .enumerate()
+            .map(|(k, m)| format!("{} ({:.1} Hz)", k + 1, m.frequency_hz))
+            .collect::<Vec<_>>()
+    };
+    let svg = heatmap(
+        &format!("MAC, position {} {}", r.position.index, r.position.label),
+        &labels(r),
+        &labels(c),
+        macs,
+        0.0,
+        1.0,
+    );
+    write(&plots.join(format!("mac_{}.svg", r.position.index)), &svg)
+}
+
+/// One position's pairs: its summary (without `common_dofs`), pairs.csv
+/// rows and the criteria of its pairs.
+struct PositionResult {
+    summary: PositionModes,
+    rows: Vec<String>,
+    macs: Vec<f64>,
+    nfds: Vec<f64>,
+    ndds: Vec<f64>,
+}
+
+fn compare_position(
+    r: &ModalModel,
+    c: &ModalModel,
+    rs: &[Vec<Complex64>],
+    cs: &[Vec<Complex64>],
+    macs: &[Vec<f64>],
+    settings: &Pairing,
+) -> PositionResult {
+    let rf: Vec<f64> = r.modes.iter().map(|m| m.frequency_hz).collect();
+    let cf: Vec<f64> = c.modes.iter().map(|m| m.frequency_hz).collect();
+    let costs = pairing::cost_matrix(&rf, &cf, macs, settings);
+    let pairs = pairing::pair_modes(&rf, rs, &cf, cs, settings);
+    let margins = pairing::margins(&costs, &pairs);
+    let mut out = PositionResult {
+        summary: PositionModes::default(),
+        rows: Vec::new(),
+        macs: Vec::new(),
+        nfds: Vec::new(),
+        ndds: Vec::new(),
+    };
+    let mut ambiguous = Vec::new();
+    for (p, &margin) in pairs.iter().zip(&margins) {
+        let (a, b) = (&r.modes[p.reference], &c.modes[p.candidate]);
+        let nfd = metrics::nfd(a.frequency_hz, b.frequency_hz);
+        let ndd = metrics::ndd(a.damping_ratio, b.damping_ratio);
+        let xp = metrics::macxp(
+            &rs[p.reference],
+            &cs[p.candidate],
+            metrics::pole(a.frequency_hz, a.damping_ratio),
+            metrics::pole(b.frequency_hz, b.damping_ratio),
+        );
+        let is_ambiguous = margin < settings.ambiguity;
+        out.rows.push(format!(
+            "{},{},{},{},{},{nfd},{},{},{ndd},{},{xp},{},{margin},{is_ambiguous}\n",
+            r.position.index,
+            p.reference + 1,
+            p.candidate + 1,
+            a.frequency_hz,
+            b.frequency_hz,
+            a.damping_ratio,
+            b.damping_ratio,
+            p.mac,
+            p.cost,
+        ));
+        if is_ambiguous {
+            ambiguous.push(ambiguous_pair(p, margin, &costs, &rf, &cf));
+        }
+        out.macs.push(p.mac);
+        out.nfds.push(nfd);
+        out.ndds.push(ndd);
+    }
+    let unpaired_reference: Vec<usize> = (0..r.modes.len())
+        .filter(|&k| !pairs.iter().any(|p| p.reference == k))
+        .collect();
+    let unpaired_candidate: Vec<usize> = (0..c.modes.len())
+        .filter(|&k| !pairs.iter().any(|p| p.candidate == k))
+        .collect();
+    out.summary = PositionModes {
+        position: r.position.index,
+        label: r.position.label.clone(),
+        reference_modes: r.modes.len(),
+        candidate_modes: c.modes.len(),
+        paired: pairs.len(),
+        common_dofs: 0,
+        mean_mac: mean(&out.macs),
+        min_mac: extreme(&out.macs, f64::min),
+        mean_nfd: mean(&out.nfds),
+        max_nfd: extreme(&out.nfds, f64::max),
+        mean_ndd: mean(&out.ndds),
+        unpaired_reference: mode_refs(r, unpaired_reference.into_iter()),
+        unpaired_candidate: mode_refs(c, unpaired_candidate.into_iter()),
+        ambiguous,
+        error: None,
+    };
+    out
+}
+
+/// An ambiguous pair with its rivals: the next-cheapest allowed partner of
+/// either mode.
+fn ambiguous_pair(
+    p: &Pair,
+    margin: f64,
+    costs: &[Vec<Option<f64>>],
+    rf: &[f64],
+    cf: &[f64],
+) -> AmbiguousPair {
+    let cheapest = |options: &mut dyn Iterator<Item = (usize, Option<f64>)>| {
+        options
+            .filter_map(|(k, c)| c.map(|c| (k, c)))
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(k, _)| k + 1)
+    };
+    AmbiguousPair {
+        reference_mode: p.reference + 1,
+        candidate_mode: p.candidate + 1,
+        reference_hz: rf[p.reference],
+        candidate_hz: cf[p.candidate],
+        mac: p.mac,
+        margin,
+        rival_candidate: cheapest(
+            &mut costs[p.reference]
+                .iter()
+                .copied()
+                .enumerate()
+                .filter(|&(j, _)| j != p.candidate),
+        ),
+        rival_reference: cheapest(
+            &mut costs
+                .iter()
+                .map(|row| row[p.candidate])
+                .enumerate()
+                .filter(|&(i, _)| i != p.reference),
+        ),
+    }
+}

@@ -1,0 +1,142 @@
+//! The accuracy section of a report: one row per evaluate stage (paired,
+//! missed and spurious modes, ambiguous pairs, MAC, NFD, NDD, FRAC, CSF,
+//! parameter error, the copied verdict), then a box listing every missed
+//! reference mode, spurious candidate mode and ambiguous pair by number and
+//! frequency, so a mean MAC over fewer modes cannot pass for a full match.
+
+use super::pct;
+use super::verdicts::ok_cell;
+use crate::report::document::{Document, Tone};
+use crate::stages::evaluate::{Metrics, ModeRef, PositionModes};
+
+pub fn accuracy(doc: &mut Document, inputs: &[(String, Metrics)]) {
+    if inputs.is_empty() {
+        return;
+    }
+    let rows = inputs
+        .iter()
+        .map(|(stage, m)| {
+            let modes = m.modes.as_ref();
+            let count = |f: fn(&crate::stages::evaluate::ModeMetrics) -> usize| {
+                modes.map_or("–".into(), |x| match f(x) {
+                    0 => "0".to_string(),
+                    k => format!("✗ {k}"),
+                })
+            };
+            vec![
+                stage.clone(),
+                modes.map_or("–".into(), |x| {
+                    format!("{}/{}", x.paired, x.reference_modes)
+                }),
+                count(|x| x.unpaired_reference),
+                count(|x| x.unpaired_candidate),
+                count(|x| x.ambiguous),
+                pct(modes.and_then(|x| x.mean_mac)),
+                pct(modes.and_then(|x| x.mean_nfd)),
+                pct(modes.and_then(|x| x.mean_ndd)),
+                pct(m.frf.as_ref().and_then(|f| f.mean_frac)),
+                pct(m.frf.as_ref().and_then(|f| f.mean_csf)),
+                pct(m
+                    .parameters
+                    .as_ref()
+                    .and_then(|p| p.mean_abs_relative_error)),
+                m.verdict.as_ref().map_or("–".into(), ok_cell),
+            ]
+        })
+        .collect();
+    doc.heading(2, "Accuracy");
+    let header = [
+        "stage",
+        "paired modes",
+        "missed",
+        "spurious",
+        "ambiguous",
+        "MAC %",
+        "NFD %",
+        "NDD %",
+        "FRAC %",
+        "CSF %",
+        "parameter error %",
+        "verdict",
+    ];
+    doc.table(header.map(String::from).to_vec(), rows);
+    pairing_findings(doc, inputs);
+}
+
+/// `2 (45.10 Hz), 5 (120.3 Hz)`.
+fn modes_text(modes: &[ModeRef]) -> String {
+    modes
+        .iter()
+        .map(|m| format!("{} ({:.4} Hz)", m.mode, m.frequency_hz))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// What one position's pairing left over, one line each.
+fn position_findings(stage: &str, p: &PositionModes) -> Vec<String> {
+    let at = if p.label.is_empty() {
+        format!("{stage}, position {}", p.position)
+    } else {
+        format!("{stage}, position {} ({})", p.position, p.label)
+    };
+    let mut lines = Vec::new();
+    if let Some(e) = &p.error {
+        lines.push(format!("{at}: {e}"));
+    }
+    if !p.unpaired_reference.is_empty() {
+        lines.push(format!(
+            "{at}: reference mode(s) {} have no candidate partner (missed)",
+            modes_text(&p.unpaired_reference)
+        ));
+    }
+    if !p.unpaired_candidate.is_empty() {
+        lines.push(format!(
+            "{at}: candidate mode(s) {} have no reference partner (spurious, or outside the reference)",
+            modes_text(&p.unpaired_candidate)
+        ));
+    }
+    for a in &p.ambiguous {
+        let mut rivals = Vec::new();
+        if let Some(c) = a.rival_candidate {
+            rivals.push(format!("candidate {c}"));
+        }
+        if let Some(r) = a.rival_reference {
+            rivals.push(format!("reference {r}"));
+        }
+        lines.push(format!(
+            "{at}: reference {} ({:.4} Hz) ↔ candidate {} ({:.4} Hz) is ambiguous: margin {:.3}, MAC {:.3}{}",
+            a.reference_mode,
+            a.reference_hz,
+            a.candidate_mode,
+            a.candidate_hz,
+            a.margin,
+            a.mac,
+            if rivals.is_empty() {
+                String::new()
+            } else {
+                format!("; rival {}", rivals.join(", "))
+            }
+        ));
+    }
+    lines
+}
+
+fn pairing_findings(doc: &mut Document, inputs: &[(String, Metrics)]) {
+    let lines: Vec<String> = inputs
+        .iter()
+        .filter_map(|(s, m)| m.modes.as_ref().map(|x| (s, x)))
+        .flat_map(|(s, x)| {
+            x.positions
+                .iter()
+                .flat_map(move |p| position_findings(s, p))
+        })
+        .collect();
+    if lines.is_empty() {
+        return;
+    }
+    doc.callout(
+        Tone::Warning,
+        "Mode pairing: not every mode has a clear partner",
+        lines,
+    );
+}

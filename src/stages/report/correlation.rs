@@ -1,0 +1,123 @@
+//! The mode-correlation section of a report: per identify stage, every
+//! reference mode with its nominal-model partner at the start (and how well
+//! the sensors see it), whether it was used or excluded and why, and its
+//! model partner at the result (from correlation.csv). A used mode without
+//! a partner at the result is marked ✗.
+
+use super::sig4;
+use crate::report::document::Document;
+use crate::stages::StageError;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// One row of an identify correlation.csv.
+#[derive(Clone, Debug, Deserialize)]
+pub struct CorrelationRow {
+    pub position: u32,
+    pub reference_mode: usize,
+    pub reference_hz: f64,
+    pub used: bool,
+    pub reason: String,
+    pub nominal_mode: String,
+    pub nominal_hz: Option<f64>,
+    pub visibility: Option<f64>,
+    pub mac_start: Option<f64>,
+    pub margin_start: Option<f64>,
+    pub model_mode: Option<usize>,
+    pub model_hz: Option<f64>,
+    pub mac: Option<f64>,
+    pub margin: Option<f64>,
+}
+
+/// Read an identify correlation.csv.
+pub fn read_correlation(path: &Path) -> Result<Vec<CorrelationRow>, String> {
+    super::read_rows(path, "correlation.csv")
+}
+
+fn hz(v: Option<f64>) -> String {
+    v.map_or(String::new(), |f| format!(" ({f:.4} Hz)"))
+}
+
+fn row_cells(r: &CorrelationRow) -> Vec<String> {
+    let used = if r.used {
+        "yes".to_string()
+    } else if r.reason.is_empty() {
+        "no".to_string()
+    } else {
+        format!("no: {}", r.reason)
+    };
+    let nominal = if r.nominal_mode.is_empty() {
+        "–".to_string()
+    } else {
+        format!("{}{}", r.nominal_mode, hz(r.nominal_hz))
+    };
+    let model = match (r.model_mode, r.used) {
+        (Some(m), _) => format!("{m}{}", hz(r.model_hz)),
+        (None, true) => "✗ unpaired".to_string(),
+        (None, false) => "–".to_string(),
+    };
+    vec![
+        r.position.to_string(),
+        format!("{} ({:.4} Hz)", r.reference_mode, r.reference_hz),
+        used,
+        nominal,
+        sig4(r.visibility),
+        sig4(r.mac_start),
+        sig4(r.margin_start),
+        model,
+        sig4(r.mac),
+        sig4(r.margin),
+    ]
+}
+
+pub fn correlation(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageError> {
+    if inputs.is_empty() {
+        return Ok(());
+    }
+    doc.heading(2, "Mode correlation");
+    doc.paragraph(
+        "Each reference mode, its partner in the nominal model at the start (visibility: how well the \
+         sensors see it; margin: how much worse the next-best pairing is), whether it was used, and its \
+         model partner at the result.",
+    );
+    for (stage, path) in inputs {
+        let rows = read_correlation(path).map_err(|message| StageError::InvalidInput {
+            input: "correlation".into(),
+            message: format!("{stage}: {message}"),
+        })?;
+        let used = rows.iter().filter(|r| r.used).count();
+        let unpaired = rows
+            .iter()
+            .filter(|r| r.used && r.model_mode.is_none())
+            .count();
+        doc.heading(3, stage.clone());
+        doc.paragraph(format!(
+            "{used} of {} reference modes used, {} excluded{}.",
+            rows.len(),
+            rows.len() - used,
+            if unpaired > 0 {
+                format!("; ✗ {unpaired} used mode(s) unpaired at the result")
+            } else {
+                String::new()
+            }
+        ));
+        doc.table(
+            [
+                "position",
+                "reference mode",
+                "used",
+                "nominal mode (start)",
+                "visibility",
+                "MAC start",
+                "margin start",
+                "model mode (result)",
+                "MAC",
+                "margin",
+            ]
+            .map(String::from)
+            .to_vec(),
+            rows.iter().map(row_cells).collect(),
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,247 @@
+//! The identifiability section of a report: per identify stage, the
+//! parameter combinations the data do not determine (from its
+//! identifiability.json) and a table of the identified parameters with
+//! value, relative standard error, 95 % interval and whether the data
+//! determine them (from its parameters.csv; without one, from the analysis
+//! alone). The two inputs are matched by stage; either may be bound alone.
+//!
+//! A parameter the data do not determine is marked ✗: its value is one of
+//! many that fit equally well, not a measurement.
+
+use super::{pct, sig4};
+use crate::identify::Identifiability;
+use crate::report::document::{Document, Tone};
+use crate::stages::StageError;
+use serde::Deserialize;
+use std::path::{Path, PathBuf};
+
+/// identifiability.json as the identify kind writes it: the analysis plus
+/// each undetermined combination in words.
+#[derive(Clone, Debug, Deserialize)]
+pub struct IdentifiabilityFile {
+    #[serde(flatten)]
+    pub analysis: Identifiability,
+    #[serde(default)]
+    pub undetermined_text: Vec<String>,
+}
+
+impl IdentifiabilityFile {
+    pub fn read(path: &Path) -> Result<IdentifiabilityFile, String> {
+        let bytes =
+            std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        serde_json::from_slice(&bytes).map_err(|e| {
+            format!(
+                "{} is not an identify identifiability.json: {e}",
+                path.display()
+            )
+        })
+    }
+}
+
+/// One row of an identify parameters.csv.
+#[derive(Clone, Debug, Deserialize)]
+pub struct ParameterRow {
+    pub parameter: String,
+    pub value: f64,
+    pub lower: f64,
+    pub upper: f64,
+    pub initial: f64,
+    pub identified: bool,
+    pub identifiable: Option<bool>,
+    /// Relative (of ln p).
+    pub std_error: Option<f64>,
+    pub ci_low: Option<f64>,
+    pub ci_high: Option<f64>,
+}
+
+/// Read an identify parameters.csv.
+pub fn read_parameters(path: &Path) -> Result<Vec<ParameterRow>, String> {
+    super::read_rows(path, "parameters.csv")
+}
+
+/// Stages in order of first appearance in either list.
+fn stages<'a>(a: &'a [(String, PathBuf)], b: &'a [(String, PathBuf)]) -> Vec<&'a str> {
+    let mut out: Vec<&str> = Vec::new();
+    for (s, _) in a.iter().chain(b) {
+        if !out.contains(&s.as_str()) {
+            out.push(s);
+        }
+    }
+    out
+}
+
+pub fn identifiability(
+    doc: &mut Document,
+    analyses: &[(String, PathBuf)],
+    parameters: &[(String, PathBuf)],
+) -> Result<(), StageError> {
+    let names = stages(analyses, parameters);
+    if names.is_empty() {
+        return Ok(());
+    }
+    doc.heading(2, "Identifiability and uncertainty");
+    doc.paragraph(
+        "At the result: SVD of the Jacobian of the weighted residuals. A parameter in a direction the \
+         modes cannot see, or whose standard error exceeds the limit, is not identifiable (✗): its value \
+         is one of many that fit as well. Standard errors are relative, from the Gauss–Newton \
+         covariance scaled by the residual variance; intervals are 95 %.",
+    );
+    for stage in names {
+        let find = |list: &[(String, PathBuf)]| {
+            list.iter()
+                .find(|(s, _)| s == stage)
+                .map(|(_, p)| p.clone())
+        };
+        let analysis = find(analyses)
+            .map(|p| IdentifiabilityFile::read(&p))
+            .transpose()
+            .map_err(|m| invalid("identifiability", stage, m))?;
+        let rows = find(parameters)
+            .map(|p| read_parameters(&p))
+            .transpose()
+            .map_err(|m| invalid("parameters", stage, m))?;
+        doc.heading(3, stage);
+        if let Some(a) = &analysis {
+            undetermined(doc, a);
+        }
+        match (&rows, &analysis) {
+            (Some(rows), _) => parameter_table(doc, rows, analysis.as_ref()),
+            (None, Some(a)) => analysis_table(doc, &a.analysis),
+            (None, None) => {}
+        }
+    }
+    Ok(())
+}
+
+fn invalid(input: &str, stage: &str, message: String) -> StageError {
+    StageError::InvalidInput {
+        input: input.into(),
+        message: format!("{stage}: {message}"),
+    }
+}
+
+/// The rank line and the combinations the data do not determine.
+fn undetermined(doc: &mut Document, a: &IdentifiabilityFile) {
+    let x = &a.analysis;
+    let variance = x.residual_variance.map_or("–".into(), |v| sig4(Some(v)));
+    doc.paragraph(format!(
+        "Rank {} of {} parameters from {} residuals; residual variance σ̂² = {variance} \
+         (≈ 1: fits to the stated noise; ≫ 1: model error); standard-error limit {}.",
+        x.rank,
+        x.parameters.len(),
+        x.residuals,
+        pct(Some(x.max_std_error)) + " %",
+    ));
+    if a.undetermined_text.is_empty() {
+        doc.callout(
+            Tone::Pass,
+            "The data determine every identified parameter",
+            Vec::new(),
+        );
+    } else {
+        doc.callout(
+            Tone::Warning,
+            "The data do not determine these parameter combinations",
+            a.undetermined_text.clone(),
+        );
+    }
+}
+
+/// `✓ yes`, or `✗ no` with the reason when the analysis gives it.
+fn identifiable_cell(identifiable: Option<bool>, structural: Option<bool>) -> String {
+    match (identifiable, structural) {
+        (Some(true), _) => "✓ yes".into(),
+        (Some(false), Some(true)) => "✗ no: the modes cannot see it".into(),
+        (Some(false), Some(false)) => "✗ no: standard error above the limit".into(),
+        (Some(false), None) => "✗ no".into(),
+        (None, _) => "–".into(),
+    }
+}
+
+fn parameter_table(doc: &mut Document, rows: &[ParameterRow], a: Option<&IdentifiabilityFile>) {
+    let structural = |name: &str| {
+        a.and_then(|a| {
+            a.analysis
+                .parameters
+                .iter()
+                .find(|p| p.parameter == name)
+                .map(|p| p.structural)
+        })
+    };
+    let table = rows
+        .iter()
+        .filter(|r| r.identified)
+        .map(|r| {
+            let interval = match (r.ci_low, r.ci_high) {
+                (Some(lo), Some(hi)) => format!("[{}, {}]", sig4(Some(lo)), sig4(Some(hi))),
+                _ => "–".into(),
+            };
+            vec![
+                r.parameter.clone(),
+                sig4(Some(r.value)),
+                sig4(Some(r.initial)),
+                pct(r.std_error),
+                interval,
+                identifiable_cell(r.identifiable, structural(&r.parameter)),
+            ]
+        })
+        .collect();
+    doc.table(
+        [
+            "parameter",
+            "value",
+            "start",
+            "std error %",
+            "95 % interval",
+            "identifiable",
+        ]
+        .map(String::from)
+        .to_vec(),
+        table,
+    );
+    let held: Vec<&str> = rows
+        .iter()
+        .filter(|r| !r.identified)
+        .map(|r| r.parameter.as_str())
+        .collect();
+    if !held.is_empty() {
+        const SHOWN: usize = 20;
+        let more = held.len().saturating_sub(SHOWN);
+        doc.paragraph(format!(
+            "Not identified (kept at their start values): {}{}.",
+            held[..held.len().min(SHOWN)].join(", "),
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            }
+        ));
+    }
+}
+
+/// Without a parameters.csv: the analysis' own per-parameter results.
+fn analysis_table(doc: &mut Document, a: &Identifiability) {
+    let rows = a
+        .parameters
+        .iter()
+        .map(|p| {
+            vec![
+                p.parameter.clone(),
+                pct(p.std_error),
+                pct(Some(p.prior_std_error)),
+                identifiable_cell(Some(p.identifiable), Some(p.structural)),
+            ]
+        })
+        .collect();
+    doc.table(
+        [
+            "parameter",
+            "std error %",
+            "a-priori std error %",
+            "identifiable",
+        ]
+        .map(String::from)
+        .to_vec(),
+        rows,
+    );
+}

@@ -1,0 +1,279 @@
+//! The `report` kind: one page per study — a self-contained HTML report
+//! (inline SVG) and its Markdown twin — from the artifacts of other stages:
+//! the identifications' verdicts first (a failed one in red at the top),
+//! `evaluate` metrics (accuracy, unpaired and ambiguous modes), costs,
+//! identifiability and uncertainty of the identified parameters, the mode
+//! correlation of each identification, convergence histories, parameter
+//! errors, GSA splits, any CSV table and any SVG figures.
+//!
+//! JSON inputs are read through their writers' schemas
+//! ([`crate::stages::evaluate::Metrics`], [`crate::stages::identify::cost::Cost`],
+//! [`identification::IdentifiabilityFile`]).
+
+mod accuracy;
+mod charts;
+mod correlation;
+pub mod identification;
+mod screening;
+mod tables;
+mod verdicts;
+
+use super::{InputSpec, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs};
+use crate::report::document::Document;
+use crate::stages::evaluate::Metrics;
+use crate::stages::identify::cost::Cost;
+use serde_json::Value as Json;
+use serde_yaml_ng::{Mapping, Value};
+use std::path::{Path, PathBuf};
+
+pub struct Report;
+
+const PARAMS: &[ParamSpec] = &[
+    ParamSpec {
+        name: "title",
+        ty: ParamType::String,
+        required: false,
+        doc: "page title (default: the pipeline name)",
+    },
+    ParamSpec {
+        name: "description",
+        ty: ParamType::String,
+        required: false,
+        doc: "a paragraph under the title",
+    },
+];
+
+const INPUTS: &[InputSpec] = &[
+    InputSpec {
+        name: "metrics",
+        required: false,
+        list: true,
+        doc: "evaluate metrics (one row each in the accuracy table; unpaired and ambiguous modes listed)",
+    },
+    InputSpec {
+        name: "tables",
+        required: false,
+        list: true,
+        doc: "evaluate tables (parameter errors become a bar chart)",
+    },
+    InputSpec {
+        name: "costs",
+        required: false,
+        list: true,
+        doc: "identify cost.json files: evaluations, seconds and the verdict (a failed one is shown at the top)",
+    },
+    InputSpec {
+        name: "identifiability",
+        required: false,
+        list: true,
+        doc: "identify identifiability.json files: the parameter combinations the data do not determine",
+    },
+    InputSpec {
+        name: "parameters",
+        required: false,
+        list: true,
+        doc: "identify parameters.csv files: identified values with standard errors and 95 % intervals",
+    },
+    InputSpec {
+        name: "correlation",
+        required: false,
+        list: true,
+        doc: "identify correlation.csv files: which reference mode paired with which model mode, which were excluded and why",
+    },
+    InputSpec {
+        name: "histories",
+        required: false,
+        list: true,
+        doc: "history.csv files (evaluation,best_objective[,mean_mac]): convergence curves",
+    },
+    InputSpec {
+        name: "splits",
+        required: false,
+        list: true,
+        doc: "gsa significant.csv files: the split per stage and its stability between stages",
+    },
+    InputSpec {
+        name: "validations",
+        required: false,
+        list: true,
+        doc: "gsa validation.json files: min and mean conformity of each split",
+    },
+    InputSpec {
+        name: "csv",
+        required: false,
+        list: true,
+        doc: "any CSV tables (e.g. anova.csv), shown as they are (first 200 rows)",
+    },
+    InputSpec {
+        name: "figures",
+        required: false,
+        list: true,
+        doc: "SVG files or directories of SVG files to include",
+    },
+];
+
+impl Stage for Report {
+    fn kind(&self) -> &'static str {
+        "report"
+    }
+    /// 3: verdicts, unpaired and ambiguous modes, identifiability and
+    /// correlation sections.
+    fn version(&self) -> u32 {
+        3
+    }
+    fn summary(&self) -> &'static str {
+        "an HTML report (self-contained) and a Markdown twin from verdicts, metrics, costs, identifiability, histories and figures"
+    }
+    fn params(&self) -> &'static [ParamSpec] {
+        PARAMS
+    }
+    fn inputs(&self) -> Option<&'static [InputSpec]> {
+        Some(INPUTS)
+    }
+    fn outputs(&self, _params: &Mapping) -> Vec<String> {
+        vec!["report".into()]
+    }
+
+    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let title = ctx
+            .params
+            .get("title")
+            .and_then(Value::as_str)
+            .map_or_else(|| format!("{} report", ctx.pipeline), str::to_string);
+        let mut doc = Document::new(title);
+        if let Some(d) = ctx.params.get("description").and_then(Value::as_str) {
+            doc.paragraph(d);
+        }
+        // Each bound artifact with a label: its stage (one row per stage in
+        // the summary tables) or `stage.output` (tables and figures, whose
+        // cached files carry hashes, not names).
+        let bound = |name: &str, with_output: bool| -> Vec<(String, PathBuf)> {
+            let labels = ctx.sources.get(name).cloned().unwrap_or_default();
+            let paths = ctx.inputs.get(name).cloned().unwrap_or_default();
+            labels
+                .into_iter()
+                .map(|s| {
+                    if with_output {
+                        format!("{}.{}", s.stage, s.output)
+                    } else {
+                        s.stage
+                    }
+                })
+                .zip(paths)
+                .collect()
+        };
+        let metrics = read_all(&bound("metrics", false), "metrics", Metrics::read)?;
+        let costs = read_all(&bound("costs", false), "costs", Cost::read)?;
+        verdicts::summary(&mut doc, &costs, &metrics);
+        accuracy::accuracy(&mut doc, &metrics);
+        verdicts::costs(&mut doc, &costs);
+        identification::identifiability(
+            &mut doc,
+            &bound("identifiability", false),
+            &bound("parameters", false),
+        )?;
+        correlation::correlation(&mut doc, &bound("correlation", false))?;
+        charts::convergence(&mut doc, &bound("histories", false))?;
+        charts::parameter_errors(&mut doc, &bound("tables", false))?;
+        screening::splits(&mut doc, &bound("splits", false))?;
+        screening::validations(&mut doc, &bound("validations", false))?;
+        tables::tables(&mut doc, &bound("csv", true))?;
+        tables::figures(&mut doc, &bound("figures", true))?;
+        let dir = ctx.scratch.join("report");
+        let fig_dir = dir.join("figures");
+        std::fs::create_dir_all(&fig_dir)
+            .map_err(|e| StageError::io("cannot create report directory", e))?;
+        let write = |p: PathBuf, text: &str| {
+            std::fs::write(&p, text)
+                .map_err(|e| StageError::io(format!("cannot write {}", p.display()), e))
+        };
+        for (file, svg) in doc.figures() {
+            write(fig_dir.join(file), svg)?;
+        }
+        write(dir.join("index.html"), &doc.to_html())?;
+        write(dir.join("report.md"), &doc.to_markdown("figures"))?;
+        Ok(StageOutputs {
+            files: vec![("report".into(), dir)],
+            counters: [("figures".to_string(), doc.figures().count() as u64)].into(),
+        })
+    }
+}
+
+/// Read every bound file of `input` through its schema's reader.
+fn read_all<T>(
+    inputs: &[(String, PathBuf)],
+    input: &str,
+    read: fn(&Path) -> Result<T, String>,
+) -> Result<Vec<(String, T)>, StageError> {
+    inputs
+        .iter()
+        .map(|(stage, path)| {
+            read(path)
+                .map(|v| (stage.clone(), v))
+                .map_err(|message| StageError::InvalidInput {
+                    input: input.into(),
+                    message: format!("{stage}: {message}"),
+                })
+        })
+        .collect()
+}
+
+/// The rows of a CSV table an identify stage wrote (`what`: its file name),
+/// by their header names.
+fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, what: &str) -> Result<Vec<T>, String> {
+    let mut reader =
+        csv::Reader::from_path(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    reader
+        .deserialize()
+        .enumerate()
+        .map(|(k, row)| row.map_err(|e| format!("line {}: not an identify {what}: {e}", k + 2)))
+        .collect()
+}
+
+pub(super) fn read_json(path: &Path, input: &str) -> Result<Json, StageError> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| StageError::io(format!("cannot read input `{input}`"), e))?;
+    serde_json::from_slice(&bytes).map_err(|e| StageError::InvalidInput {
+        input: input.into(),
+        message: format!("not JSON: {e}"),
+    })
+}
+
+/// A fraction as percent with two decimals; `–` when absent.
+fn pct(v: Option<f64>) -> String {
+    v.filter(|x| x.is_finite())
+        .map_or("–".into(), |x| format!("{:.2}", 100.0 * x))
+}
+
+/// A number to four significant digits (`0.005685`, `46.51`, `2.406e6`);
+/// `–` when absent.
+fn sig4(v: Option<f64>) -> String {
+    let Some(x) = v.filter(|x| x.is_finite()) else {
+        return "–".into();
+    };
+    let rounded: f64 = format!("{x:.3e}").parse().unwrap_or(x);
+    if rounded == 0.0 || (1e-3..1e5).contains(&rounded.abs()) {
+        format!("{rounded}")
+    } else {
+        format!("{rounded:e}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{pct, sig4};
+
+    #[test]
+    fn numbers_read_to_four_digits() {
+        assert_eq!(sig4(Some(2_406_012.0)), "2.406e6");
+        assert_eq!(sig4(Some(2.0e6)), "2e6");
+        assert_eq!(sig4(Some(46.505_1)), "46.51");
+        assert_eq!(sig4(Some(0.005_684_9)), "0.005685");
+        assert_eq!(sig4(Some(3.953e-5)), "3.953e-5");
+        assert_eq!(sig4(Some(0.0)), "0");
+        assert_eq!(sig4(Some(f64::INFINITY)), "–");
+        assert_eq!(sig4(None), "–");
+        assert_eq!(pct(Some(0.123_45)), "12.35");
+        assert_eq!(pct(Some(f64::NAN)), "–");
+    }
+}
