@@ -28,7 +28,8 @@
 
 pub use super::hermitian::subspace_mac;
 use super::synthetic::{lines, SyntheticMode};
-use crate::metrics::{hungarian, nfd};
+use crate::metrics::nfd;
+use crate::pairing::hungarian;
 use num_complex::Complex64;
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -432,7 +432,9 @@ fn refine(
     let start_cost = cost(start);
     used += 1;
     progress(1);
-    if !(r.end_cost <= start_cost) {
+    let improved = r.end_cost.partial_cmp(&start_cost) != Some(std::cmp::Ordering::Greater)
+        && r.end_cost.is_finite();
+    if !improved {
         return Ok(Refined {
             x: start.to_vec(),
             status: Status::Stalled,

@@ -112,7 +112,8 @@ impl Verdict {
         } else {
             Fit::AboveNoise
         };
-        let worse = !(end_rms <= start_rms);
+        // NaN (a model that cannot be solved) counts as worse.
+        let worse = end_rms.partial_cmp(&start_rms).is_none_or(|o| o.is_gt());
         let ok =
             status == Status::Converged && fit == Fit::WithinNoise && !worse && modes.unpaired == 0;
         let mut parts = vec![match status {

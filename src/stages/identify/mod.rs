@@ -20,6 +20,7 @@
 pub mod cost;
 mod outputs;
 mod params;
+pub mod tables;
 
 use super::artifacts;
 use super::{InputSpec, ParamProblem, ParamSpec, Stage, StageContext, StageError, StageOutputs};
@@ -63,7 +64,7 @@ impl Stage for Identify {
         "identify"
     }
     fn version(&self) -> u32 {
-        3
+        4
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -229,18 +230,18 @@ fn write_outputs(
     put(
         "parameters",
         "parameters.csv",
-        outputs::parameters_csv(o, u),
+        outputs::parameters_csv(o, u)?,
     )?;
     put("history", "history.csv", outputs::history_csv(u))?;
     put(
         "correlation",
         "correlation.csv",
-        outputs::correlation_csv(o, u),
+        outputs::correlation_csv(o, u)?,
     )?;
     put(
         "identifiability",
         "identifiability.json",
-        outputs::identifiability_json(u),
+        outputs::identifiability_json(u)?,
     )?;
     let mut phases = Phases {
         assessment: u.assessment_evaluations,

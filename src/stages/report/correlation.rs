@@ -6,32 +6,13 @@
 
 use super::sig4;
 use crate::report::document::Document;
+use crate::stages::identify::tables::{read_rows, CorrelationRow};
 use crate::stages::StageError;
-use serde::Deserialize;
 use std::path::{Path, PathBuf};
-
-/// One row of an identify correlation.csv.
-#[derive(Clone, Debug, Deserialize)]
-pub struct CorrelationRow {
-    pub position: u32,
-    pub reference_mode: usize,
-    pub reference_hz: f64,
-    pub used: bool,
-    pub reason: String,
-    pub nominal_mode: String,
-    pub nominal_hz: Option<f64>,
-    pub visibility: Option<f64>,
-    pub mac_start: Option<f64>,
-    pub margin_start: Option<f64>,
-    pub model_mode: Option<usize>,
-    pub model_hz: Option<f64>,
-    pub mac: Option<f64>,
-    pub margin: Option<f64>,
-}
 
 /// Read an identify correlation.csv.
 pub fn read_correlation(path: &Path) -> Result<Vec<CorrelationRow>, String> {
-    super::read_rows(path, "correlation.csv")
+    read_rows(path, "correlation.csv")
 }
 
 fn hz(v: Option<f64>) -> String {

@@ -9,54 +9,14 @@
 //! many that fit equally well, not a measurement.
 
 use super::{pct, sig4};
-use crate::identify::Identifiability;
 use crate::report::document::{Document, Tone};
+use crate::stages::identify::tables::{read_rows, IdentifiabilityFile, ParameterRow};
 use crate::stages::StageError;
-use serde::Deserialize;
 use std::path::{Path, PathBuf};
-
-/// identifiability.json as the identify kind writes it: the analysis plus
-/// each undetermined combination in words.
-#[derive(Clone, Debug, Deserialize)]
-pub struct IdentifiabilityFile {
-    #[serde(flatten)]
-    pub analysis: Identifiability,
-    #[serde(default)]
-    pub undetermined_text: Vec<String>,
-}
-
-impl IdentifiabilityFile {
-    pub fn read(path: &Path) -> Result<IdentifiabilityFile, String> {
-        let bytes =
-            std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        serde_json::from_slice(&bytes).map_err(|e| {
-            format!(
-                "{} is not an identify identifiability.json: {e}",
-                path.display()
-            )
-        })
-    }
-}
-
-/// One row of an identify parameters.csv.
-#[derive(Clone, Debug, Deserialize)]
-pub struct ParameterRow {
-    pub parameter: String,
-    pub value: f64,
-    pub lower: f64,
-    pub upper: f64,
-    pub initial: f64,
-    pub identified: bool,
-    pub identifiable: Option<bool>,
-    /// Relative (of ln p).
-    pub std_error: Option<f64>,
-    pub ci_low: Option<f64>,
-    pub ci_high: Option<f64>,
-}
 
 /// Read an identify parameters.csv.
 pub fn read_parameters(path: &Path) -> Result<Vec<ParameterRow>, String> {
-    super::read_rows(path, "parameters.csv")
+    read_rows(path, "parameters.csv")
 }
 
 /// Stages in order of first appearance in either list.
@@ -220,7 +180,7 @@ fn parameter_table(doc: &mut Document, rows: &[ParameterRow], a: Option<&Identif
 }
 
 /// Without a parameters.csv: the analysis' own per-parameter results.
-fn analysis_table(doc: &mut Document, a: &Identifiability) {
+fn analysis_table(doc: &mut Document, a: &crate::identify::Identifiability) {
     let rows = a
         .parameters
         .iter()

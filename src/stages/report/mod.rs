@@ -218,18 +218,6 @@ fn read_all<T>(
         .collect()
 }
 
-/// The rows of a CSV table an identify stage wrote (`what`: its file name),
-/// by their header names.
-fn read_rows<T: serde::de::DeserializeOwned>(path: &Path, what: &str) -> Result<Vec<T>, String> {
-    let mut reader =
-        csv::Reader::from_path(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-    reader
-        .deserialize()
-        .enumerate()
-        .map(|(k, row)| row.map_err(|e| format!("line {}: not an identify {what}: {e}", k + 2)))
-        .collect()
-}
-
 pub(super) fn read_json(path: &Path, input: &str) -> Result<Json, StageError> {
     let bytes = std::fs::read(path)
         .map_err(|e| StageError::io(format!("cannot read input `{input}`"), e))?;
