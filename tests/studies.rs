@@ -121,7 +121,16 @@ fn identification_comparison_runs_end_to_end_within_budgets() {
         ],
     );
     let report = ws.run(&[], 0);
-    assert!(report.all("ran"), "{:?}", report.statuses());
+    // Stages with byte-identical inputs (two ablations that end at one
+    // point) share one result: ran or cached, never failed.
+    assert!(
+        report
+            .statuses()
+            .iter()
+            .all(|(_, s)| s == "ran" || s == "cached"),
+        "{:?}",
+        report.statuses()
+    );
     for (stage, budget) in [
         ("guided[scenario=truth]", 1200),
         ("refine_only", 1200),
