@@ -3,8 +3,9 @@
 //! uncertainty. Written to cost.json and shown by `evaluate`, `report` and
 //! `compare`, so a failed run never passes as a plausible result.
 //!
-//! - `status`: how the optimizer ended — `converged` (its tolerance met),
-//!   `stalled` (no progress, iteration limit or a failure), or
+//! - `status`: how the optimizer ended — `converged` (its tolerance met, or
+//!   no more progress with the fit within the noise), `stalled` (no
+//!   progress above the noise, iteration limit or a failure), or
 //!   `budget_exhausted` (stopped by `budget` before converging).
 //! - `fit`: the weighted residual at the result (each residual divided by
 //!   its standard deviation, [`super::Uncertainty`]) as an RMS in σ units.
@@ -112,6 +113,13 @@ impl Verdict {
         } else {
             Fit::AboveNoise
         };
+        // An optimizer that stops making progress with the fit within the
+        // noise has reached the noise floor: that is convergence.
+        let status = if status == Status::Stalled && fit == Fit::WithinNoise {
+            Status::Converged
+        } else {
+            status
+        };
         // NaN (a model that cannot be solved) counts as worse.
         let worse = end_rms.partial_cmp(&start_rms).is_none_or(|o| o.is_gt());
         let ok =
@@ -188,7 +196,10 @@ mod tests {
         let above = Verdict::judge(Status::Converged, 40.0, 7.5, counts(), 20, 20, vec![]);
         assert!(!above.ok && above.fit == Fit::AboveNoise);
         assert!(above.message.contains("7.5σ"), "{}", above.message);
+        let floor = Verdict::judge(Status::Stalled, 9.0, 0.5, counts(), 20, 20, vec![]);
+        assert_eq!(floor.status, Status::Converged);
         let worse = Verdict::judge(Status::Stalled, 3.0, 4.0, counts(), 20, 20, vec![]);
+        assert_eq!(worse.status, Status::Stalled);
         assert!(!worse.ok && worse.worse_than_start);
         assert!(worse.message.contains("WORSE"), "{}", worse.message);
         let budget = Verdict::judge(Status::BudgetExhausted, 9.0, 1.0, counts(), 5, 5, vec![]);
