@@ -67,6 +67,10 @@ pub struct ModeCounts {
     pub unpaired: usize,
     /// Paired, but another assignment is nearly as good.
     pub ambiguous: usize,
+    /// Down-weighted as outliers: the model does not reproduce them (a
+    /// spurious or wrongly paired reference mode, or a local minimum).
+    #[serde(default)]
+    pub outliers: usize,
 }
 
 /// A number that JSON may hold as null (serde_json writes NaN and ±∞ so).
@@ -122,8 +126,11 @@ impl Verdict {
         };
         // NaN (a model that cannot be solved) counts as worse.
         let worse = end_rms.partial_cmp(&start_rms).is_none_or(|o| o.is_gt());
-        let ok =
-            status == Status::Converged && fit == Fit::WithinNoise && !worse && modes.unpaired == 0;
+        // Within the noise means the robust (Huber) residual; modes it
+        // down-weighted or could not pair are not reproduced, so they keep
+        // the verdict from being ok and are named in the message.
+        let lost = modes.unpaired + modes.outliers;
+        let ok = status == Status::Converged && fit == Fit::WithinNoise && !worse && lost == 0;
         let mut parts = vec![match status {
             Status::Converged => "converged".to_string(),
             Status::Stalled => "stalled before converging".to_string(),
@@ -139,6 +146,12 @@ impl Verdict {
         });
         if worse {
             parts.push("the result fits WORSE than the start".into());
+        }
+        if lost > 0 {
+            parts.push(format!(
+                "but {lost} of {} used reference modes are not reproduced ({} without a model partner, {} outliers): spurious or wrongly paired modes, or a local minimum",
+                modes.used, modes.unpaired, modes.outliers
+            ));
         }
         if modes.unpaired > 0 {
             warnings.push(format!(
@@ -185,6 +198,7 @@ mod tests {
             excluded: 1,
             unpaired: 0,
             ambiguous: 0,
+            outliers: 0,
         }
     }
 
@@ -209,6 +223,12 @@ mod tests {
             ..counts()
         };
         assert!(!Verdict::judge(Status::Converged, 9.0, 1.0, lost, 5, 5, vec![]).ok);
+        let outlier = ModeCounts {
+            outliers: 1,
+            ..counts()
+        };
+        let v = Verdict::judge(Status::Converged, 9.0, 1.0, outlier, 5, 5, vec![]);
+        assert!(!v.ok && v.message.contains("1 outliers"), "{}", v.message);
         // NaN residuals (model unsolvable) are never within the noise.
         let nan = Verdict::judge(Status::Converged, 9.0, f64::NAN, counts(), 5, 5, vec![]);
         assert!(!nan.ok && nan.worse_than_start);
