@@ -25,6 +25,8 @@ pub struct RunOptions {
     /// unless `results_exact` is set.
     pub results: PathBuf,
     pub progress: ProgressMode,
+    /// Longest silence of a running stage with `ProgressMode::Lines`.
+    pub heartbeat: std::time::Duration,
     /// Executor chosen on the command line; `None`: the pipeline's block.
     pub executor: Option<ExecutorKind>,
 }
@@ -51,6 +53,14 @@ pub enum RunError {
     UnknownForce { name: String, known: String },
     #[error("executor: {0}")]
     Executor(String),
+}
+
+impl RunError {
+    /// Whether the command line asked for something that does not exist
+    /// (exit code 2), rather than the cache failing.
+    pub fn is_usage(&self) -> bool {
+        matches!(self, RunError::UnknownForce { .. })
+    }
 }
 
 fn engine<'a>(
@@ -101,7 +111,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     let engine = engine(plan, opts, executor)?;
     let _cache_lock = engine.store.lock_cache(false)?;
     let n = plan.nodes.len();
-    let reporter = Reporter::new(n, opts.progress);
+    let mut reporter = Reporter::new(n, opts.progress, opts.heartbeat);
     let mut state = vec![State::Pending; n];
     let mut reports: Vec<Option<StageReport>> = vec![None; n];
     let mut updates: Vec<(String, StageProvenance)> = Vec::new();
@@ -301,7 +311,7 @@ const PENDING: &str = "pending";
 /// stage's own param and file changes can still be explained.
 fn placeholder(plan: &Plan, u: usize) -> Option<Done> {
     let outputs = plan.nodes[u]
-        .outputs
+        .output_names()
         .iter()
         .map(|o| {
             let rec = super::store::OutputRecord {

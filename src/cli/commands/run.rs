@@ -74,8 +74,19 @@ pub fn options(
         cache: locations.cache.clone(),
         results: locations.results.clone(),
         progress,
+        heartbeat: heartbeat(),
         executor: None,
     }
+}
+
+/// The heartbeat interval of `--progress lines`: 10 s, or
+/// `MODALFLOW_HEARTBEAT` seconds (tests).
+fn heartbeat() -> std::time::Duration {
+    std::env::var("MODALFLOW_HEARTBEAT")
+        .ok()
+        .and_then(|s| s.parse::<f64>().ok())
+        .filter(|s| *s > 0.0 && s.is_finite())
+        .map_or(modalflow::pipeline::progress::HEARTBEAT, std::time::Duration::from_secs_f64)
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {

@@ -1,0 +1,591 @@
+//! Typed stage params, parsed once.
+//!
+//! Each kind declares its params with [`params!`](crate::params): one line
+//! per param gives its name, Rust type, default, range and doc, and the
+//! macro makes of it the typed struct, the parser and the description that
+//! `modalflow kinds` and the README print. Nothing else defines a param.
+//!
+//! Parsing ([`ParamSet::parse`]) looks at every key on its own, so one run
+//! finds every unknown key, wrong type, missing param and value out of range
+//! of a stage ([`ParamProblem`]s located by their path below `params`); the
+//! engine then locates them in the file. The kind's own cross-field checks
+//! ([`super::Kind::check`]) run on the typed value.
+
+use serde_yaml_ng::{Mapping, Value};
+use std::collections::BTreeMap;
+use std::fmt;
+
+/// A param problem, located by its path below `params` (e.g.
+/// `["frequency", "step"]`).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ParamProblem {
+    pub path: Vec<String>,
+    pub message: String,
+    pub help: Option<String>,
+}
+
+impl ParamProblem {
+    /// A problem at `path` with a hint on how to fix it.
+    pub fn new(path: &[&str], message: impl Into<String>, help: impl Into<String>) -> Self {
+        ParamProblem {
+            path: path.iter().map(|s| s.to_string()).collect(),
+            message: message.into(),
+            help: Some(help.into()).filter(|h: &String| !h.is_empty()),
+        }
+    }
+}
+
+/// An allowed interval of a numeric param (each of its numbers, for lists).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Range {
+    pub min: Option<f64>,
+    pub min_open: bool,
+    pub max: Option<f64>,
+    pub max_open: bool,
+}
+
+impl Range {
+    /// `min ≤ x ≤ max`.
+    pub const fn closed(min: f64, max: f64) -> Range {
+        Range {
+            min: Some(min),
+            min_open: false,
+            max: Some(max),
+            max_open: false,
+        }
+    }
+    /// `min < x < max`.
+    pub const fn open(min: f64, max: f64) -> Range {
+        Range {
+            min: Some(min),
+            min_open: true,
+            max: Some(max),
+            max_open: true,
+        }
+    }
+    /// `min < x ≤ max`.
+    pub const fn open_closed(min: f64, max: f64) -> Range {
+        Range {
+            min: Some(min),
+            min_open: true,
+            max: Some(max),
+            max_open: false,
+        }
+    }
+    /// `min ≤ x < max`.
+    pub const fn closed_open(min: f64, max: f64) -> Range {
+        Range {
+            min: Some(min),
+            min_open: false,
+            max: Some(max),
+            max_open: true,
+        }
+    }
+    /// `x ≥ min`.
+    pub const fn at_least(min: f64) -> Range {
+        Range {
+            min: Some(min),
+            min_open: false,
+            max: None,
+            max_open: false,
+        }
+    }
+    /// `x > min`.
+    pub const fn above(min: f64) -> Range {
+        Range {
+            min: Some(min),
+            min_open: true,
+            max: None,
+            max_open: false,
+        }
+    }
+
+    pub fn contains(&self, x: f64) -> bool {
+        let lo = self
+            .min
+            .is_none_or(|m| if self.min_open { x > m } else { x >= m });
+        let hi = self
+            .max
+            .is_none_or(|m| if self.max_open { x < m } else { x <= m });
+        x.is_finite() && lo && hi
+    }
+}
+
+impl fmt::Display for Range {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match (self.min, self.max) {
+            (Some(a), Some(b)) => write!(
+                f,
+                "{}{a}, {b}{}",
+                if self.min_open { '(' } else { '[' },
+                if self.max_open { ')' } else { ']' }
+            ),
+            (Some(a), None) => write!(f, "{} {a}", if self.min_open { ">" } else { "≥" }),
+            (None, Some(b)) => write!(f, "{} {b}", if self.max_open { "<" } else { "≤" }),
+            (None, None) => write!(f, "any"),
+        }
+    }
+}
+
+/// The numbers of a value that a [`Range`] applies to.
+pub trait Numbers {
+    fn numbers(&self) -> Vec<f64>;
+}
+
+macro_rules! numbers_as_f64 {
+    ($($t:ty),*) => {$(
+        impl Numbers for $t {
+            fn numbers(&self) -> Vec<f64> {
+                vec![*self as f64]
+            }
+        }
+    )*};
+}
+numbers_as_f64!(f64, usize, u64, u32, u8);
+
+impl<T: Numbers> Numbers for Option<T> {
+    fn numbers(&self) -> Vec<f64> {
+        self.as_ref().map(Numbers::numbers).unwrap_or_default()
+    }
+}
+
+impl<T: Numbers> Numbers for Vec<T> {
+    fn numbers(&self) -> Vec<f64> {
+        self.iter().flat_map(Numbers::numbers).collect()
+    }
+}
+
+impl<A: Numbers, B: Numbers> Numbers for (A, B) {
+    fn numbers(&self) -> Vec<f64> {
+        let mut out = self.0.numbers();
+        out.extend(self.1.numbers());
+        out
+    }
+}
+
+impl<T: Numbers> Numbers for indexmap::IndexMap<String, T> {
+    fn numbers(&self) -> Vec<f64> {
+        self.values().flat_map(Numbers::numbers).collect()
+    }
+}
+
+impl<T: Numbers> Numbers for BTreeMap<String, T> {
+    fn numbers(&self) -> Vec<f64> {
+        self.values().flat_map(Numbers::numbers).collect()
+    }
+}
+
+/// How a param's type reads in `modalflow kinds` and the README.
+pub trait TypeName {
+    fn type_name() -> String;
+}
+
+macro_rules! type_names {
+    ($($t:ty => $name:expr),* $(,)?) => {$(
+        impl TypeName for $t {
+            fn type_name() -> String {
+                $name.into()
+            }
+        }
+    )*};
+}
+type_names!(
+    bool => "boolean",
+    usize => "integer",
+    u64 => "integer",
+    u32 => "integer",
+    u8 => "integer",
+    f64 => "number",
+    String => "string",
+    Value => "any value",
+);
+
+impl<T: TypeName> TypeName for Option<T> {
+    fn type_name() -> String {
+        T::type_name()
+    }
+}
+
+impl<T: TypeName> TypeName for Vec<T> {
+    fn type_name() -> String {
+        format!("list of {}", T::type_name())
+    }
+}
+
+impl<A: TypeName, B: TypeName> TypeName for (A, B) {
+    fn type_name() -> String {
+        format!("[{}, {}]", A::type_name(), B::type_name())
+    }
+}
+
+impl<T: TypeName> TypeName for indexmap::IndexMap<String, T> {
+    fn type_name() -> String {
+        format!("mapping of name → {}", T::type_name())
+    }
+}
+
+impl<T: TypeName> TypeName for BTreeMap<String, T> {
+    fn type_name() -> String {
+        format!("mapping of name → {}", T::type_name())
+    }
+}
+
+/// The description of one param, made by [`params!`](crate::params).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Field {
+    pub name: &'static str,
+    #[serde(rename = "type")]
+    pub ty: String,
+    pub required: bool,
+    /// The default as YAML-ish text (`40`, `uniform`); `None` when the
+    /// param is required or absent means "not given".
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub default: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub range: Option<String>,
+    pub doc: String,
+}
+
+/// A kind's typed params: parsed from the YAML mapping with every problem
+/// reported, and described field by field.
+pub trait ParamSet: Sized {
+    fn parse(params: &Mapping) -> Result<Self, Vec<ParamProblem>>;
+    fn fields() -> Vec<Field>;
+}
+
+/// A default value as text for the listing (`None` for an absent option).
+pub fn default_text<T: serde::Serialize>(v: &T) -> Option<String> {
+    match serde_json::to_value(v).ok()? {
+        serde_json::Value::Null => None,
+        serde_json::Value::String(s) => Some(s),
+        other => Some(other.to_string()),
+    }
+}
+
+/// The text of a mapping key.
+pub fn key_text(k: &Value) -> String {
+    match k {
+        Value::String(s) => s.clone(),
+        Value::Number(n) => n.to_string(),
+        Value::Bool(b) => b.to_string(),
+        _ => "<complex key>".into(),
+    }
+}
+
+/// One param's value deserialized as `T`, or the problem with it.
+pub fn value<T: serde::de::DeserializeOwned + TypeName>(
+    name: &str,
+    v: &Value,
+) -> Result<T, ParamProblem> {
+    serde_yaml_ng::from_value(v.clone()).map_err(|e| {
+        let text = e.to_string();
+        // serde names a nested unknown field; point at it.
+        let mut path = vec![name.to_string()];
+        if let Some(field) = text
+            .strip_prefix("unknown field `")
+            .and_then(|r| r.split('`').next())
+        {
+            path.push(field.to_string());
+        }
+        ParamProblem {
+            path,
+            message: format!("param `{name}`: {text}"),
+            help: Some(format!("`{name}` is {}", T::type_name())),
+        }
+    })
+}
+
+/// A key the kind does not take.
+pub fn unknown(key: &str, kind_fields: &[&str]) -> ParamProblem {
+    let mut help = format!("accepted: {}", kind_fields.join(", "));
+    if let Some(c) = closest(key, kind_fields.iter().copied()) {
+        help = format!("did you mean `{c}`? {help}");
+    }
+    ParamProblem {
+        path: vec![key.to_string()],
+        message: format!("unknown param `{key}`"),
+        help: Some(help),
+    }
+}
+
+/// A required param that is not given.
+pub fn missing(name: &str, doc: &str) -> ParamProblem {
+    ParamProblem {
+        path: Vec::new(),
+        message: format!("missing param `{name}`"),
+        help: Some(format!("`{name}`: {doc}")),
+    }
+}
+
+/// Every number of `v` within `range`, or the problem (with the kind's
+/// own message and help when it gives them).
+pub fn check_range(
+    name: &str,
+    v: &impl Numbers,
+    range: Range,
+    message: Option<(&str, &str)>,
+    out: &mut Vec<ParamProblem>,
+) {
+    if let Some(bad) = v.numbers().into_iter().find(|x| !range.contains(*x)) {
+        let (message, help) = match message {
+            Some((m, h)) => (m.to_string(), h.to_string()),
+            None => (
+                format!("param `{name}` = {bad} is out of range {range}"),
+                format!("give `{name}` a value in {range}"),
+            ),
+        };
+        out.push(ParamProblem {
+            path: vec![name.to_string()],
+            message,
+            help: Some(help),
+        });
+    }
+}
+
+/// Declare a kind's params: the struct, its parser and its description.
+///
+/// ```ignore
+/// params! {
+///     /// The `autoema` kind's params.
+///     pub struct Params {
+///         /// Bayesian-optimization evaluations per position
+///         pub iterations: usize = 40; range Range::closed(1.0, 10_000.0),
+///         /// the model file
+///         pub model: String,
+///     }
+/// }
+/// ```
+/// A param without `= default` is required; one with a `range` is checked
+/// against it (every number in it, for lists and mappings), optionally with
+/// its own message: `; range R => "message", "help"`.
+#[macro_export]
+macro_rules! params {
+    (
+        $(#[$smeta:meta])*
+        $vis:vis struct $name:ident {
+            $(
+                $(#[doc = $doc:literal])+
+                $fvis:vis $field:ident : $ty:ty $(= $default:expr)?
+                    $(; range $range:expr $(=> $msg:literal, $help:literal)?)? ,
+            )*
+        }
+    ) => {
+        $(#[$smeta])*
+        #[derive(Debug)]
+        $vis struct $name {
+            $( $(#[doc = $doc])+ $fvis $field: $ty, )*
+            /// The params written in the file (the rest took their defaults).
+            given: Vec<&'static str>,
+        }
+
+        impl $name {
+            /// Whether param `name` was written in the file.
+            #[allow(dead_code)]
+            pub fn given(&self, name: &str) -> bool {
+                self.given.contains(&name)
+            }
+        }
+
+        impl $crate::stages::params::ParamSet for $name {
+            fn parse(
+                map: &serde_yaml_ng::Mapping,
+            ) -> Result<Self, Vec<$crate::stages::params::ParamProblem>> {
+                use $crate::stages::params as p;
+                const NAMES: &[&str] = &[$(stringify!($field)),*];
+                let mut problems = Vec::new();
+                $( let mut $field: Option<$ty> = None; )*
+                for (k, v) in map {
+                    let key = p::key_text(k);
+                    match key.as_str() {
+                        $(
+                            stringify!($field) => match p::value::<$ty>(stringify!($field), v) {
+                                Ok(x) => $field = Some(x),
+                                Err(e) => problems.push(e),
+                            },
+                        )*
+                        _ => problems.push(p::unknown(&key, NAMES)),
+                    }
+                }
+                $(
+                    let given = map.contains_key(stringify!($field));
+                    let $field: Option<$ty> = $field.or_else(|| $crate::params!(@default $($default)?));
+                    if $field.is_none() && !given {
+                        problems.push(p::missing(
+                            stringify!($field),
+                            concat!($($doc),+).trim(),
+                        ));
+                    }
+                    $( if let Some(x) = &$field {
+                        p::check_range(
+                            stringify!($field),
+                            x,
+                            $range,
+                            $crate::params!(@message $($msg, $help)?),
+                            &mut problems,
+                        );
+                    } )?
+                )*
+                if !problems.is_empty() {
+                    return Err(problems);
+                }
+                $( let Some($field) = $field else { return Err(problems) }; )*
+                let given = NAMES
+                    .iter()
+                    .copied()
+                    .filter(|n| map.contains_key(*n))
+                    .collect();
+                Ok($name { $($field,)* given })
+            }
+
+            fn fields() -> Vec<$crate::stages::params::Field> {
+                use $crate::stages::params as p;
+                vec![$(
+                    p::Field {
+                        name: stringify!($field),
+                        ty: <$ty as p::TypeName>::type_name(),
+                        required: $crate::params!(@required $($default)?),
+                        default: $crate::params!(@default $($default)?)
+                            .and_then(|d: $ty| p::default_text(&d)),
+                        range: $crate::params!(@range $($range)?),
+                        doc: concat!($($doc),+).trim().to_string(),
+                    },
+                )*]
+            }
+        }
+    };
+    (@default) => { None };
+    (@default $d:expr) => { Some($d) };
+    (@required) => { true };
+    (@required $d:expr) => { false };
+    (@message) => { None };
+    (@message $m:literal, $h:literal) => { Some(($m, $h)) };
+    (@range) => { None };
+    (@range $r:expr) => { Some(($r).to_string()) };
+}
+
+/// A string enum param: the Rust enum, its serde names and its type name.
+#[macro_export]
+macro_rules! string_enum {
+    (
+        $(#[$meta:meta])*
+        $vis:vis enum $name:ident { $( $(#[doc = $doc:literal])* $variant:ident = $text:literal ),+ $(,)? }
+    ) => {
+        $(#[$meta])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+        $vis enum $name {
+            $( $(#[doc = $doc])* #[serde(rename = $text)] $variant ),+
+        }
+
+        impl $name {
+            /// The name as written in pipeline files.
+            pub fn as_str(&self) -> &'static str {
+                match self { $( $name::$variant => $text ),+ }
+            }
+        }
+
+        impl $crate::stages::params::TypeName for $name {
+            fn type_name() -> String {
+                format!("one of: {}", [$($text),+].join(", "))
+            }
+        }
+    };
+}
+
+/// Closest candidate to `word` by edit distance, for "did you mean" hints.
+pub fn closest<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
+    candidates
+        .into_iter()
+        .map(|c| (levenshtein(word, c), c))
+        .filter(|(d, c)| *d <= 2.max(c.len() / 3))
+        .min_by_key(|(d, _)| *d)
+        .map(|(_, c)| c)
+}
+
+fn levenshtein(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            let sub = prev[j] + usize::from(ca != *cb);
+            cur[j + 1] = sub.min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    crate::string_enum! {
+        enum Mode { Fast = "fast", Slow = "slow" }
+    }
+
+    crate::params! {
+        /// A test kind's params.
+        struct TestParams {
+            /// the model file
+            model: String,
+            /// iterations per position
+            iterations: usize = 40; range Range::closed(1.0, 100.0),
+            /// how fast
+            mode: Mode = Mode::Fast,
+            /// an optional level
+            level: Option<f64> = None; range Range::above(0.0),
+        }
+    }
+
+    fn map(yaml: &str) -> Mapping {
+        serde_yaml_ng::from_str(yaml).unwrap()
+    }
+
+    #[test]
+    fn parses_defaults_and_given_values() {
+        let p = TestParams::parse(&map("{model: m.yaml, mode: slow}")).unwrap();
+        assert_eq!((p.model.as_str(), p.iterations), ("m.yaml", 40));
+        assert_eq!((p.mode, p.level), (Mode::Slow, None));
+        let p = TestParams::parse(&map("{model: m.yaml, level: 0.5, iterations: 3}")).unwrap();
+        assert_eq!((p.iterations, p.level), (3, Some(0.5)));
+    }
+
+    #[test]
+    fn reports_every_problem_at_once() {
+        let problems =
+            TestParams::parse(&map("{iterations: 0, mode: medium, levle: 1, level: -1}"))
+                .unwrap_err();
+        let messages: Vec<&str> = problems.iter().map(|p| p.message.as_str()).collect();
+        assert_eq!(problems.len(), 5, "{messages:?}");
+        assert!(messages.iter().any(|m| m.contains("unknown param `levle`")));
+        assert!(problems
+            .iter()
+            .any(|p| p.help.as_deref().unwrap_or("").contains("did you mean `level`")));
+        assert!(messages.iter().any(|m| m.contains("missing param `model`")));
+        assert!(messages.iter().any(|m| m.contains("`iterations` = 0")));
+        assert!(messages.iter().any(|m| m.contains("param `mode`")));
+        assert!(messages.iter().any(|m| m.contains("`level` = -1")));
+    }
+
+    #[test]
+    fn fields_describe_types_defaults_and_ranges() {
+        let f = TestParams::fields();
+        let names: Vec<&str> = f.iter().map(|x| x.name).collect();
+        assert_eq!(names, ["model", "iterations", "mode", "level"]);
+        assert!(f[0].required && f[0].default.is_none());
+        assert_eq!(f[1].default.as_deref(), Some("40"));
+        assert_eq!(f[1].range.as_deref(), Some("[1, 100]"));
+        assert_eq!(f[2].ty, "one of: fast, slow");
+        assert_eq!(f[2].default.as_deref(), Some("fast"));
+        assert_eq!(f[3].range.as_deref(), Some("> 0"));
+        assert!(!f[3].required && f[3].default.is_none());
+    }
+
+    #[test]
+    fn ranges_print_and_contain() {
+        assert!(Range::open(0.0, 0.5).contains(0.1));
+        assert!(!Range::open(0.0, 0.5).contains(0.0));
+        assert!(!Range::at_least(1.0).contains(f64::NAN));
+        assert_eq!(Range::open_closed(0.0, 1.0).to_string(), "(0, 1]");
+    }
+}
