@@ -11,7 +11,7 @@
 
 use super::params::{Numbers, TypeName};
 use super::{
-    artifacts, Artifact, InputSpec, Kind, Output, ParamProblem, Range, StageContext, StageError,
+    artifacts, Artifact, InputSpec, Kind, ParamProblem, Range, StageContext, StageError,
     StageOutputs,
 };
 use crate::ema::stabilization_diagram::{render, Panel};

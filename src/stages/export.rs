@@ -3,7 +3,7 @@
 //! or CSV — so results open in test and FE software.
 
 use super::artifacts::{read_frf, read_modes};
-use super::{Artifact, InputSpec, Kind, Output, StageContext, StageError, StageOutputs};
+use super::{Artifact, InputSpec, Kind, StageContext, StageError, StageOutputs};
 use crate::io::{self, ByteOrder, NumberText, Storage, Uff58Format};
 
 pub struct Export;

@@ -10,7 +10,7 @@
 //! their FRFs.
 
 use super::{
-    Artifact, FileRef, InputSpec, Kind, Output, ParamProblem, Range, StageContext, StageError,
+    Artifact, FileRef, InputSpec, Kind, ParamProblem, Range, StageContext, StageError,
     StageOutputs,
 };
 use crate::frf::{FrfSet, Position};

@@ -15,6 +15,21 @@ use serde_yaml_ng::{Mapping, Value};
 use std::collections::BTreeMap;
 use std::fmt;
 
+/// What is wrong with a param; the engine words the message around it
+/// (with the stage and kind names, which a kind does not know).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Class {
+    /// A key the kind does not take (`path` is the key).
+    Unknown,
+    /// A required param that is not given (`path` is the param).
+    Missing,
+    /// A value that does not deserialize into the param's type.
+    Invalid,
+    /// A value out of range, or a check across params (the default).
+    #[default]
+    Check,
+}
+
 /// A param problem, located by its path below `params` (e.g.
 /// `["frequency", "step"]`).
 #[derive(Debug, Clone, PartialEq)]
@@ -22,6 +37,7 @@ pub struct ParamProblem {
     pub path: Vec<String>,
     pub message: String,
     pub help: Option<String>,
+    pub class: Class,
 }
 
 impl ParamProblem {
@@ -31,7 +47,15 @@ impl ParamProblem {
             path: path.iter().map(|s| s.to_string()).collect(),
             message: message.into(),
             help: Some(help.into()).filter(|h: &String| !h.is_empty()),
+            class: Class::Check,
         }
+    }
+
+    /// The same problem one level deeper, below param `field` (for the
+    /// checks of a nested settings mapping).
+    pub fn under(mut self, field: &str) -> Self {
+        self.path.insert(0, field.to_string());
+        self
     }
 }
 
@@ -272,32 +296,60 @@ pub fn key_text(k: &Value) -> String {
     }
 }
 
-/// One param's value deserialized as `T`, or the problem with it.
+/// One param's value deserialized as `T`, or the problem with it, located
+/// by serde's path inside the value (e.g. `impact_test.averages`).
 pub fn value<T: serde::de::DeserializeOwned + TypeName>(
     name: &str,
     v: &Value,
 ) -> Result<T, ParamProblem> {
-    serde_yaml_ng::from_value(v.clone()).map_err(|e| {
-        let text = e.to_string();
-        // serde names a nested unknown field; point at it.
+    serde_path_to_error::deserialize(v.clone()).map_err(|e| {
         let mut path = vec![name.to_string()];
+        path.extend(e.path().iter().filter_map(|seg| match seg {
+            serde_path_to_error::Segment::Seq { index } => Some(index.to_string()),
+            serde_path_to_error::Segment::Map { key } => Some(key.clone()),
+            serde_path_to_error::Segment::Enum { variant } => Some(variant.clone()),
+            serde_path_to_error::Segment::Unknown => None,
+        }));
+        let text = e.inner().to_string();
+        // serde names a nested unknown field; point at it.
         if let Some(field) = text
             .strip_prefix("unknown field `")
             .and_then(|r| r.split('`').next())
         {
-            path.push(field.to_string());
+            if path.last().map(String::as_str) != Some(field) {
+                path.push(field.to_string());
+            }
         }
+        let message = match text.strip_prefix("invalid type: ") {
+            // A wrong type of the whole param: say what it must be.
+            Some(found) if path.len() == 1 => {
+                let found = found.split(", expected").next().unwrap_or(found);
+                format!("must be {} (found {found})", with_article(&T::type_name()))
+            }
+            _ => format!("is invalid: {text}"),
+        };
         ParamProblem {
             path,
-            message: format!("param `{name}`: {text}"),
-            help: Some(format!("`{name}` is {}", T::type_name())),
+            message,
+            help: Some(format!("`{name}` is {}", with_article(&T::type_name()))),
+            class: Class::Invalid,
         }
     })
 }
 
+/// `string` → `a string`, `integer` → `an integer`; descriptions that read
+/// as a phrase already (`one of: …`, `[a, b]`, `` `truth` | … ``) stay.
+fn with_article(t: &str) -> String {
+    match t.chars().next() {
+        Some(c) if !c.is_ascii_alphabetic() || t.starts_with("one of") => t.to_string(),
+        Some('a' | 'e' | 'i' | 'o' | 'u') => format!("an {t}"),
+        _ => format!("a {t}"),
+    }
+}
+
 /// A key the kind does not take.
 pub fn unknown(key: &str, kind_fields: &[&str]) -> ParamProblem {
-    let mut help = format!("accepted: {}", kind_fields.join(", "));
+    let mut help = format!("accepts: {}", kind_fields.join(", "));
     if let Some(c) = closest(key, kind_fields.iter().copied()) {
         help = format!("did you mean `{c}`? {help}");
     }
@@ -305,15 +357,17 @@ pub fn unknown(key: &str, kind_fields: &[&str]) -> ParamProblem {
         path: vec![key.to_string()],
         message: format!("unknown param `{key}`"),
         help: Some(help),
+        class: Class::Unknown,
     }
 }
 
 /// A required param that is not given.
 pub fn missing(name: &str, doc: &str) -> ParamProblem {
     ParamProblem {
-        path: Vec::new(),
+        path: vec![name.to_string()],
         message: format!("missing param `{name}`"),
         help: Some(format!("`{name}`: {doc}")),
+        class: Class::Missing,
     }
 }
 
@@ -338,6 +392,7 @@ pub fn check_range(
             path: vec![name.to_string()],
             message,
             help: Some(help),
+            class: Class::Check,
         });
     }
 }
@@ -357,7 +412,11 @@ pub fn check_range(
 /// ```
 /// A param without `= default` is required; one with a `range` is checked
 /// against it (every number in it, for lists and mappings), optionally with
-/// its own message: `; range R => "message", "help"`.
+/// its own message: `; range R => "message", "help"`; one with `; check f`
+/// is checked by `f(&value) -> Vec<ParamProblem>` (paths below the param).
+/// All of these run for every param, whatever is wrong with the others, so
+/// one parse finds every problem; checks across params ([`super::Kind::check`])
+/// run once every param is good.
 #[macro_export]
 macro_rules! params {
     (
@@ -366,7 +425,8 @@ macro_rules! params {
             $(
                 $(#[doc = $doc:literal])+
                 $fvis:vis $field:ident : $ty:ty $(= $default:expr)?
-                    $(; range $range:expr $(=> $msg:literal, $help:literal)?)? ,
+                    $(; range $range:expr $(=> $msg:literal, $help:literal)?)?
+                    $(; check $check:path)? ,
             )*
         }
     ) => {
@@ -422,6 +482,11 @@ macro_rules! params {
                             $range,
                             $crate::params!(@message $($msg, $help)?),
                             &mut problems,
+                        );
+                    } )?
+                    $( if let Some(x) = &$field {
+                        problems.extend(
+                            $check(x).into_iter().map(|p| p.under(stringify!($field))),
                         );
                     } )?
                 )*
@@ -563,7 +628,7 @@ mod tests {
             .any(|p| p.help.as_deref().unwrap_or("").contains("did you mean `level`")));
         assert!(messages.iter().any(|m| m.contains("missing param `model`")));
         assert!(messages.iter().any(|m| m.contains("`iterations` = 0")));
-        assert!(messages.iter().any(|m| m.contains("param `mode`")));
+        assert!(problems.iter().any(|p| p.path == ["mode"] && p.class == Class::Invalid));
         assert!(messages.iter().any(|m| m.contains("`level` = -1")));
     }
 

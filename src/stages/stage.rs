@@ -322,6 +322,23 @@ pub struct StageOutputs {
 #[derive(Clone)]
 pub struct Parsed(Arc<dyn Any + Send + Sync>);
 
+/// What [`Parsed::invalid`] holds.
+struct Invalid;
+
+impl Parsed {
+    /// Stands in for params that failed to parse: the stage still takes part
+    /// in validating references and inputs (so one round reports every
+    /// problem), but the plan is rejected and nothing runs.
+    pub fn invalid() -> Parsed {
+        Parsed(Arc::new(Invalid))
+    }
+
+    /// Whether these are a kind's parsed params (not [`Parsed::invalid`]).
+    pub fn is_valid(&self) -> bool {
+        !self.0.is::<Invalid>()
+    }
+}
+
 impl std::fmt::Debug for Parsed {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str("Parsed(..)")
@@ -496,5 +513,6 @@ fn mismatch<K: Kind>() -> ParamProblem {
             K::NAME
         ),
         help: None,
+        class: super::params::Class::Check,
     }
 }

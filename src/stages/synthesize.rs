@@ -13,7 +13,7 @@ use super::artifacts;
 use super::synthesize_params::{self as sp, Modes, Params, PositionRef};
 use super::synthesize_values::{override_from_table, significant_parameters, values};
 use super::{
-    Artifact, FileRef, InputSpec, Kind, Output, ParamProblem, StageContext, StageError,
+    Artifact, FileRef, InputSpec, Kind, ParamProblem, StageContext, StageError,
     StageOutputs,
 };
 use crate::dynamics::measurement;

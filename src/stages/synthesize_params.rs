@@ -46,7 +46,7 @@ crate::params! {
         /// simulated hammer test (H1/H2, coherence): sample_rate_hz,
         /// block_size, averages, force_noise, response_noise,
         /// exponential_window_end, estimator, …
-        pub impact_test: Option<ImpactSpec> = None,
+        pub impact_test: Option<ImpactSpec> = None; check check_impact,
         /// modes in the superposition: a count or {below: Hz} (default all
         /// below 2·max frequency)
         pub modes: Option<Modes> = None,
@@ -136,6 +136,35 @@ pub struct ImpactSpec {
     force_window_s: Option<f64>,
     exponential_window_end: Option<f64>,
     estimator: Option<String>,
+}
+
+/// Largest impact-test sizes: a record of `block_size · oversampling`
+/// samples is simulated per average, excitation and position, so these bound
+/// the memory and time a typo can ask for (defaults: 8192, 4, 5).
+pub const MAX_BLOCK_SIZE: usize = 1 << 20;
+pub const MAX_OVERSAMPLING: usize = 64;
+pub const MAX_AVERAGES: usize = 10_000;
+
+/// The impact-test sizes within their bounds (the physics is checked with
+/// the whole params, in [`check`]).
+pub fn check_impact(spec: &Option<ImpactSpec>) -> Vec<ParamProblem> {
+    let Some(s) = spec else { return Vec::new() };
+    let bounds = [
+        ("block_size", s.block_size, 16, MAX_BLOCK_SIZE),
+        ("oversampling", s.oversampling, 1, MAX_OVERSAMPLING),
+        ("averages", s.averages, 1, MAX_AVERAGES),
+    ];
+    bounds
+        .into_iter()
+        .filter_map(|(name, v, lo, hi)| {
+            let v = v.filter(|v| !(lo..=hi).contains(v))?;
+            Some(ParamProblem::new(
+                &[name],
+                format!("impact_test `{name}` = {v} is out of range [{lo}, {hi}]"),
+                format!("give `{name}` a value in [{lo}, {hi}]"),
+            ))
+        })
+        .collect()
 }
 
 impl ImpactSpec {

@@ -71,7 +71,7 @@ fn doc(k: &dyn Stage) -> KindDoc {
 }
 
 /// The human listing of one kind.
-pub fn text(k: &KindDoc) -> String {
+fn text(k: &KindDoc) -> String {
     let mut out = format!("{} (version {}): {}\n", k.kind, k.version, k.summary);
     for p in &k.params {
         let mut tags = vec![p.ty.clone()];

@@ -15,9 +15,9 @@ use std::path::PathBuf;
 pub struct Args {
     /// The pipeline file.
     file: PathBuf,
-    /// Stages run at once (default: number of cores).
+    /// Stages run at once, at least 1 (default: number of cores).
     #[arg(long, short)]
-    jobs: Option<usize>,
+    jobs: Option<std::num::NonZeroUsize>,
     /// After a failure, still run the stages that do not depend on it.
     #[arg(long)]
     keep_going: bool,
@@ -104,7 +104,7 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
     };
     let jobs = match (args.jobs, executor) {
         (None, ExecutorKind::Slurm) => Some(SLURM_JOBS),
-        (jobs, _) => jobs,
+        (jobs, _) => jobs.map(std::num::NonZeroUsize::get),
     };
     let mut opts = options(&args.locations, jobs, args.keep_going, args.force, progress);
     opts.executor = Some(executor);

@@ -31,6 +31,7 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
         }
     }
     for (i, node) in nodes.iter_mut().enumerate() {
+        let before = cx.diags.len();
         let mut files = Vec::new();
         for f in node.kind.files(&node.parsed) {
             // `deps[1]` is at `params.deps.1` in the file.
@@ -69,7 +70,8 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
                 producer,
             });
         }
-        if cx.diags.is_empty() {
+        // Look into the files once they all exist and the params are good.
+        if node.parsed.is_valid() && cx.diags.len() == before {
             match node.kind.file_dependencies(&node.parsed, dir) {
                 Ok(extra) => files.extend(extra.into_iter().map(|path| FileParam {
                     param: "(referenced)".into(),

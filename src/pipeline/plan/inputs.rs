@@ -95,7 +95,12 @@ pub(super) fn resolve_inputs(cx: &mut Ctx, spec: &PipelineSpec, nodes: &mut [Nod
             });
         }
         let bound: Vec<&str> = st.inputs.keys().map(String::as_str).collect();
-        for p in node.kind.check_inputs(&node.parsed, &bound) {
+        let own = if node.parsed.is_valid() {
+            node.kind.check_inputs(&node.parsed, &bound)
+        } else {
+            Vec::new()
+        };
+        for p in own {
             let loc = cx
                 .spans
                 .key(&["stages", &node.base, "inputs"])
@@ -188,6 +193,11 @@ fn resolve_ref(
     };
     let mut out = Vec::new();
     for i in chosen {
+        // Bad params may hide outputs they would declare (a command's
+        // `outs`); those were reported already.
+        if !nodes[i].parsed.is_valid() && !nodes[i].has_output(&r.output) {
+            continue;
+        }
         if !nodes[i].has_output(&r.output) {
             return Err((
                 format!("stage `{}` has no output `{}`", nodes[i].name, r.output),

@@ -19,7 +19,7 @@ use super::matrix::{self, Combination};
 use super::span::SpanIndex;
 use super::spec::{PipelineSpec, StageSpec};
 use crate::stages::{self, Output, Parsed, Stage};
-use serde_yaml_ng::{Mapping, Value};
+use serde_yaml_ng::Mapping;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
@@ -107,8 +107,8 @@ pub(super) struct Ctx<'a> {
     pub(super) source: &'a str,
     pub(super) spans: SpanIndex,
     pub(super) diags: Vec<Diagnostic>,
-    /// Stage entries with problems of their own (unknown kind, bad params):
-    /// references to them are not reported again.
+    /// Stage entries that made no nodes (unknown kind, bad matrix, bad
+    /// matrix reference): references to them are not reported again.
     pub(super) invalid: BTreeSet<String>,
 }
 
@@ -243,7 +243,9 @@ fn check_shards(cx: &mut Ctx, spec: &ExecutorSpec, nodes: &[Node]) {
             continue;
         }
         let mut of_kind = nodes.iter().filter(|n| n.kind.kind() == kind).peekable();
-        if of_kind.peek().is_none() || of_kind.any(|n| n.kind.shardable(&n.parsed)) {
+        if of_kind.peek().is_none()
+            || of_kind.any(|n| !n.parsed.is_valid() || n.kind.shardable(&n.parsed))
+        {
             continue;
         }
         let loc = cx.spans.nearest(&["executor", "kinds", kind, "shards"]);
@@ -406,9 +408,18 @@ fn expand_one(
             return None;
         }
     };
-    let parsed = parse_params(cx, base, base, kind, &params)?;
+    // A stage whose params are bad still takes part in the checks of
+    // references and inputs, so one round reports every problem.
+    let parsed = parse_params(cx, base, base, kind, &params).unwrap_or_else(Parsed::invalid);
     let seed = kind.seed(&parsed).unwrap_or(spec.seed);
-    let outputs = kind.outputs(&parsed);
+    let outputs = if parsed.is_valid() {
+        kind.outputs(&parsed)
+    } else {
+        kind.all_outputs()
+            .iter()
+            .map(|(n, a)| Output::new(*n, *a))
+            .collect()
+    };
     let workspace_outputs = kind
         .workspace_outputs(&parsed)
         .iter()

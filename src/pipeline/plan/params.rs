@@ -3,6 +3,7 @@
 
 use super::Ctx;
 use crate::pipeline::matrix;
+use crate::stages::params::Class;
 use crate::stages::{ParamProblem, Parsed, Stage};
 use serde_yaml_ng::{Mapping, Value};
 
@@ -49,25 +50,34 @@ pub(super) fn parse_params(
     }
 }
 
-/// Report one param problem of stage `name` (entry `base`) at its place.
+/// Report one param problem of stage `name` (entry `base`) at its place,
+/// worded with the stage and kind names the kind itself does not know.
 pub(super) fn report(cx: &mut Ctx, base: &str, name: &str, kind: &dyn Stage, p: ParamProblem) {
     let mut path = vec!["stages", base, "params"];
     path.extend(p.path.iter().map(String::as_str));
-    let loc = match p.path.len() {
-        // A missing param: point at the stage.
-        0 => cx
-            .spans
-            .key(&["stages", base, "params"])
-            .or_else(|| cx.spans.key(&["stages", base])),
-        // An unknown key: point at the key itself.
-        1 if p.message.starts_with("unknown param") => cx.spans.key(&path),
-        _ => cx.spans.nearest(&path),
+    let kind = kind.kind();
+    let param = p.path.join(".");
+    let (loc, message) = match p.class {
+        // Point at the stage: the param is not there.
+        Class::Missing => (
+            cx.spans.key(&["stages", base]),
+            format!("stage `{name}` (kind `{kind}`) needs param `{param}`"),
+        ),
+        // Point at the key itself.
+        Class::Unknown => (
+            cx.spans.key(&path).or_else(|| cx.spans.nearest(&path)),
+            format!("unknown param `{param}` for stage `{name}` (kind `{kind}`)"),
+        ),
+        Class::Invalid => (
+            cx.spans.nearest(&path),
+            format!("param `{param}` of stage `{name}` {}", p.message),
+        ),
+        Class::Check => (
+            cx.spans.nearest(&path),
+            format!("stage `{name}`: {}", p.message),
+        ),
     };
-    cx.at(
-        loc,
-        format!("stage `{name}` (kind `{}`): {}", kind.kind(), p.message),
-        p.help,
-    );
+    cx.at(loc, message, p.help);
 }
 
 fn non_finite(v: &Value, path: &mut Vec<String>) -> Option<Vec<String>> {

@@ -26,7 +26,7 @@ pub use schema::{
 
 use super::artifacts::{read_frf, read_modes};
 use super::{
-    Artifact, InputSpec, Kind, Output, ParamProblem, Range, StageContext, StageError,
+    Artifact, InputSpec, Kind, ParamProblem, Range, StageContext, StageError,
     StageOutputs,
 };
 use crate::pairing::Pairing;

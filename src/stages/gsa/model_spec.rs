@@ -154,6 +154,7 @@ fn parameter(name: &str, p: &ParameterParam) -> Result<Parameter, ParamProblem> 
         path: at_str(field),
         message,
         help: Some(help.into()),
+        class: crate::stages::params::Class::Check,
     };
     for (field, v) in [("lower", Some(p.lower)), ("upper", Some(p.upper)), ("nominal", p.nominal)] {
         if v.is_some_and(|x| !x.is_finite()) {
@@ -181,17 +182,28 @@ fn parameter(name: &str, p: &ParameterParam) -> Result<Parameter, ParamProblem> 
 /// Params that only a model file takes.
 pub const FILE_ONLY: &[&str] = &["window", "modes", "bands", "band_step"];
 
+/// Most FRF bands: each is two outputs (FRAC, CSF) per position, every one
+/// analyzed with bootstrap resamples.
+pub const MAX_BANDS: usize = 1000;
+
 /// The equal-width or listed bands of `bands` (Hz), checked.
 fn bands(p: &Params) -> Result<Vec<(f64, f64)>, ParamProblem> {
     const HELP: &str = "bands: [[10, 50], [50, 120]] or bands: {min: 0, max: 500, count: 10} (Hz)";
     let bands: Vec<(f64, f64)> = match &p.bands {
         None => return Ok(Vec::new()),
+        Some(super::spec::Bands::List(list)) if list.is_empty() || list.len() > MAX_BANDS => {
+            return Err(problem(
+                &["bands"],
+                format!("give 1 to {MAX_BANDS} bands, not {}", list.len()),
+                HELP,
+            ))
+        }
         Some(super::spec::Bands::List(list)) => list.clone(),
         Some(super::spec::Bands::Even { min, max, count }) => {
-            if *count < 1 || *count > 1000 {
+            if *count < 1 || *count > MAX_BANDS {
                 return Err(problem(
                     &["bands", "count"],
-                    "`count` must be a whole number of bands in 1..=1000",
+                    format!("`count` must be a whole number of bands in 1..={MAX_BANDS}"),
                     HELP,
                 ));
             }

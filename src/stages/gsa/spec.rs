@@ -102,7 +102,8 @@ crate::params! {
         pub weights: BTreeMap<String, f64> = BTreeMap::new(); range Range::at_least(0.0)
             => "weights must be >= 0", "use 0 to ignore an output",
         /// sobol: total-index threshold for significant parameters
-        pub threshold: f64 = 0.05; range Range::closed(0.0, 1.0),
+        pub threshold: f64 = 0.05; range Range::open(0.0, 1.0)
+            => "`threshold` must lie strictly between 0 and 1", "e.g. threshold: 0.05 (a total index)",
         /// sobol: how total indices combine over outputs for the split: mean
         /// (weighted mean, PUB2) or max (significant for any output)
         pub combine: CombineName = CombineName::Mean,

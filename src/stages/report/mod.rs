@@ -18,7 +18,7 @@ mod screening;
 mod tables;
 mod verdicts;
 
-use super::{Artifact, InputSpec, Kind, Output, StageContext, StageError, StageOutputs};
+use super::{Artifact, InputSpec, Kind, StageContext, StageError, StageOutputs};
 use crate::report::document::Document;
 use crate::stages::evaluate::Metrics;
 use crate::stages::identify::cost::Cost;
