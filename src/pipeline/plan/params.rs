@@ -15,11 +15,12 @@ pub(super) fn parse_params(
     kind: &dyn Stage,
     params: &Mapping,
 ) -> Option<Parsed> {
-    let mut finite = true;
+    // Params holding NaN or infinity (nothing can hash them) are reported
+    // here; the kind's problems with them would only repeat it.
+    let mut non_finite_keys = Vec::new();
     for (k, v) in params {
         let key = matrix::scalar_text(k).unwrap_or_default();
-        if let Some(bad) = non_finite(v, &mut vec![key]) {
-            finite = false;
+        if let Some(bad) = non_finite(v, &mut vec![key.clone()]) {
             let mut path = vec!["stages", base, "params"];
             path.extend(bad.iter().map(String::as_str));
             let loc = cx.spans.nearest(&path);
@@ -34,20 +35,23 @@ pub(super) fn parse_params(
                         .into(),
                 ),
             );
+            non_finite_keys.push(key);
         }
     }
-    if !finite {
-        return None;
-    }
-    match kind.parse(params) {
-        Ok(p) => Some(p),
-        Err(problems) => {
-            for p in problems {
-                report(cx, base, name, kind, p);
-            }
-            None
+    let parsed = kind.parse(params);
+    let problems = match parsed {
+        Ok(p) if non_finite_keys.is_empty() => return Some(p),
+        Ok(_) => Vec::new(),
+        Err(problems) => problems,
+    };
+    for p in problems {
+        let repeats = p.class != Class::Unknown
+            && p.path.first().is_some_and(|k| non_finite_keys.contains(k));
+        if !repeats {
+            report(cx, base, name, kind, p);
         }
     }
+    None
 }
 
 /// Report one param problem of stage `name` (entry `base`) at its place,
