@@ -320,13 +320,15 @@ pub fn value<T: serde::de::DeserializeOwned + TypeName>(
                 path.push(field.to_string());
             }
         }
-        let message = match text.strip_prefix("invalid type: ") {
-            // A wrong type of the whole param: say what it must be.
-            Some(found) if path.len() == 1 => {
-                let found = found.split(", expected").next().unwrap_or(found);
-                format!("must be {} (found {found})", with_article(&T::type_name()))
-            }
-            _ => format!("is invalid: {text}"),
+        // A wrong type or name of the whole param: say what it must be.
+        let found = text
+            .strip_prefix("invalid type: ")
+            .or_else(|| text.strip_prefix("unknown variant "))
+            .filter(|_| path.len() == 1)
+            .map(|f| f.split(", expected").next().unwrap_or(f));
+        let message = match found {
+            Some(found) => format!("must be {} (found {found})", with_article(&T::type_name())),
+            None => format!("is invalid: {text}"),
         };
         ParamProblem {
             path,
@@ -641,6 +643,7 @@ mod tests {
         assert_eq!(f[1].default.as_deref(), Some("40"));
         assert_eq!(f[1].range.as_deref(), Some("[1, 100]"));
         assert_eq!(f[2].ty, "one of: fast, slow");
+        assert_eq!(Mode::Slow.as_str(), "slow");
         assert_eq!(f[2].default.as_deref(), Some("fast"));
         assert_eq!(f[3].range.as_deref(), Some("> 0"));
         assert!(!f[3].required && f[3].default.is_none());

@@ -12,7 +12,7 @@ pub struct Args {
     kind: Option<String>,
     /// Print one JSON object on stdout.
     #[arg(long)]
-    json: bool,
+    pub json: bool,
 }
 
 /// One kind in `--json` output.

@@ -15,6 +15,9 @@ use std::path::PathBuf;
 pub struct Args {
     /// The pipeline file.
     file: PathBuf,
+    /// Run only these stages and what they need (a matrix stage by its base
+    /// name for all expansions, or one expansion, e.g. `ema[measurement=noisy]`).
+    stages: Vec<String>,
     /// Stages run at once, at least 1 (default: number of cores).
     #[arg(long, short)]
     jobs: Option<std::num::NonZeroUsize>,
@@ -29,7 +32,7 @@ pub struct Args {
     dry_run: bool,
     /// Print one JSON object on stdout instead of a summary.
     #[arg(long)]
-    json: bool,
+    pub json: bool,
     /// Progress display on stderr.
     #[arg(long, value_enum, default_value_t = Progress::Auto)]
     progress: Progress,
@@ -68,6 +71,7 @@ pub fn options(
     progress: ProgressMode,
 ) -> RunOptions {
     RunOptions {
+        targets: Vec::new(),
         jobs: jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get())),
         keep_going,
         force,
@@ -108,6 +112,7 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
     };
     let mut opts = options(&args.locations, jobs, args.keep_going, args.force, progress);
     opts.executor = Some(executor);
+    opts.targets = args.stages;
     let report = if args.dry_run {
         run::status(&plan, &opts)?
     } else {
