@@ -103,8 +103,21 @@ fn main() {
         "family,seed,mean_mac,median_error,identifiable,evaluations,verdict_ok,success\n",
     );
     for f in &FAMILIES {
-        let scores: Vec<(u32, Score)> = (1..=f.seeds)
-            .map(|s| {
+        // With `--score`, seeds whose identification has not run yet are
+        // left out (and counted in the heading).
+        let seeds: Vec<u32> = (1..=f.seeds)
+            .filter(|&s| results.join((f.identify)(s)).join("cost.json").exists())
+            .collect();
+        if seeds.is_empty() {
+            let _ = writeln!(md, "## {}
+
+not run yet.
+", f.name);
+            continue;
+        }
+        let scores: Vec<(u32, Score)> = seeds
+            .iter()
+            .map(|&s| {
                 let truth = results.join((f.truth)(s));
                 (
                     s,
@@ -112,8 +125,9 @@ fn main() {
                 )
             })
             .collect();
-        let starts: Vec<Score> = (1..=f.seeds)
-            .map(|s| {
+        let starts: Vec<Score> = seeds
+            .iter()
+            .map(|&s| {
                 let truth = results.join((f.truth)(s));
                 let id = results.join((f.identify)(s));
                 score_start(&truth, &results.join("nominal/modes"), &id, &significant)

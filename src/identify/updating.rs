@@ -168,9 +168,11 @@ pub fn update(
                 )
             }
         };
-    let (assessment, pairs, verdict_inputs) = assess(o, &start, &x, &identified, plan, progress)?;
+    let (assessment, pairs, mut verdict_inputs) =
+        assess(o, &start, &x, &identified, plan, progress)?;
     let mut warnings = bound_warnings(o, &x, &identified);
     if let Some(run) = guided_result.as_ref().and_then(|g| g.refinement.first()) {
+        verdict_inputs.2.outliers = run.outliers.len();
         warnings.extend(run.outliers.iter().map(|f| {
             format!(
                 "reference mode {} at position {} ({:.2} Hz) down-weighted as an outlier: residual {:.1}σ RMS against a median of {:.1}σ",

@@ -3,8 +3,9 @@
 //! uncertainty. Written to cost.json and shown by `evaluate`, `report` and
 //! `compare`, so a failed run never passes as a plausible result.
 //!
-//! - `status`: how the optimizer ended — `converged` (its tolerance met),
-//!   `stalled` (no progress, iteration limit or a failure), or
+//! - `status`: how the optimizer ended — `converged` (its tolerance met, or
+//!   no more progress with the fit within the noise), `stalled` (no
+//!   progress above the noise, iteration limit or a failure), or
 //!   `budget_exhausted` (stopped by `budget` before converging).
 //! - `fit`: the weighted residual at the result (each residual divided by
 //!   its standard deviation, [`super::Uncertainty`]) as an RMS in σ units.
@@ -66,6 +67,10 @@ pub struct ModeCounts {
     pub unpaired: usize,
     /// Paired, but another assignment is nearly as good.
     pub ambiguous: usize,
+    /// Down-weighted as outliers: the model does not reproduce them (a
+    /// spurious or wrongly paired reference mode, or a local minimum).
+    #[serde(default)]
+    pub outliers: usize,
 }
 
 /// A number that JSON may hold as null (serde_json writes NaN and ±∞ so).
@@ -112,10 +117,20 @@ impl Verdict {
         } else {
             Fit::AboveNoise
         };
+        // An optimizer that stops making progress with the fit within the
+        // noise has reached the noise floor: that is convergence.
+        let status = if status == Status::Stalled && fit == Fit::WithinNoise {
+            Status::Converged
+        } else {
+            status
+        };
         // NaN (a model that cannot be solved) counts as worse.
         let worse = end_rms.partial_cmp(&start_rms).is_none_or(|o| o.is_gt());
-        let ok =
-            status == Status::Converged && fit == Fit::WithinNoise && !worse && modes.unpaired == 0;
+        // Within the noise means the robust (Huber) residual; modes it
+        // down-weighted or could not pair are not reproduced, so they keep
+        // the verdict from being ok and are named in the message.
+        let lost = modes.unpaired + modes.outliers;
+        let ok = status == Status::Converged && fit == Fit::WithinNoise && !worse && lost == 0;
         let mut parts = vec![match status {
             Status::Converged => "converged".to_string(),
             Status::Stalled => "stalled before converging".to_string(),
@@ -131,6 +146,12 @@ impl Verdict {
         });
         if worse {
             parts.push("the result fits WORSE than the start".into());
+        }
+        if lost > 0 {
+            parts.push(format!(
+                "but {lost} of {} used reference modes are not reproduced ({} without a model partner, {} outliers): spurious or wrongly paired modes, or a local minimum",
+                modes.used, modes.unpaired, modes.outliers
+            ));
         }
         if modes.unpaired > 0 {
             warnings.push(format!(
@@ -177,6 +198,7 @@ mod tests {
             excluded: 1,
             unpaired: 0,
             ambiguous: 0,
+            outliers: 0,
         }
     }
 
@@ -188,7 +210,10 @@ mod tests {
         let above = Verdict::judge(Status::Converged, 40.0, 7.5, counts(), 20, 20, vec![]);
         assert!(!above.ok && above.fit == Fit::AboveNoise);
         assert!(above.message.contains("7.5σ"), "{}", above.message);
+        let floor = Verdict::judge(Status::Stalled, 9.0, 0.5, counts(), 20, 20, vec![]);
+        assert_eq!(floor.status, Status::Converged);
         let worse = Verdict::judge(Status::Stalled, 3.0, 4.0, counts(), 20, 20, vec![]);
+        assert_eq!(worse.status, Status::Stalled);
         assert!(!worse.ok && worse.worse_than_start);
         assert!(worse.message.contains("WORSE"), "{}", worse.message);
         let budget = Verdict::judge(Status::BudgetExhausted, 9.0, 1.0, counts(), 5, 5, vec![]);
@@ -198,6 +223,12 @@ mod tests {
             ..counts()
         };
         assert!(!Verdict::judge(Status::Converged, 9.0, 1.0, lost, 5, 5, vec![]).ok);
+        let outlier = ModeCounts {
+            outliers: 1,
+            ..counts()
+        };
+        let v = Verdict::judge(Status::Converged, 9.0, 1.0, outlier, 5, 5, vec![]);
+        assert!(!v.ok && v.message.contains("1 outliers"), "{}", v.message);
         // NaN residuals (model unsolvable) are never within the noise.
         let nan = Verdict::judge(Status::Converged, 9.0, f64::NAN, counts(), 5, 5, vec![]);
         assert!(!nan.ok && nan.worse_than_start);

@@ -70,7 +70,7 @@ impl Kind for Identify {
     const NAME: &'static str = "identify";
 
     fn version(&self) -> u32 {
-        4
+        5
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
