@@ -72,6 +72,11 @@ pub(super) fn report(cx: &mut Ctx, base: &str, name: &str, kind: &dyn Stage, p: 
             cx.spans.key(&path).or_else(|| cx.spans.nearest(&path)),
             format!("unknown param `{param}` for stage `{name}` (kind `{kind}`)"),
         ),
+        // A nested unknown key: point at the key; a bad value: at the value.
+        Class::Invalid if p.message.contains("unknown field") => (
+            cx.spans.key(&path).or_else(|| cx.spans.nearest(&path)),
+            format!("param `{param}` of stage `{name}` {}", p.message),
+        ),
         Class::Invalid => (
             cx.spans.nearest(&path),
             format!("param `{param}` of stage `{name}` {}", p.message),
