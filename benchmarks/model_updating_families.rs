@@ -109,10 +109,14 @@ fn main() {
             .filter(|&s| results.join((f.identify)(s)).join("cost.json").exists())
             .collect();
         if seeds.is_empty() {
-            let _ = writeln!(md, "## {}
+            let _ = writeln!(
+                md,
+                "## {}
 
 not run yet.
-", f.name);
+",
+                f.name
+            );
             continue;
         }
         let scores: Vec<(u32, Score)> = seeds

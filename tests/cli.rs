@@ -38,10 +38,22 @@ mod json_problems {
             let problems = v["problems"].as_array().unwrap();
             assert_eq!(problems.len(), 2, "{v}");
             assert_eq!(problems[0]["file"], "p.yaml");
-            assert_eq!((problems[0]["line"].as_u64(), problems[0]["column"].as_u64()), (Some(5), Some(27)));
-            assert!(problems[0]["message"].as_str().unwrap().contains("unknown param `out`"));
-            assert!(problems[0]["help"].as_str().unwrap().contains("did you mean `outs`?"));
-            assert!(problems[1]["message"].as_str().unwrap().contains("unknown stage kind `comand`"));
+            assert_eq!(
+                (problems[0]["line"].as_u64(), problems[0]["column"].as_u64()),
+                (Some(5), Some(27))
+            );
+            assert!(problems[0]["message"]
+                .as_str()
+                .unwrap()
+                .contains("unknown param `out`"));
+            assert!(problems[0]["help"]
+                .as_str()
+                .unwrap()
+                .contains("did you mean `outs`?"));
+            assert!(problems[1]["message"]
+                .as_str()
+                .unwrap()
+                .contains("unknown stage kind `comand`"));
             // The human text still goes to stderr.
             assert!(util::text(&out.stderr).starts_with("modalflow: 2 problems"));
         }
@@ -73,9 +85,19 @@ mod exit_codes_and_flags {
     #[test]
     fn validate_takes_the_common_location_flags() {
         let ws = diamond();
-        let out = ws.cmd(&["validate", "p.yaml", "--cache", "elsewhere", "--results", "out"]);
+        let out = ws.cmd(&[
+            "validate",
+            "p.yaml",
+            "--cache",
+            "elsewhere",
+            "--results",
+            "out",
+        ]);
         assert_eq!(out.status.code(), Some(0), "{}", util::text(&out.stderr));
-        assert!(!ws.path().join("elsewhere").exists(), "validate writes no cache");
+        assert!(
+            !ws.path().join("elsewhere").exists(),
+            "validate writes no cache"
+        );
     }
 }
 
@@ -94,7 +116,14 @@ mod run_targets {
         let r = ws.run(&["left"], 0);
         assert_eq!(ran(&r), ["gen", "up", "left"]);
         assert!(r.all("ran"));
-        for (stage, n) in [("gen", 1), ("up", 1), ("left", 1), ("right", 0), ("join", 0), ("solo", 0)] {
+        for (stage, n) in [
+            ("gen", 1),
+            ("up", 1),
+            ("left", 1),
+            ("right", 0),
+            ("join", 0),
+            ("solo", 0),
+        ] {
             assert_eq!(ws.executions(stage), n, "{stage}");
         }
         let r = ws.run(&[], 0);

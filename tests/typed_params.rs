@@ -156,7 +156,10 @@ mod ranges {
 
     #[test]
     fn bootstrap_at_least_one_or_absent() {
-        rejected(&ishigami(", bootstrap: 0"), "`bootstrap` = 0 is out of range");
+        rejected(
+            &ishigami(", bootstrap: 0"),
+            "`bootstrap` = 0 is out of range",
+        );
         accepted(&ishigami(", bootstrap: 1"));
         accepted(&ishigami(""));
     }
@@ -170,7 +173,10 @@ mod ranges {
             );
         }
         accepted(&ishigami(", threshold: 0.5"));
-        rejected(&ishigami(", confidence: 1"), "`confidence` must lie strictly");
+        rejected(
+            &ishigami(", confidence: 1"),
+            "`confidence` must lie strictly",
+        );
     }
 
     #[test]
@@ -319,7 +325,10 @@ mod kinds_listing {
             .collect();
         assert!(outputs.contains(&("modes", "modes")), "{outputs:?}");
         let frf = &ema["inputs"].as_array().unwrap()[0];
-        assert_eq!((frf["name"].as_str(), frf["artifact"].as_str()), (Some("frf"), Some("frf")));
+        assert_eq!(
+            (frf["name"].as_str(), frf["artifact"].as_str()),
+            (Some("frf"), Some("frf"))
+        );
     }
 
     #[test]
@@ -327,7 +336,10 @@ mod kinds_listing {
         let ws = Workspace::new();
         let out = ws.cmd(&["kinds", "gsa"]);
         let text = util::text(&out.stdout);
-        assert!(text.contains("samples (integer; default 1024; range [2,"), "{text}");
+        assert!(
+            text.contains("samples (integer; default 1024; range [2,"),
+            "{text}"
+        );
         assert!(text.contains("output significant (significant)"), "{text}");
         let out = ws.cmd(&["kinds", "nosuch"]);
         assert_eq!(out.status.code(), Some(2));

@@ -19,7 +19,9 @@ pub struct Invalid(pub String);
 
 pub fn for_error(e: &anyhow::Error) -> u8 {
     let run_invalid = e.downcast_ref::<RunError>().is_some_and(RunError::is_usage);
-    if e.downcast_ref::<PlanError>().is_some() || e.downcast_ref::<Invalid>().is_some() || run_invalid
+    if e.downcast_ref::<PlanError>().is_some()
+        || e.downcast_ref::<Invalid>().is_some()
+        || run_invalid
     {
         INVALID
     } else {

@@ -155,7 +155,13 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     // wanted depends on them (the wanted set is closed upstream).
     let mut state: Vec<State> = wanted
         .iter()
-        .map(|&w| if w { State::Pending } else { State::Finished(None) })
+        .map(|&w| {
+            if w {
+                State::Pending
+            } else {
+                State::Finished(None)
+            }
+        })
         .collect();
     let mut reports: Vec<Option<StageReport>> = vec![None; n];
     let mut updates: Vec<(String, StageProvenance)> = Vec::new();

@@ -111,7 +111,13 @@ impl Kind for Gsa {
         let names: &[&str] = match p.method {
             Method::Anova if p.data.is_some() => &["anova"],
             Method::Anova => &["anova", "runs", "heatmap"],
-            Method::Sobol => &["indices", "ranking", "significant", "subproblems", "heatmap"],
+            Method::Sobol => &[
+                "indices",
+                "ranking",
+                "significant",
+                "subproblems",
+                "heatmap",
+            ],
         };
         let mut names = names.to_vec();
         if p.method == Method::Sobol && p.second_order {

@@ -10,8 +10,7 @@
 //! their FRFs.
 
 use super::{
-    Artifact, FileRef, InputSpec, Kind, ParamProblem, Range, StageContext, StageError,
-    StageOutputs,
+    Artifact, FileRef, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
 };
 use crate::frf::{FrfSet, Position};
 use crate::io::{self, DofPattern, FrfImportOptions, Selection};
@@ -157,7 +156,12 @@ impl Kind for Import {
 
     fn run(&self, params: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
         let sel = selection(params).map_err(|p| {
-            StageError::Failed(p.into_iter().map(|p| p.message).collect::<Vec<_>>().join("; "))
+            StageError::Failed(
+                p.into_iter()
+                    .map(|p| p.message)
+                    .collect::<Vec<_>>()
+                    .join("; "),
+            )
         })?;
         let files = super::expand_glob(ctx.pipeline_dir, &params.path).map_err(|message| {
             StageError::InvalidParam {
@@ -166,8 +170,7 @@ impl Kind for Import {
             }
         })?;
         let mode = params.positions;
-        let per_file =
-            mode == Positions::File || (mode == Positions::Auto && files.len() > 1);
+        let per_file = mode == Positions::File || (mode == Positions::Auto && files.len() > 1);
         ctx.progress.set_length(files.len() as u64);
         let mut sets: Vec<FrfSet> = Vec::new();
         let mut warnings = Vec::new();

@@ -625,12 +625,16 @@ mod tests {
         let messages: Vec<&str> = problems.iter().map(|p| p.message.as_str()).collect();
         assert_eq!(problems.len(), 5, "{messages:?}");
         assert!(messages.iter().any(|m| m.contains("unknown param `levle`")));
-        assert!(problems
-            .iter()
-            .any(|p| p.help.as_deref().unwrap_or("").contains("did you mean `level`")));
+        assert!(problems.iter().any(|p| p
+            .help
+            .as_deref()
+            .unwrap_or("")
+            .contains("did you mean `level`")));
         assert!(messages.iter().any(|m| m.contains("missing param `model`")));
         assert!(messages.iter().any(|m| m.contains("`iterations` = 0")));
-        assert!(problems.iter().any(|p| p.path == ["mode"] && p.class == Class::Invalid));
+        assert!(problems
+            .iter()
+            .any(|p| p.path == ["mode"] && p.class == Class::Invalid));
         assert!(messages.iter().any(|m| m.contains("`level` = -1")));
     }
 

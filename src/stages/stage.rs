@@ -91,10 +91,7 @@ impl Artifact {
             || of == Any
             || *self == of
             || (*self == Table
-                && matches!(
-                    of,
-                    Parameters | Significant | Correlation | History | Table
-                ))
+                && matches!(of, Parameters | Significant | Correlation | History | Table))
             || (*self == Json
                 && matches!(
                     of,
@@ -483,9 +480,10 @@ impl<K: Kind> Stage for K {
         }
     }
     fn check_inputs(&self, p: &Parsed, bound: &[&str]) -> Vec<ParamProblem> {
-        typed::<K>(p).map_or_else(|| vec![mismatch::<K>()], |p| {
-            Kind::check_inputs(self, p, bound)
-        })
+        typed::<K>(p).map_or_else(
+            || vec![mismatch::<K>()],
+            |p| Kind::check_inputs(self, p, bound),
+        )
     }
     fn workspace_outputs(&self, p: &Parsed) -> Vec<String> {
         typed::<K>(p).map_or_else(Vec::new, |p| Kind::workspace_outputs(self, p))

@@ -13,8 +13,7 @@ use super::artifacts;
 use super::synthesize_params::{self as sp, Modes, Params, PositionRef};
 use super::synthesize_values::{override_from_table, significant_parameters, values};
 use super::{
-    Artifact, FileRef, InputSpec, Kind, ParamProblem, StageContext, StageError,
-    StageOutputs,
+    Artifact, FileRef, InputSpec, Kind, ParamProblem, StageContext, StageError, StageOutputs,
 };
 use crate::dynamics::measurement;
 use crate::dynamics::model_file::{self, ParameterKind, Scale};
@@ -86,7 +85,9 @@ fn positions(prepared: &PreparedModel, sel: Option<&[PositionRef]>) -> Result<Ve
                     PositionRef::Label(s) => format!("`{s}`"),
                 };
                 if labels.len() == 1 && labels[0].is_empty() {
-                    format!("no position {v}: the model has no axes, so one unnamed position (index 0)")
+                    format!(
+                        "no position {v}: the model has no axes, so one unnamed position (index 0)"
+                    )
                 } else {
                     format!("no position {v} (positions: {})", labels.join(", "))
                 }
@@ -220,7 +221,8 @@ impl Kind for Synthesize {
         if ctx.inputs.contains_key("values") {
             override_from_table(&model, &mut x, ctx.input("values")?)?;
         }
-        ctx.progress.set_message("preparing model (reductions)".into());
+        ctx.progress
+            .set_message("preparing model (reductions)".into());
         let prepared = PreparedModel::new(&model).map_err(|e| invalid("model", e.to_string()))?;
         let configs =
             positions(&prepared, p.positions.as_deref()).map_err(|m| invalid("positions", m))?;

@@ -84,7 +84,12 @@ fn text(k: &KindDoc) -> String {
         if let Some(r) = &p.range {
             tags.push(format!("range {r}"));
         }
-        out.push_str(&format!("    {} ({}) — {}\n", p.name, tags.join("; "), p.doc));
+        out.push_str(&format!(
+            "    {} ({}) — {}\n",
+            p.name,
+            tags.join("; "),
+            p.doc
+        ));
     }
     match &k.inputs {
         Some(ins) => {

@@ -90,7 +90,10 @@ fn heartbeat() -> std::time::Duration {
         .ok()
         .and_then(|s| s.parse::<f64>().ok())
         .filter(|s| *s > 0.0 && s.is_finite())
-        .map_or(modalflow::pipeline::progress::HEARTBEAT, std::time::Duration::from_secs_f64)
+        .map_or(
+            modalflow::pipeline::progress::HEARTBEAT,
+            std::time::Duration::from_secs_f64,
+        )
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {

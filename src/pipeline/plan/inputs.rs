@@ -3,8 +3,8 @@
 
 use super::{Binding, Ctx, Node};
 use crate::pipeline::diagnostic::closest;
-use crate::pipeline::matrix;
 use crate::pipeline::diagnostic::Location;
+use crate::pipeline::matrix;
 use crate::pipeline::spec::{InputRef, InputValue, PipelineSpec, Selector};
 use crate::stages::Artifact;
 use serde_yaml_ng::Value;

@@ -26,8 +26,7 @@ pub use schema::{
 
 use super::artifacts::{read_frf, read_modes};
 use super::{
-    Artifact, InputSpec, Kind, ParamProblem, Range, StageContext, StageError,
-    StageOutputs,
+    Artifact, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
 };
 use crate::pairing::Pairing;
 use crate::stages::identify::cost::Cost;

@@ -127,10 +127,7 @@ fn run_modes(
         message,
     };
     // Matrix values of every run, keys in the order of the first run.
-    let runs: Vec<Vec<(String, String)>> = sources
-        .iter()
-        .map(|s| s.matrix_text())
-        .collect();
+    let runs: Vec<Vec<(String, String)>> = sources.iter().map(|s| s.matrix_text()).collect();
     let keys: Vec<String> = runs
         .first()
         .map(|r| r.iter().map(|(k, _)| k.clone()).collect())

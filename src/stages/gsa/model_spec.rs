@@ -73,7 +73,10 @@ impl<'de> Deserialize<'de> for ModelParam {
             fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<ModelParam, E> {
                 Ok(ModelParam::File(v.to_string()))
             }
-            fn visit_map<A: serde::de::MapAccess<'de>>(self, map: A) -> Result<ModelParam, A::Error> {
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<ModelParam, A::Error> {
                 ModelTable::deserialize(serde::de::value::MapAccessDeserializer::new(map))
                     .map(ModelParam::Table)
             }
@@ -156,7 +159,11 @@ fn parameter(name: &str, p: &ParameterParam) -> Result<Parameter, ParamProblem> 
         help: Some(help.into()),
         class: crate::stages::params::Class::Check,
     };
-    for (field, v) in [("lower", Some(p.lower)), ("upper", Some(p.upper)), ("nominal", p.nominal)] {
+    for (field, v) in [
+        ("lower", Some(p.lower)),
+        ("upper", Some(p.upper)),
+        ("nominal", p.nominal),
+    ] {
         if v.is_some_and(|x| !x.is_finite()) {
             return Err(located(
                 field,

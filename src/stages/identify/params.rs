@@ -55,12 +55,9 @@ impl<T> Given<T> {
 impl<'de, T: serde::de::DeserializeOwned> Deserialize<'de> for Given<T> {
     fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let map = Mapping::deserialize(d)?;
-        let keys = map
-            .keys()
-            .map(crate::stages::params::key_text)
-            .collect();
-        let value = serde_yaml_ng::from_value(Value::Mapping(map))
-            .map_err(serde::de::Error::custom)?;
+        let keys = map.keys().map(crate::stages::params::key_text).collect();
+        let value =
+            serde_yaml_ng::from_value(Value::Mapping(map)).map_err(serde::de::Error::custom)?;
         Ok(Given { value, keys })
     }
 }
@@ -235,7 +232,11 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
         settings.repeats = r;
     }
     if let Err(m) = settings.check() {
-        out.push(problem(&["guided"], m, "see the guided settings in the README"));
+        out.push(problem(
+            &["guided"],
+            m,
+            "see the guided settings in the README",
+        ));
     }
     let w = p.weights;
     for (k, x) in [("mac", w.mac), ("nfd", w.nfd), ("ndd", w.ndd)] {
