@@ -133,11 +133,11 @@ crate::params! {
         /// {starts: 4} for slsqp)
         pub optimizer_settings: Option<Mapping> = None,
         /// maximum model evaluations, the assessment of the result included
-        pub budget: usize = 2000; range Range::at_least(1.0)
-            => "`budget` must be an integer ≥ 1", "e.g. budget: 2000",
+        pub budget: usize = 2000; range Range::closed(1.0, 10_000_000.0)
+            => "`budget` must be an integer in [1, 10000000]", "e.g. budget: 2000",
         /// sensitivity_guided: SLSQP runs per subproblem (default 3; 0
         /// skips the subproblem step); short for guided.repeats
-        pub repeats: Option<usize> = None,
+        pub repeats: Option<usize> = None; range Range::closed(0.0, 1000.0),
         /// sensitivity_guided settings: {subproblem_budget: 200,
         /// subproblem_share: 0.25, spread_limit: 0.05, refine: true,
         /// restarts: 3, smoothing: 1e-3, others: random|fixed, continuation:
