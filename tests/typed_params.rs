@@ -195,8 +195,14 @@ mod ranges {
         );
         accepted(&truth(", impact_test: {averages: 3}"));
         let ident = "name: i\nstages:\n  truth:\n    kind: synthesize\n    params: {model: models/three_mass.yaml, frequency: {min: 0, max: 100, step: 1}}\n  id:\n    kind: identify\n    inputs: {model: truth.model, reference: truth.modes}\n    params: {budget: BUDGET}\n";
-        rejected(&ident.replace("BUDGET", "0"), "`budget` must be an integer in [1,");
-        rejected(&ident.replace("BUDGET", "1000000000"), "`budget` must be an integer in [1,");
+        rejected(
+            &ident.replace("BUDGET", "0"),
+            "`budget` must be an integer in [1,",
+        );
+        rejected(
+            &ident.replace("BUDGET", "1000000000"),
+            "`budget` must be an integer in [1,",
+        );
         accepted(&ident.replace("BUDGET", "500"));
     }
 

@@ -171,4 +171,3 @@ pub fn check_range(
         });
     }
 }
-
