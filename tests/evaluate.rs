@@ -89,18 +89,18 @@ fn evaluate_needs_something_to_compare() {
     )
     .unwrap();
     ws.write("p.yaml", "name: ev\nstages:\n  truth:\n    kind: synthesize\n    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 1}}\n  e:\n    kind: evaluate\n    inputs: {reference: truth.modes}\n");
-    let r = ws.run(&[], 1);
-    assert!(r.stage("e")["error"]
-        .as_str()
-        .unwrap()
-        .contains("nothing to compare"));
+    // Found at validation (issue 15), before anything runs.
+    let out = ws.cmd(&["run", "p.yaml"]);
+    assert_eq!(out.status.code(), Some(2));
+    assert!(util::text(&out.stderr).contains("stage `e`: nothing to compare"));
+    assert!(!ws.path().join("cache/runs").exists());
     ws.write(
         "p.yaml",
         "name: ev\nstages:\n  e:\n    kind: evaluate\n    params: {window: -1}\n",
     );
     let out = ws.cmd(&["validate", "p.yaml"]);
     assert_eq!(out.status.code(), Some(2));
-    assert!(util::text(&out.stderr).contains("window -1 must be a positive fraction"));
+    assert!(util::text(&out.stderr).contains("param `window` = -1 is out of range > 0"));
     ws.write(
         "p.yaml",
         "name: ev\nstages:\n  e:\n    kind: evaluate\n    params: {frequency_scale: 0}\n",
@@ -109,7 +109,7 @@ fn evaluate_needs_something_to_compare() {
     assert_eq!(out.status.code(), Some(2));
     let err = util::text(&out.stderr);
     assert!(
-        err.contains("frequency_scale 0 must be a positive fraction"),
+        err.contains("param `frequency_scale` = 0 is out of range > 0"),
         "{err}"
     );
 }

@@ -33,8 +33,26 @@ enum Command {
     Exec(commands::exec::Args),
 }
 
+impl Command {
+    /// Whether `--json` was given: then an error is also one JSON object on
+    /// stdout, so a script reading stdout always gets one.
+    fn json(&self) -> bool {
+        match self {
+            Command::Run(a) => a.json,
+            Command::Status(a) => a.json,
+            Command::Show(a) => a.json,
+            Command::Compare(a) => a.json,
+            Command::Validate(a) => a.json,
+            Command::Gc(a) => a.json,
+            Command::Kinds(a) => a.json,
+            Command::Dag(_) | Command::Exec(_) => false,
+        }
+    }
+}
+
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
+    let json = cli.command.json();
     let result = match cli.command {
         Command::Run(a) => commands::run::exec(a),
         Command::Status(a) => commands::status::exec(a),
@@ -54,6 +72,10 @@ pub fn main() -> ExitCode {
             }
             let code = exit::for_error(&e);
             eprintln!("modalflow: {e:#}");
+            if json {
+                // Nothing more to say if stdout is gone too.
+                let _ = output::print_json(&output::error_object(&e, code));
+            }
             ExitCode::from(code)
         }
     }

@@ -1,6 +1,7 @@
 //! Shared pieces of command output: cache/results location flags, JSON on
 //! stdout, broken-pipe detection.
 
+use modalflow::pipeline::plan::PlanError;
 use std::io::Write;
 use std::path::PathBuf;
 
@@ -38,4 +39,46 @@ pub fn is_broken_pipe(e: &anyhow::Error) -> bool {
             || c.downcast_ref::<serde_json::Error>()
                 .is_some_and(|j| j.io_error_kind() == Some(std::io::ErrorKind::BrokenPipe))
     })
+}
+
+/// One located problem of an invalid pipeline file in `--json` output.
+#[derive(serde::Serialize)]
+pub struct ProblemJson {
+    pub file: String,
+    pub line: Option<usize>,
+    pub column: Option<usize>,
+    pub message: String,
+    pub help: Option<String>,
+}
+
+/// The object `--json` prints on stdout when a command fails: the error,
+/// the exit code, and every problem of an invalid pipeline file (empty for
+/// other errors).
+#[derive(serde::Serialize)]
+pub struct ErrorJson {
+    pub error: String,
+    pub exit_code: u8,
+    pub problems: Vec<ProblemJson>,
+}
+
+pub fn error_object(e: &anyhow::Error, exit_code: u8) -> ErrorJson {
+    let problems = match e.downcast_ref::<PlanError>() {
+        Some(PlanError::Invalid(diags)) => diags
+            .0
+            .iter()
+            .map(|d| ProblemJson {
+                file: d.file.display().to_string(),
+                line: d.location.map(|l| l.line),
+                column: d.location.map(|l| l.column),
+                message: d.message.clone(),
+                help: d.help.clone(),
+            })
+            .collect(),
+        _ => Vec::new(),
+    };
+    ErrorJson {
+        error: format!("{e:#}"),
+        exit_code,
+        problems,
+    }
 }

@@ -2,14 +2,14 @@
 //! verified cache entry or have the [`Executor`] run the kind (which commits
 //! the outputs, objects first, record last), and materialize results.
 
-use super::executor::job::Job;
+use super::executor::job::{Job, JobInput, Restore, Typed, FORMAT};
 use super::executor::Executor;
 use super::key::{canonical_params, KeyMaterial};
 use super::plan::{Node, Plan};
-use super::progress::Progress;
 use super::provenance::{self, LastRun, StageProvenance};
 use super::results::{self, InputOrigin, Manifest};
 use super::store::{self, OutputRecord, RunRecord, Store};
+use crate::stages::Progress;
 use serde_yaml_ng::Value;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -149,7 +149,7 @@ impl Engine<'_> {
         &self,
         i: usize,
         done: &dyn Fn(usize) -> Option<Done>,
-        progress: &Progress,
+        progress: &dyn Progress,
     ) -> Outcome {
         let node = &self.plan.nodes[i];
         let mut report = StageReport {
@@ -244,11 +244,72 @@ impl Engine<'_> {
         key: &str,
         material: &KeyMaterial,
         done: &dyn Fn(usize) -> Option<Done>,
-        progress: &Progress,
+        progress: &dyn Progress,
     ) -> Result<RunRecord, String> {
-        let job = Job::new(self.plan, node, key, material, done)?;
-        self.executor
-            .compute(&self.store, job, node.kind, &node.params, progress)
+        let job = self.job(node, key, material, done)?;
+        self.executor.compute(&self.store, job, progress)
+    }
+
+    /// The job description of `node` with key `key`, given finished
+    /// upstream stages; it carries the parsed params for a local run.
+    pub fn job(
+        &self,
+        node: &Node,
+        key: &str,
+        material: &KeyMaterial,
+        done: &dyn Fn(usize) -> Option<Done>,
+    ) -> Result<Job, String> {
+        let plan = self.plan;
+        let output = |src: usize, out: &str| {
+            done(src)
+                .and_then(|d| d.outputs.get(out).cloned())
+                .ok_or_else(|| format!("upstream `{}` has no output `{out}`", plan.nodes[src].name))
+        };
+        let mut inputs = BTreeMap::new();
+        for b in &node.inputs {
+            let mut list = Vec::new();
+            for (src, out) in &b.sources {
+                let rec = output(*src, out)?;
+                list.push(JobInput {
+                    stage: plan.nodes[*src].name.clone(),
+                    output: out.clone(),
+                    matrix: plan.nodes[*src].matrix.clone(),
+                    file: rec.file,
+                    artifact: rec.artifact,
+                });
+            }
+            inputs.insert(b.name.clone(), list);
+        }
+        let mut restore = Vec::new();
+        for f in &node.files {
+            if let Some((src, out)) = &f.producer {
+                restore.push(Restore {
+                    path: f.path.clone(),
+                    artifact: output(*src, out)?.artifact,
+                });
+            }
+        }
+        Ok(Job {
+            format: FORMAT,
+            key: key.to_string(),
+            stage: node.name.clone(),
+            material: material.clone(),
+            params: Job::params_text(&node.params)?,
+            seed: node.seed,
+            pipeline: plan.name.clone(),
+            pipeline_dir: plan.dir.clone(),
+            inputs,
+            restore,
+            outputs: node.output_names(),
+            workspace_outputs: !node.workspace_outputs.is_empty(),
+            shards: 1,
+            partials: Vec::new(),
+            partial_seconds: 0.0,
+            typed: Some(Typed {
+                kind: node.kind,
+                params: node.parsed.clone(),
+            }),
+        })
     }
 
     /// Materialize results and, for stages that write into the workspace,

@@ -20,11 +20,16 @@ pub struct RunOptions {
     /// Stage names (expanded, or a matrix stage's base name for all of its
     /// expansions) to recompute even when cached.
     pub force: Vec<String>,
+    /// Run only these stages (expanded names, or a matrix stage's base name
+    /// for all of its expansions) and what they need; empty: all.
+    pub targets: Vec<String>,
     pub cache: PathBuf,
     /// Results root; the pipeline's results go to `<results>/<name>/`
     /// unless `results_exact` is set.
     pub results: PathBuf,
     pub progress: ProgressMode,
+    /// Longest silence of a running stage with `ProgressMode::Lines`.
+    pub heartbeat: std::time::Duration,
     /// Executor chosen on the command line; `None`: the pipeline's block.
     pub executor: Option<ExecutorKind>,
 }
@@ -49,8 +54,21 @@ pub enum RunError {
     Store(#[from] StoreError),
     #[error("--force {name}: no such stage\n  = help: stages: {known}")]
     UnknownForce { name: String, known: String },
+    #[error("no stage `{name}` to run\n  = help: stages: {known}")]
+    UnknownTarget { name: String, known: String },
     #[error("executor: {0}")]
     Executor(String),
+}
+
+impl RunError {
+    /// Whether the command line asked for something that does not exist
+    /// (exit code 2), rather than the cache failing.
+    pub fn is_usage(&self) -> bool {
+        matches!(
+            self,
+            RunError::UnknownForce { .. } | RunError::UnknownTarget { .. }
+        )
+    }
 }
 
 fn engine<'a>(
@@ -87,6 +105,35 @@ fn engine<'a>(
     })
 }
 
+/// The stages `targets` name and everything upstream of them (DVC's
+/// `repro target`, Snakemake's targets); every stage when `targets` is empty.
+pub fn wanted(plan: &Plan, targets: &[String]) -> Result<Vec<bool>, RunError> {
+    if targets.is_empty() {
+        return Ok(vec![true; plan.nodes.len()]);
+    }
+    let mut wanted = vec![false; plan.nodes.len()];
+    let mut todo = Vec::new();
+    for t in targets {
+        let hits: Vec<usize> = (0..plan.nodes.len())
+            .filter(|&i| &plan.nodes[i].name == t || &plan.nodes[i].base == t)
+            .collect();
+        if hits.is_empty() {
+            let known: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
+            return Err(RunError::UnknownTarget {
+                name: t.clone(),
+                known: known.join(", "),
+            });
+        }
+        todo.extend(hits);
+    }
+    while let Some(i) = todo.pop() {
+        if !std::mem::replace(&mut wanted[i], true) {
+            todo.extend(plan.upstream[i].iter().copied());
+        }
+    }
+    Ok(wanted)
+}
+
 #[derive(Clone)]
 enum State {
     Pending,
@@ -98,11 +145,24 @@ enum State {
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     let kind = opts.executor.unwrap_or(plan.executor.kind);
     let executor = Executor::new(kind, &plan.executor).map_err(RunError::Executor)?;
+    let wanted = wanted(plan, &opts.targets)?;
     let engine = engine(plan, opts, executor)?;
     let _cache_lock = engine.store.lock_cache(false)?;
     let n = plan.nodes.len();
-    let reporter = Reporter::new(n, opts.progress);
-    let mut state = vec![State::Pending; n];
+    let to_run = wanted.iter().filter(|w| **w).count();
+    let mut reporter = Reporter::new(to_run, opts.progress, opts.heartbeat);
+    // Stages not wanted count as finished without a result: nothing
+    // wanted depends on them (the wanted set is closed upstream).
+    let mut state: Vec<State> = wanted
+        .iter()
+        .map(|&w| {
+            if w {
+                State::Pending
+            } else {
+                State::Finished(None)
+            }
+        })
+        .collect();
     let mut reports: Vec<Option<StageReport>> = vec![None; n];
     let mut updates: Vec<(String, StageProvenance)> = Vec::new();
     let mut stop_reason: Option<String> = None;
@@ -190,7 +250,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     });
     reporter.finish();
     for &i in &plan.order {
-        if reports[i].is_none() {
+        if reports[i].is_none() && wanted[i] {
             let why = stop_reason.clone().unwrap_or_else(|| "not started".into());
             reports[i] = Some(skipped(plan, i, why));
         }
@@ -237,10 +297,11 @@ fn line(r: &StageReport) -> String {
 /// What `run` would do, without running anything: each stage is `cached`
 /// (verified entry for its key) or `will-run` with the reason.
 pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
+    let wanted = wanted(plan, &opts.targets)?;
     let engine = engine(plan, opts, Executor::Local)?;
     let mut done: Vec<Option<Done>> = vec![None; plan.nodes.len()];
     let mut reports: Vec<Option<StageReport>> = vec![None; plan.nodes.len()];
-    for &i in &plan.order {
+    for &i in plan.order.iter().filter(|&&i| wanted[i]) {
         let node = &plan.nodes[i];
         let mut report = skipped(plan, i, String::new());
         report.status = Status::WillRun;
@@ -301,7 +362,7 @@ const PENDING: &str = "pending";
 /// stage's own param and file changes can still be explained.
 fn placeholder(plan: &Plan, u: usize) -> Option<Done> {
     let outputs = plan.nodes[u]
-        .outputs
+        .output_names()
         .iter()
         .map(|o| {
             let rec = super::store::OutputRecord {

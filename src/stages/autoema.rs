@@ -9,8 +9,9 @@
 //! hyperparameter at a bound, residual structure above the noise and whether
 //! the goal was reached.
 
+use super::params::{Numbers, TypeName};
 use super::{
-    artifacts, InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError,
+    artifacts, Artifact, InputSpec, Kind, ParamProblem, Range, StageContext, StageError,
     StageOutputs,
 };
 use crate::ema::stabilization_diagram::{render, Panel};
@@ -21,29 +22,83 @@ use crate::ema::{
 use crate::frf::{FrfChannel, FrfSet};
 use crate::modal::{ModalModel, Mode};
 use rayon::prelude::*;
-use serde_yaml_ng::{Mapping, Value};
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fmt::Write;
 
 pub struct AutoEma;
 
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec { name: "band", ty: ParamType::Any, required: false, doc: "frequency band [low, high] in Hz analysed (default: all lines above 0 Hz)" },
-    ParamSpec { name: "max_order", ty: ParamType::Any, required: false, doc: "maximum model order: an integer, or [min, max] to let the optimization choose (default: a range fitted to the number of CMIF peaks and references)" },
-    ParamSpec { name: "iterations", ty: ParamType::Integer, required: false, doc: "Bayesian-optimization evaluations per position, initial design included (default 40)" },
-    ParamSpec { name: "initial", ty: ParamType::Integer, required: false, doc: "Latin-hypercube points before the Gaussian process takes over (default 12)" },
-    ParamSpec { name: "significance", ty: ParamType::Number, required: false, doc: "false-alarm probability α of the test that keeps a root only when it explains more than the noise (default 1e-6)" },
-    ParamSpec { name: "penalty", ty: ParamType::Number, required: false, doc: "optional objective penalty per mode as in PUB5: mean FRAC − penalty · modes (default 0: modes are admitted by significance instead)" },
-    ParamSpec { name: "seed", ty: ParamType::Integer, required: false, doc: "seed of the optimization (default: the pipeline seed)" },
-    ParamSpec { name: "fixed", ty: ParamType::Mapping, required: false, doc: "hyperparameters pinned to a value: frequency_tol, damping_tol, mac_tol, max_damping, cluster_distance, min_cluster_fraction, damping_weight, mac_weight, max_order" },
-    ParamSpec { name: "bounds", ty: ParamType::Mapping, required: false, doc: "search ranges [low, high] replacing the ones fitted to the data, e.g. {max_damping: [0.05, 0.4]}" },
-    ParamSpec { name: "weighting", ty: ParamType::Enum(&["uniform", "coherence"]), required: false, doc: "PolyMAX weighting: uniform per output, or by coherence when present (default uniform)" },
-];
+/// `max_order`: a fixed order, or a range the optimization chooses from.
+#[derive(Clone, Copy, Debug, PartialEq, Deserialize, Serialize)]
+#[serde(untagged, expecting = "an integer or [min, max]")]
+pub enum MaxOrder {
+    Fixed(usize),
+    Range(usize, usize),
+}
+
+impl TypeName for MaxOrder {
+    fn type_name() -> String {
+        "integer | [min, max]".into()
+    }
+}
+
+impl Numbers for MaxOrder {
+    fn numbers(&self) -> Vec<f64> {
+        match *self {
+            MaxOrder::Fixed(n) => vec![n as f64],
+            MaxOrder::Range(a, b) => vec![a as f64, b as f64],
+        }
+    }
+}
+
+crate::string_enum! {
+    /// PolyMAX weighting of outputs and lines.
+    pub enum WeightingParam {
+        Uniform = "uniform",
+        Coherence = "coherence",
+    }
+}
+
+crate::params! {
+    /// The `autoema` kind's params.
+    pub struct Params {
+        /// frequency band [low, high] in Hz analysed (default: all lines
+        /// above 0 Hz)
+        pub band: Option<(f64, f64)> = None; range Range::at_least(0.0),
+        /// maximum model order: an integer, or [min, max] to let the
+        /// optimization choose (default: a range fitted to the number of
+        /// CMIF peaks and references)
+        pub max_order: Option<MaxOrder> = None; range Range::closed(1.0, 400.0),
+        /// Bayesian-optimization evaluations per position, initial design
+        /// included
+        pub iterations: usize = AutoEmaParams::default().evaluations; range Range::closed(1.0, 10_000.0),
+        /// Latin-hypercube points before the Gaussian process takes over
+        pub initial: usize = AutoEmaParams::default().initial; range Range::closed(1.0, 10_000.0),
+        /// false-alarm probability α of the test that keeps a root only when
+        /// it explains more than the noise
+        pub significance: f64 = AutoEmaParams::default().selection.alpha; range Range::open(0.0, 0.5),
+        /// optional objective penalty per mode as in PUB5: mean FRAC −
+        /// penalty · modes (0: modes are admitted by significance instead)
+        pub penalty: f64 = AutoEmaParams::default().selection.penalty; range Range::closed_open(0.0, 1.0),
+        /// seed of the optimization (default: the pipeline seed)
+        pub seed: Option<u64> = None,
+        /// hyperparameters pinned to a value: frequency_tol, damping_tol,
+        /// mac_tol, max_damping, cluster_distance, min_cluster_fraction,
+        /// damping_weight, mac_weight, max_order
+        pub fixed: BTreeMap<String, f64> = BTreeMap::new(); range Range::at_least(0.0),
+        /// search ranges [low, high] replacing the ones fitted to the data,
+        /// e.g. {max_damping: [0.05, 0.4]}
+        pub bounds: BTreeMap<String, (f64, f64)> = BTreeMap::new(); range Range::at_least(0.0),
+        /// PolyMAX weighting: uniform per output, or by coherence when present
+        pub weighting: WeightingParam = WeightingParam::Uniform,
+    }
+}
 
 const INPUTS: &[InputSpec] = &[InputSpec {
     name: "frf",
     required: true,
     list: false,
+    artifact: Artifact::Frf,
     doc: "FRFs (an `frf` artifact), every response measured for every reference",
 }];
 
@@ -53,230 +108,114 @@ struct Settings {
     ema: AutoEmaParams,
 }
 
-fn problem(path: &[&str], message: String, help: &str) -> ParamProblem {
-    ParamProblem {
-        path: path.iter().map(|s| s.to_string()).collect(),
-        message,
-        help: Some(help.into()),
+/// Checks across params: orders and ranges the types cannot say.
+fn check(p: &Params) -> Vec<ParamProblem> {
+    let mut out = Vec::new();
+    if let Some((lo, hi)) = p.band {
+        if lo >= hi {
+            out.push(ParamProblem::new(
+                &["band"],
+                format!("band [{lo}, {hi}] is not [low, high] with 0 <= low < high"),
+                "give the band in Hz, e.g. band: [5, 400]",
+            ));
+        }
     }
+    if let Some(MaxOrder::Range(lo, hi)) = p.max_order {
+        if lo > hi {
+            out.push(ParamProblem::new(
+                &["max_order"],
+                format!("max_order [{lo}, {hi}] is not [min, max] within 1..=400"),
+                "e.g. max_order: 40 or max_order: [10, 60]",
+            ));
+        }
+    }
+    for (name, &(lo, hi)) in &p.bounds {
+        if !HYPERPARAMETER_NAMES.contains(&name.as_str()) || name == "max_order" {
+            out.push(ParamProblem::new(
+                &["bounds", name],
+                format!("no search range for `{name}`"),
+                format!(
+                    "known: {} (the order range is `max_order: [min, max]`)",
+                    HYPERPARAMETER_NAMES[..8].join(", ")
+                ),
+            ));
+        } else if lo > hi {
+            out.push(ParamProblem::new(
+                &["bounds", name],
+                format!("[{lo}, {hi}] is not [low, high] with 0 <= low <= high"),
+                "give the range as two numbers",
+            ));
+        }
+    }
+    for name in p.fixed.keys() {
+        if !HYPERPARAMETER_NAMES.contains(&name.as_str()) {
+            out.push(ParamProblem::new(
+                &["fixed", name],
+                format!("unknown hyperparameter `{name}`"),
+                format!("known: {}", HYPERPARAMETER_NAMES.join(", ")),
+            ));
+        }
+    }
+    out
 }
 
-/// A param value as the user wrote it (flow style), for messages.
-fn show(v: &Value) -> String {
-    match v {
-        Value::Sequence(items) => format!(
-            "[{}]",
-            items.iter().map(show).collect::<Vec<_>>().join(", ")
-        ),
-        Value::Number(n) => n.to_string(),
-        Value::String(t) => t.clone(),
-        other => serde_yaml_ng::to_string(other)
-            .unwrap_or_default()
-            .trim()
-            .to_string(),
-    }
-}
-
-fn pair(v: &Value) -> Option<(f64, f64)> {
-    match v.as_sequence().map(Vec::as_slice) {
-        Some([a, b]) => Some((a.as_f64()?, b.as_f64()?)),
-        _ => None,
-    }
-}
-
-fn settings(params: &Mapping, seed: u64) -> Result<Settings, ParamProblem> {
+fn settings(p: &Params, seed: u64) -> Settings {
     let mut ema = AutoEmaParams {
         seed,
+        evaluations: p.iterations,
+        initial: p.initial,
+        fixed: p.fixed.clone(),
+        bounds: p.bounds.clone(),
+        max_order: p.max_order.map(|m| match m {
+            MaxOrder::Fixed(n) => (n, n),
+            MaxOrder::Range(a, b) => (a, b),
+        }),
         ..AutoEmaParams::default()
     };
-    let band = match params.get("band") {
-        None => None,
-        Some(v) => match pair(v) {
-            Some((lo, hi)) if lo >= 0.0 && lo < hi && hi.is_finite() => Some((lo, hi)),
-            _ => {
-                return Err(problem(
-                    &["band"],
-                    format!("band {} is not [low, high] with 0 <= low < high", show(v)),
-                    "give the band in Hz, e.g. band: [5, 400]",
-                ))
-            }
+    ema.selection.penalty = p.penalty;
+    ema.selection.alpha = p.significance;
+    Settings {
+        band: p.band,
+        weighting: match p.weighting {
+            WeightingParam::Uniform => Weighting::Uniform,
+            WeightingParam::Coherence => Weighting::Coherence,
         },
-    };
-    match params.get("max_order") {
-        None => {}
-        Some(v) => {
-            let range = v.as_u64().map(|n| (n as f64, n as f64)).or_else(|| pair(v));
-            match range {
-                Some((lo, hi))
-                    if lo >= 1.0
-                        && lo <= hi
-                        && hi <= 400.0
-                        && lo.fract() == 0.0
-                        && hi.fract() == 0.0 =>
-                {
-                    ema.max_order = Some((lo as usize, hi as usize))
-                }
-                _ => {
-                    return Err(problem(
-                        &["max_order"],
-                        format!(
-                            "max_order {} is not an integer or [min, max] within 1..=400",
-                            show(v)
-                        ),
-                        "e.g. max_order: 40 or max_order: [10, 60]",
-                    ))
-                }
-            }
-        }
-    }
-    let int = |name: &str, default: usize, min: u64| -> Result<usize, ParamProblem> {
-        match params.get(name) {
-            None => Ok(default),
-            Some(v) => match v.as_u64() {
-                Some(n) if n >= min && n <= 10_000 => Ok(n as usize),
-                _ => Err(problem(
-                    &[name],
-                    format!("`{name}` must be an integer from {min} to 10000"),
-                    "see `modalflow kinds`",
-                )),
-            },
-        }
-    };
-    ema.evaluations = int("iterations", ema.evaluations, 1)?;
-    ema.initial = int("initial", ema.initial, 1)?;
-    if let Some(v) = params.get("penalty") {
-        match v.as_f64() {
-            Some(x) if (0.0..1.0).contains(&x) => ema.selection.penalty = x,
-            _ => {
-                return Err(problem(
-                    &["penalty"],
-                    format!("penalty {} is not in [0, 1)", show(v)),
-                    "a small number such as 0.002 per mode, or leave it out",
-                ))
-            }
-        }
-    }
-    if let Some(v) = params.get("significance") {
-        match v.as_f64() {
-            Some(x) if x > 0.0 && x < 0.5 => ema.selection.alpha = x,
-            _ => {
-                return Err(problem(
-                    &["significance"],
-                    format!("significance {} is not in (0, 0.5)", show(v)),
-                    "a false-alarm probability such as 1e-6",
-                ))
-            }
-        }
-    }
-    if let Some(v) = params.get("bounds") {
-        let Some(m) = v.as_mapping() else {
-            return Err(problem(
-                &["bounds"],
-                "`bounds` must be a mapping".into(),
-                "e.g. bounds: {max_damping: [0.05, 0.4]}",
-            ));
-        };
-        for (k, v) in m {
-            let name = k.as_str().unwrap_or_default();
-            if !HYPERPARAMETER_NAMES.contains(&name) || name == "max_order" {
-                return Err(problem(
-                    &["bounds", name],
-                    format!("no search range for `{name}`"),
-                    &format!(
-                        "known: {} (the order range is `max_order: [min, max]`)",
-                        HYPERPARAMETER_NAMES[..8].join(", ")
-                    ),
-                ));
-            }
-            match pair(v) {
-                Some((lo, hi)) if lo.is_finite() && hi.is_finite() && 0.0 <= lo && lo <= hi => {
-                    ema.bounds.insert(name.to_string(), (lo, hi));
-                }
-                _ => {
-                    return Err(problem(
-                        &["bounds", name],
-                        format!("{} is not [low, high] with 0 <= low <= high", show(v)),
-                        "give the range as two numbers",
-                    ))
-                }
-            }
-        }
-    }
-    if let Some(v) = params.get("fixed") {
-        let Some(m) = v.as_mapping() else {
-            return Err(problem(
-                &["fixed"],
-                "`fixed` must be a mapping".into(),
-                "e.g. fixed: {max_damping: 0.1}",
-            ));
-        };
-        for (k, v) in m {
-            let name = k.as_str().unwrap_or_default();
-            if !HYPERPARAMETER_NAMES.contains(&name) {
-                return Err(problem(
-                    &["fixed", name],
-                    format!("unknown hyperparameter `{name}`"),
-                    &format!("known: {}", HYPERPARAMETER_NAMES.join(", ")),
-                ));
-            }
-            match v.as_f64() {
-                Some(x) if x.is_finite() && x >= 0.0 => {
-                    ema.fixed.insert(name.to_string(), x);
-                }
-                _ => {
-                    return Err(problem(
-                        &["fixed", name],
-                        format!("`{name}` must be a non-negative number"),
-                        "pin it to a number",
-                    ))
-                }
-            }
-        }
-    }
-    let weighting = match params.get("weighting").and_then(Value::as_str) {
-        Some("coherence") => Weighting::Coherence,
-        _ => Weighting::Uniform,
-    };
-    Ok(Settings {
-        band,
-        weighting,
         ema,
-    })
+    }
 }
 
-impl Stage for AutoEma {
-    fn kind(&self) -> &'static str {
-        "autoema"
-    }
+impl Kind for AutoEma {
+    type Params = Params;
+    const NAME: &'static str = "autoema";
+
     fn version(&self) -> u32 {
         2
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"
     }
-    fn params(&self) -> &'static [ParamSpec] {
-        PARAMS
-    }
     fn inputs(&self) -> Option<&'static [InputSpec]> {
         Some(INPUTS)
     }
-    fn outputs(&self, _params: &Mapping) -> Vec<String> {
-        ["modes", "poles", "frf_fit", "stabilization", "metrics"]
-            .map(String::from)
-            .to_vec()
-    }
-    fn check(&self, params: &Mapping) -> Result<(), ParamProblem> {
-        settings(params, 0).map(|_| ())
+    const OUTPUTS: &'static [(&'static str, Artifact)] = &[
+        ("modes", Artifact::Modes),
+        ("poles", Artifact::Table),
+        ("frf_fit", Artifact::Frf),
+        ("stabilization", Artifact::Figure),
+        ("metrics", Artifact::Json),
+    ];
+    fn check(&self, p: &Params) -> Vec<ParamProblem> {
+        check(p)
     }
     fn uses_seed(&self) -> bool {
         true
     }
+    fn seed(&self, p: &Params) -> Option<u64> {
+        p.seed
+    }
 
-    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
-        let s = settings(ctx.params, ctx.seed).map_err(|p| StageError::InvalidParam {
-            param: p.path.join("."),
-            message: p.message,
-        })?;
+    fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let s = settings(p, ctx.seed);
         let sets = artifacts::read_frf(ctx.input("frf")?, "frf")?;
         // Lines at 0 Hz are dropped: the LSFD lower residual −LR/ω² is singular there.
         let band = s
@@ -523,9 +462,10 @@ fn write(path: &std::path::Path, bytes: &[u8]) -> Result<(), StageError> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::stages::{ParamSet, Stage};
 
-    fn params(yaml: &str) -> Mapping {
-        serde_yaml_ng::from_str(yaml).unwrap()
+    fn params(yaml: &str) -> Params {
+        Params::parse(&serde_yaml_ng::from_str(yaml).unwrap()).unwrap()
     }
 
     #[test]
@@ -533,22 +473,21 @@ mod tests {
         let s = settings(
             &params("{max_order: 30, iterations: 5, fixed: {mac_weight: 0.5}}"),
             9,
-        )
-        .unwrap();
+        );
         assert_eq!(s.ema.max_order, Some((30, 30)));
         assert_eq!((s.ema.evaluations, s.ema.seed), (5, 9));
         assert_eq!(s.ema.fixed.get("mac_weight"), Some(&0.5));
         let s = settings(
             &params("{max_order: [10, 50], band: [5, 400], weighting: coherence}"),
             0,
-        )
-        .unwrap();
+        );
         assert_eq!(s.ema.max_order, Some((10, 50)));
         assert_eq!(s.band, Some((5.0, 400.0)));
         assert_eq!(s.weighting, Weighting::Coherence);
         for bad in [
             "{max_order: [50, 10]}",
             "{max_order: 2.5}",
+            "{max_order: 401}",
             "{band: [400]}",
             "{penalty: -1}",
             "{significance: 0}",
@@ -557,14 +496,17 @@ mod tests {
             "{fixed: {max_damp: 0.1}}",
             "{iterations: 0}",
         ] {
-            let p = settings(&params(bad), 0)
+            let problems = AutoEma
+                .parse(&serde_yaml_ng::from_str(bad).unwrap())
                 .err()
                 .unwrap_or_else(|| panic!("{bad} accepted"));
-            assert!(
-                !p.path.is_empty() && p.help.is_some(),
-                "{bad}: {}",
-                p.message
-            );
+            for p in &problems {
+                assert!(
+                    !p.path.is_empty() && p.help.is_some(),
+                    "{bad}: {}",
+                    p.message
+                );
+            }
         }
     }
 }

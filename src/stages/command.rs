@@ -10,51 +10,31 @@
 //! `MODALFLOW_INPUT_<NAME>` (upper-cased; several paths joined by `:`), along
 //! with `MODALFLOW_STAGE`, `MODALFLOW_SEED` and `MODALFLOW_SCRATCH`.
 
-use super::{ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs};
-use serde_yaml_ng::{Mapping, Value};
+use super::{
+    Artifact, FileRef, InputSpec, Kind, Output, ParamProblem, StageContext, StageError,
+    StageOutputs,
+};
 use std::path::Path;
 use std::process::Command as Process;
 
 pub struct Command;
 
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec {
-        name: "cmd",
-        ty: ParamType::String,
-        required: true,
-        doc: "shell command, run with `sh -c` in the pipeline file's directory",
-    },
-    ParamSpec {
-        name: "deps",
-        ty: ParamType::Paths,
-        required: false,
-        doc: "files or directories the command reads (hashed into the cache key)",
-    },
-    ParamSpec {
-        name: "outs",
-        ty: ParamType::Strings,
-        required: false,
-        doc: "files or directories the command writes (relative paths; collected into the cache)",
-    },
-];
-
-fn outs(params: &Mapping) -> Vec<String> {
-    params
-        .get("outs")
-        .and_then(Value::as_sequence)
-        .map(|s| {
-            s.iter()
-                .filter_map(Value::as_str)
-                .map(str::to_string)
-                .collect()
-        })
-        .unwrap_or_default()
+crate::params! {
+    /// The `command` kind's params.
+    pub struct Params {
+        /// shell command, run with `sh -c` in the pipeline file's directory
+        pub cmd: String,
+        /// files or directories the command reads (hashed into the cache key)
+        pub deps: Vec<String> = Vec::new(),
+        /// files or directories the command writes (relative paths; collected
+        /// into the cache)
+        pub outs: Vec<String> = Vec::new(),
+    }
 }
 
-impl Stage for Command {
-    fn kind(&self) -> &'static str {
-        "command"
-    }
+impl Kind for Command {
+    type Params = Params;
+    const NAME: &'static str = "command";
 
     fn version(&self) -> u32 {
         1
@@ -64,47 +44,73 @@ impl Stage for Command {
         "run a shell command with declared deps and outs"
     }
 
-    fn params(&self) -> &'static [ParamSpec] {
-        PARAMS
-    }
-
-    fn inputs(&self) -> Option<&'static [super::InputSpec]> {
+    fn inputs(&self) -> Option<&'static [InputSpec]> {
         None
     }
 
-    fn outputs(&self, params: &Mapping) -> Vec<String> {
-        outs(params)
+    /// Its `outs`.
+    const OUTPUTS: &'static [(&'static str, Artifact)] = &[];
+
+    fn outputs(&self, p: &Params) -> Vec<Output> {
+        p.outs
+            .iter()
+            .map(|o| Output::new(o.clone(), Artifact::Any))
+            .collect()
     }
 
-    fn workspace_outputs(&self, params: &Mapping) -> Vec<String> {
-        outs(params)
+    fn workspace_outputs(&self, p: &Params) -> Vec<String> {
+        p.outs.clone()
     }
 
-    fn check(&self, params: &Mapping) -> Result<(), ParamProblem> {
-        for (i, out) in outs(params).iter().enumerate() {
-            let p = Path::new(out);
-            let escapes = p
+    fn files(&self, p: &Params) -> Vec<FileRef> {
+        p.deps
+            .iter()
+            .enumerate()
+            .map(|(i, d)| FileRef {
+                param: format!("deps[{i}]"),
+                path: d.clone(),
+                glob: false,
+            })
+            .collect()
+    }
+
+    fn check(&self, p: &Params) -> Vec<ParamProblem> {
+        let mut problems = Vec::new();
+        if p.cmd.trim().is_empty() {
+            problems.push(ParamProblem::new(
+                &["cmd"],
+                "`cmd` is empty",
+                "give the shell command to run",
+            ));
+        }
+        for (i, out) in p.outs.iter().enumerate() {
+            let path = Path::new(out);
+            let escapes = path
                 .components()
                 .any(|c| matches!(c, std::path::Component::ParentDir));
-            if p.is_absolute() || escapes || out.trim().is_empty() {
-                return Err(ParamProblem {
-                    path: vec!["outs".into(), i.to_string()],
-                    message: format!("output path `{out}` must be relative and stay below the pipeline directory"),
-                    help: Some("write outputs next to the pipeline file, e.g. `data/table.csv`".into()),
-                });
+            if path.is_absolute() || escapes || out.trim().is_empty() {
+                problems.push(ParamProblem::new(
+                    &["outs", &i.to_string()],
+                    format!("output path `{out}` must be relative and stay below the pipeline directory"),
+                    "write outputs next to the pipeline file, e.g. `data/table.csv`",
+                ));
             }
         }
-        Ok(())
+        for (i, dep) in p.deps.iter().enumerate() {
+            if dep.trim().is_empty() {
+                problems.push(ParamProblem::new(
+                    &["deps", &i.to_string()],
+                    "an empty dependency path",
+                    "name a file or directory relative to the pipeline file",
+                ));
+            }
+        }
+        problems
     }
 
-    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
-        let cmd = ctx
-            .params
-            .get("cmd")
-            .and_then(Value::as_str)
-            .unwrap_or_default();
-        let outs = outs(ctx.params);
-        for out in &outs {
+    fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let cmd = p.cmd.as_str();
+        for out in &p.outs {
             let p = ctx.pipeline_dir.join(out);
             let removed = if p.is_dir() {
                 std::fs::remove_dir_all(&p)
@@ -166,14 +172,14 @@ impl Stage for Command {
             )));
         }
         let mut files = Vec::new();
-        for out in outs {
-            let p = ctx.pipeline_dir.join(&out);
-            if !p.exists() {
+        for out in &p.outs {
+            let path = ctx.pipeline_dir.join(out);
+            if !path.exists() {
                 return Err(StageError::Failed(format!(
                     "command `{cmd}` succeeded but did not write `{out}` (declared in outs); fix the command or the outs list"
                 )));
             }
-            files.push((out, p));
+            files.push((out.clone(), path));
         }
         Ok(StageOutputs {
             files,

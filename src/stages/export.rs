@@ -3,40 +3,49 @@
 //! or CSV — so results open in test and FE software.
 
 use super::artifacts::{read_frf, read_modes};
-use super::{InputSpec, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs};
+use super::{Artifact, InputSpec, Kind, StageContext, StageError, StageOutputs};
 use crate::io::{self, ByteOrder, NumberText, Storage, Uff58Format};
-use serde_yaml_ng::{Mapping, Value};
 
 pub struct Export;
 
-const FORMATS: &[&str] = &["uff", "uff-binary", "csv"];
+crate::string_enum! {
+    /// The file formats `export` writes.
+    pub enum Format {
+        Uff = "uff",
+        UffBinary = "uff-binary",
+        Csv = "csv",
+    }
+}
 
-const PARAMS: &[ParamSpec] = &[ParamSpec {
-    name: "format",
-    ty: ParamType::Enum(FORMATS),
-    required: false,
-    doc: "uff (ASCII 58 + 55, standard column widths), uff-binary (58b little-endian + ASCII 55), or csv; default uff",
-}];
+crate::params! {
+    /// The `export` kind's params.
+    pub struct Params {
+        /// uff (ASCII 58 + 55, standard column widths), uff-binary (58b
+        /// little-endian + ASCII 55), or csv
+        pub format: Format = Format::Uff,
+    }
+}
 
 const INPUTS: &[InputSpec] = &[
     InputSpec {
         name: "frf",
         required: false,
         list: false,
+        artifact: Artifact::Frf,
         doc: "an frf artifact (from import or synthesize) to write as FRFs",
     },
     InputSpec {
         name: "modes",
         required: false,
         list: false,
+        artifact: Artifact::Modes,
         doc: "a modes artifact to write as a modal model",
     },
 ];
 
-impl Stage for Export {
-    fn kind(&self) -> &'static str {
-        "export"
-    }
+impl Kind for Export {
+    type Params = Params;
+    const NAME: &'static str = "export";
 
     fn version(&self) -> u32 {
         1
@@ -46,24 +55,25 @@ impl Stage for Export {
         "write FRFs and modes as UFF 58/58b/55 or CSV for other tools"
     }
 
-    fn params(&self) -> &'static [ParamSpec] {
-        PARAMS
-    }
-
     fn inputs(&self) -> Option<&'static [InputSpec]> {
         Some(INPUTS)
     }
 
-    fn outputs(&self, _params: &Mapping) -> Vec<String> {
-        vec!["files".into()]
+    const OUTPUTS: &'static [(&'static str, Artifact)] = &[("files", Artifact::Any)];
+
+    fn check_inputs(&self, _p: &Params, bound: &[&str]) -> Vec<super::ParamProblem> {
+        if bound.is_empty() {
+            return vec![super::ParamProblem::new(
+                &[],
+                "nothing to export",
+                "bind an `frf` and/or a `modes` input",
+            )];
+        }
+        Vec::new()
     }
 
-    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
-        let format = ctx
-            .params
-            .get("format")
-            .and_then(Value::as_str)
-            .unwrap_or("uff");
+    fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let format = p.format;
         if !ctx.inputs.contains_key("frf") && !ctx.inputs.contains_key("modes") {
             return Err(StageError::Failed(
                 "nothing to export: bind an `frf` and/or a `modes` input".into(),
@@ -80,9 +90,9 @@ impl Stage for Export {
         if ctx.inputs.contains_key("frf") {
             let sets = read_frf(ctx.input("frf")?, "frf")?;
             match format {
-                "csv" => write("frf.csv", &io::write_frf_csv(&sets).map_err(failed)?)?,
+                Format::Csv => write("frf.csv", &io::write_frf_csv(&sets).map_err(failed)?)?,
                 _ => {
-                    let storage = if format == "uff" {
+                    let storage = if format == Format::Uff {
                         Storage::Ascii
                     } else {
                         Storage::Binary(ByteOrder::Little)
@@ -101,7 +111,7 @@ impl Stage for Export {
         if ctx.inputs.contains_key("modes") {
             let models = read_modes(ctx.input("modes")?, "modes")?;
             match format {
-                "csv" => {
+                Format::Csv => {
                     let csv = io::write_modal_csv(&models).map_err(failed)?;
                     write("modes.csv", &csv.modes)?;
                     write("mode_shapes.csv", &csv.mode_shapes)?;

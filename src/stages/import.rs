@@ -10,52 +10,37 @@
 //! their FRFs.
 
 use super::{
-    InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs,
+    Artifact, FileRef, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
 };
 use crate::frf::{FrfSet, Position};
 use crate::io::{self, DofPattern, FrfImportOptions, Selection};
-use serde::Deserialize;
-use serde_yaml_ng::Mapping;
+use serde::{Deserialize, Serialize};
 use std::path::Path;
 
 pub struct Import;
 
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec {
-        name: "path",
-        ty: ParamType::Glob,
-        required: true,
-        doc: "measurement file or glob (`data/run*.uff`), relative to the pipeline file",
-    },
-    ParamSpec {
-        name: "format",
-        ty: ParamType::Enum(&["uff", "csv"]),
-        required: false,
-        doc: "file format; default by extension (.csv is csv, anything else uff)",
-    },
-    ParamSpec {
-        name: "select",
-        ty: ParamType::Mapping,
-        required: false,
-        doc: "channels to keep: {responses: [101+X, 7Z, '*+Z'], references: [1-Z], function: frf}",
-    },
-    ParamSpec {
-        name: "band",
-        ty: ParamType::Any,
-        required: false,
-        doc: "frequency band [low, high] in Hz (inclusive)",
-    },
-    ParamSpec {
-        name: "positions",
-        ty: ParamType::Enum(&["auto", "load_case", "file", "single"]),
-        required: false,
-        doc: "how positions are formed: per UFF load case, per file, or one; auto = per file for several files, else per load case",
-    },
-];
+crate::string_enum! {
+    /// File formats `import` reads.
+    pub enum Format {
+        Uff = "uff",
+        Csv = "csv",
+    }
+}
 
-#[derive(Deserialize, Default)]
+crate::string_enum! {
+    /// How imported FRFs form positions.
+    pub enum Positions {
+        Auto = "auto",
+        LoadCase = "load_case",
+        File = "file",
+        Single = "single",
+    }
+}
+
+/// Channels to keep.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
-struct Select {
+pub struct Select {
     #[serde(default)]
     responses: Vec<String>,
     #[serde(default)]
@@ -64,54 +49,66 @@ struct Select {
     function: Option<String>,
 }
 
-#[derive(Deserialize)]
-struct Params {
-    #[serde(default)]
-    format: Option<String>,
-    #[serde(default)]
-    select: Option<Select>,
-    #[serde(default)]
-    band: Option<(f64, f64)>,
-    #[serde(default)]
-    positions: Option<String>,
-}
-
-fn problem(path: &[&str], message: String, help: &str) -> ParamProblem {
-    ParamProblem {
-        path: path.iter().map(|s| s.to_string()).collect(),
-        message,
-        help: Some(help.to_string()),
+impl super::params::TypeName for Select {
+    fn type_name() -> String {
+        "mapping {responses, references, function}".into()
     }
 }
 
-fn selection(p: &Params) -> Result<Selection, ParamProblem> {
+crate::params! {
+    /// The `import` kind's params.
+    pub struct Params {
+        /// measurement file or glob (`data/run*.uff`), relative to the
+        /// pipeline file
+        pub path: String,
+        /// file format (default by extension: .csv is csv, anything else uff)
+        pub format: Option<Format> = None,
+        /// channels to keep: {responses: [101+X, 7Z, '*+Z'], references:
+        /// [1-Z], function: frf}
+        pub select: Option<Select> = None,
+        /// frequency band [low, high] in Hz (inclusive)
+        pub band: Option<(f64, f64)> = None; range Range::at_least(0.0),
+        /// how positions are formed: per UFF load case, per file, or one;
+        /// auto = per file for several files, else per load case
+        pub positions: Positions = Positions::Auto,
+    }
+}
+
+fn selection(p: &Params) -> Result<Selection, Vec<ParamProblem>> {
+    let mut problems = Vec::new();
     let mut sel = Selection {
         band_hz: p.band,
         ..Selection::default()
     };
     if let Some((lo, hi)) = p.band {
-        if !(lo >= 0.0 && lo < hi) {
-            return Err(problem(
+        if lo >= hi {
+            problems.push(ParamProblem::new(
                 &["band"],
-                format!("band [{lo}, {hi}] is empty or negative"),
+                format!("band [{lo}, {hi}] is empty"),
                 "give [low, high] in Hz with 0 <= low < high",
             ));
         }
     }
     if let Some(s) = &p.select {
-        let parse = |list: &[String], field: &str| -> Result<Vec<DofPattern>, ParamProblem> {
-            list.iter()
-                .enumerate()
-                .map(|(i, t)| {
-                    DofPattern::parse(t).map_err(|e| problem(&["select", field, &i.to_string()], e.to_string(), "patterns: 101+X (exact), 101X (either sign), 101 (any direction), *+Z, *"))
-                })
-                .collect()
+        let mut parse = |list: &[String], field: &str| -> Vec<DofPattern> {
+            let mut out = Vec::new();
+            for (i, t) in list.iter().enumerate() {
+                match DofPattern::parse(t) {
+                    Ok(d) => out.push(d),
+                    Err(e) => problems.push(ParamProblem::new(
+                        &["select", field, &i.to_string()],
+                        e.to_string(),
+                        "patterns: 101+X (exact), 101X (either sign), 101 (any direction), *+Z, *",
+                    )),
+                }
+            }
+            out
         };
-        sel.responses = parse(&s.responses, "responses")?;
-        sel.references = parse(&s.references, "references")?;
+        sel.responses = parse(&s.responses, "responses");
+        sel.references = parse(&s.references, "references");
         if let Some(f) = &s.function {
             if !f.eq_ignore_ascii_case("frf") {
-                return Err(problem(
+                problems.push(ParamProblem::new(
                     &["select", "function"],
                     format!("function type `{f}` cannot form an FRF artifact"),
                     "only `frf` (UFF type 4) is imported; coherences come along with their FRFs",
@@ -119,23 +116,16 @@ fn selection(p: &Params) -> Result<Selection, ParamProblem> {
             }
         }
     }
-    Ok(sel)
-}
-
-fn parse_params(params: &Mapping) -> Result<Params, ParamProblem> {
-    serde_yaml_ng::from_value(serde_yaml_ng::Value::Mapping(params.clone())).map_err(|e| {
-        problem(
-            &[],
-            format!("invalid import params: {e}"),
-            "`select` takes responses, references, function; `band` is [low, high]",
-        )
-    })
-}
-
-impl Stage for Import {
-    fn kind(&self) -> &'static str {
-        "import"
+    if problems.is_empty() {
+        Ok(sel)
+    } else {
+        Err(problems)
     }
+}
+
+impl Kind for Import {
+    type Params = Params;
+    const NAME: &'static str = "import";
 
     fn version(&self) -> u32 {
         1
@@ -145,34 +135,49 @@ impl Stage for Import {
         "read measured FRFs (UFF 58/58b or CSV) into an frf artifact"
     }
 
-    fn params(&self) -> &'static [ParamSpec] {
-        PARAMS
-    }
-
     fn inputs(&self) -> Option<&'static [InputSpec]> {
         Some(&[])
     }
 
-    fn outputs(&self, _params: &Mapping) -> Vec<String> {
-        vec!["frf".into(), "summary".into()]
+    const OUTPUTS: &'static [(&'static str, Artifact)] =
+        &[("frf", Artifact::Frf), ("summary", Artifact::Json)];
+
+    fn files(&self, p: &Params) -> Vec<FileRef> {
+        vec![FileRef {
+            param: "path".into(),
+            path: p.path.clone(),
+            glob: true,
+        }]
     }
 
-    fn check(&self, params: &Mapping) -> Result<(), ParamProblem> {
-        selection(&parse_params(params)?).map(|_| ())
+    fn check(&self, p: &Params) -> Vec<ParamProblem> {
+        selection(p).err().unwrap_or_default()
     }
 
-    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
-        let params = parse_params(ctx.params).map_err(|p| StageError::Failed(p.message))?;
-        let sel = selection(&params).map_err(|p| StageError::Failed(p.message))?;
-        let files = ctx.glob_param("path")?;
-        let mode = params.positions.as_deref().unwrap_or("auto");
-        let per_file = mode == "file" || (mode == "auto" && files.len() > 1);
+    fn run(&self, params: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let sel = selection(params).map_err(|p| {
+            StageError::Failed(
+                p.into_iter()
+                    .map(|p| p.message)
+                    .collect::<Vec<_>>()
+                    .join("; "),
+            )
+        })?;
+        let files = super::expand_glob(ctx.pipeline_dir, &params.path).map_err(|message| {
+            StageError::InvalidParam {
+                param: "path".into(),
+                message,
+            }
+        })?;
+        let mode = params.positions;
+        let per_file = mode == Positions::File || (mode == Positions::Auto && files.len() > 1);
         ctx.progress.set_length(files.len() as u64);
         let mut sets: Vec<FrfSet> = Vec::new();
         let mut warnings = Vec::new();
         for (k, (rel, path)) in files.iter().enumerate() {
-            let format = params.format.clone().unwrap_or_else(|| by_extension(path));
-            let mut file_sets = read_one(path, rel, &format, mode != "single", &mut warnings)?;
+            let format = params.format.unwrap_or_else(|| by_extension(path));
+            let split = mode != Positions::Single;
+            let mut file_sets = read_one(path, rel, format, split, &mut warnings)?;
             if per_file {
                 for s in &mut file_sets {
                     s.position = Position {
@@ -219,10 +224,10 @@ impl Stage for Import {
     }
 }
 
-fn by_extension(path: &Path) -> String {
+fn by_extension(path: &Path) -> Format {
     match path.extension().and_then(|e| e.to_str()) {
-        Some(e) if e.eq_ignore_ascii_case("csv") => "csv".into(),
-        _ => "uff".into(),
+        Some(e) if e.eq_ignore_ascii_case("csv") => Format::Csv,
+        _ => Format::Uff,
     }
 }
 
@@ -235,7 +240,7 @@ fn file_label(rel: &str) -> String {
 fn read_one(
     path: &Path,
     rel: &str,
-    format: &str,
+    format: Format,
     split: bool,
     warnings: &mut Vec<String>,
 ) -> Result<Vec<FrfSet>, StageError> {
@@ -244,7 +249,7 @@ fn read_one(
         input: rel.to_string(),
         message: e.to_string(),
     };
-    if format == "csv" {
+    if format == Format::Csv {
         return io::read_frf_csv(&bytes, rel).map_err(invalid);
     }
     let file = io::read_uff(&bytes, rel).map_err(invalid)?;

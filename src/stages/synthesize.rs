@@ -10,10 +10,10 @@
 //! so downstream stages can rebuild it), `truth` (parameters.csv).
 
 use super::artifacts;
-use super::synthesize_params::{self as sp, Modes, Params};
+use super::synthesize_params::{self as sp, Modes, Params, PositionRef};
 use super::synthesize_values::{override_from_table, significant_parameters, values};
 use super::{
-    InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs,
+    Artifact, FileRef, InputSpec, Kind, ParamProblem, StageContext, StageError, StageOutputs,
 };
 use crate::dynamics::measurement;
 use crate::dynamics::model_file::{self, ParameterKind, Scale};
@@ -24,32 +24,13 @@ use crate::frf::{Dof, FrfSet};
 use crate::modal::{ModalModel, Mode};
 use num_complex::Complex64;
 use rayon::prelude::*;
-use serde_yaml_ng::{Mapping, Value};
 use std::collections::BTreeMap;
 use std::path::Path;
 
 pub struct Synthesize;
 
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec { name: "model", ty: ParamType::Path, required: true, doc: "model file (YAML), relative to the pipeline file" },
-    ParamSpec { name: "values", ty: ParamType::Any, required: false, doc: "`truth` (default), {name: value} overrides, or {perturb: {relative, seed, parameters: [names] (default all)}}" },
-    ParamSpec { name: "positions", ty: ParamType::Any, required: false, doc: "axis positions to synthesize, by index or label; default all" },
-    ParamSpec { name: "sensors", ty: ParamType::Strings, required: false, doc: "subset of the model's sensors by name; default all" },
-    ParamSpec { name: "excitations", ty: ParamType::Strings, required: false, doc: "subset of the model's excitations by name; default all" },
-    ParamSpec { name: "frequency", ty: ParamType::Mapping, required: true, doc: "frequency grid {min, max, step} in Hz" },
-    ParamSpec { name: "noise", ty: ParamType::Mapping, required: false, doc: "{relative: r}: complex Gaussian noise, r times each FRF's RMS" },
-    ParamSpec { name: "impact_test", ty: ParamType::Mapping, required: false, doc: "simulated hammer test (H1/H2, coherence): sample_rate_hz, block_size, averages, force_noise, response_noise, exponential_window_end, estimator, …" },
-    ParamSpec { name: "modes", ty: ParamType::Any, required: false, doc: "modes in the superposition: a count or {below: Hz}; default all below 2·max frequency" },
-    ParamSpec { name: "quantity", ty: ParamType::Enum(&["receptance", "mobility", "accelerance"]), required: false, doc: "FRF quantity; default receptance" },
-    ParamSpec { name: "seed", ty: ParamType::Integer, required: false, doc: "noise seed; default the pipeline's seed" },
-];
-
 fn problem(path: &[&str], message: String, help: &str) -> ParamProblem {
-    ParamProblem {
-        path: path.iter().map(|s| s.to_string()).collect(),
-        message,
-        help: Some(help.into()),
-    }
+    ParamProblem::new(path, message, help)
 }
 
 /// Load and validate the model file named by `params.model` below `dir`.
@@ -83,7 +64,7 @@ pub(crate) fn model_file_dependencies(dir: &Path, rel: &str) -> Result<Vec<Strin
 }
 
 /// Configuration indices selected by `positions` (indices or labels).
-fn positions(prepared: &PreparedModel, sel: Option<&[Value]>) -> Result<Vec<usize>, String> {
+fn positions(prepared: &PreparedModel, sel: Option<&[PositionRef]>) -> Result<Vec<usize>, String> {
     let Some(sel) = sel else {
         return Ok((0..prepared.configurations.len()).collect());
     };
@@ -95,15 +76,21 @@ fn positions(prepared: &PreparedModel, sel: Option<&[Value]>) -> Result<Vec<usiz
     sel.iter()
         .map(|v| {
             let hit = match v {
-                Value::Number(n) => n.as_u64().map(|i| i as usize).filter(|&i| i < labels.len()),
-                Value::String(s) => labels.iter().position(|l| l == s),
-                _ => None,
+                PositionRef::Index(i) => Some(*i).filter(|&i| i < labels.len()),
+                PositionRef::Label(s) => labels.iter().position(|l| l == s),
             };
             hit.ok_or_else(|| {
-                format!(
-                    "positions: no position {v:?} (positions: {})",
-                    labels.join(", ")
-                )
+                let v = match v {
+                    PositionRef::Index(i) => i.to_string(),
+                    PositionRef::Label(s) => format!("`{s}`"),
+                };
+                if labels.len() == 1 && labels[0].is_empty() {
+                    format!(
+                        "no position {v}: the model has no axes, so one unnamed position (index 0)"
+                    )
+                } else {
+                    format!("no position {v} (positions: {})", labels.join(", "))
+                }
             })
         })
         .collect()
@@ -127,10 +114,10 @@ fn subset(all: &[(String, Dof)], names: Option<&[String]>, what: &str) -> Result
         .collect()
 }
 
-impl Stage for Synthesize {
-    fn kind(&self) -> &'static str {
-        "synthesize"
-    }
+impl Kind for Synthesize {
+    type Params = Params;
+    const NAME: &'static str = "synthesize";
+
     /// 2: true modes in the pole convention of the FRFs (hysteretic modes
     /// at |λ|, [`crate::dynamics::solve::mode_pole`]).
     fn version(&self) -> u32 {
@@ -139,39 +126,48 @@ impl Stage for Synthesize {
     fn summary(&self) -> &'static str {
         "solve a model file and write reference FRFs (with noise or a simulated impact test), modes and the truth"
     }
-    fn params(&self) -> &'static [ParamSpec] {
-        PARAMS
-    }
     fn inputs(&self) -> Option<&'static [InputSpec]> {
         Some(&[
             InputSpec {
                 name: "values",
                 required: false,
                 list: false,
+                artifact: Artifact::Parameters,
                 doc: "a parameter table (`parameter,value,...`: an identify stage's `parameters`, a synthesize `truth`) whose values override the model's, applied after the `values` param: the updated model's FRFs and modes",
             },
             InputSpec {
                 name: "significant",
                 required: false,
                 list: false,
+                artifact: Artifact::Significant,
                 doc: "a gsa `significant` table (significant.csv): `values.perturb` moves only its significant parameters (PUB3 scenario 1 that follows the screening)",
             },
         ])
     }
-    fn outputs(&self, _params: &Mapping) -> Vec<String> {
-        ["frf", "modes", "model", "truth"]
-            .map(String::from)
-            .to_vec()
-    }
+    const OUTPUTS: &'static [(&'static str, Artifact)] = &[
+        ("frf", Artifact::Frf),
+        ("modes", Artifact::Modes),
+        ("model", Artifact::Model),
+        ("truth", Artifact::Parameters),
+    ];
     fn uses_seed(&self) -> bool {
         true
     }
-    fn check(&self, params: &Mapping) -> Result<(), ParamProblem> {
-        sp::parse(params).map(|_| ())
+    fn seed(&self, p: &Params) -> Option<u64> {
+        p.seed
+    }
+    fn check(&self, p: &Params) -> Vec<ParamProblem> {
+        sp::check(p)
+    }
+    fn files(&self, p: &Params) -> Vec<FileRef> {
+        vec![FileRef {
+            param: "model".into(),
+            path: p.model.clone(),
+            glob: false,
+        }]
     }
 
-    fn file_dependencies(&self, params: &Mapping, dir: &Path) -> Result<Vec<String>, ParamProblem> {
-        let p = sp::parse(params)?;
+    fn file_dependencies(&self, p: &Params, dir: &Path) -> Result<Vec<String>, ParamProblem> {
         let (model, text) = load_model(dir, &p.model).map_err(|m| {
             problem(
                 &["model"],
@@ -209,8 +205,7 @@ impl Stage for Synthesize {
         Ok(external_files(&spec, &p.model))
     }
 
-    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
-        let p = sp::parse(ctx.params).map_err(|e| StageError::Failed(e.message))?;
+    fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
         let invalid = |param: &str, message: String| StageError::InvalidParam {
             param: param.into(),
             message,
@@ -218,7 +213,7 @@ impl Stage for Synthesize {
         let (model, text) =
             load_model(ctx.pipeline_dir, &p.model).map_err(|m| invalid("model", m))?;
         let only = match ctx.inputs.get("significant") {
-            Some(_) => Some(significant_parameters(ctx.input("significant")?, &p)?),
+            Some(_) => Some(significant_parameters(ctx.input("significant")?, p)?),
             None => None,
         };
         let mut x =
@@ -226,7 +221,8 @@ impl Stage for Synthesize {
         if ctx.inputs.contains_key("values") {
             override_from_table(&model, &mut x, ctx.input("values")?)?;
         }
-        ctx.progress.set_message("preparing model (reductions)");
+        ctx.progress
+            .set_message("preparing model (reductions)".into());
         let prepared = PreparedModel::new(&model).map_err(|e| invalid("model", e.to_string()))?;
         let configs =
             positions(&prepared, p.positions.as_deref()).map_err(|m| invalid("positions", m))?;
@@ -239,15 +235,15 @@ impl Stage for Synthesize {
         )
         .map_err(|m| invalid("excitations", m))?;
         let grid = p.frequency;
-        let quantity = sp::quantity(&p);
+        let quantity = p.quantity.into();
         let selection = match p.modes {
             Some(Modes::Count(n)) => ModeSelection::Lowest(n),
             Some(Modes::Below { below }) => ModeSelection::Below(below),
             None => ModeSelection::Below(2.0 * grid.max),
         };
-        let seed = p.seed.unwrap_or(ctx.seed);
+        let seed = ctx.seed;
         ctx.progress.set_length(configs.len() as u64);
-        ctx.progress.set_message("solving positions");
+        ctx.progress.set_message("solving positions".into());
         let per_position: Vec<Result<(FrfSet, ModalModel), StageError>> = configs
             .par_iter()
             .map(|&c| {
@@ -258,7 +254,7 @@ impl Stage for Synthesize {
                     selection,
                     &sensors,
                     &excitations,
-                    &p,
+                    p,
                     quantity,
                     seed,
                 );

@@ -1,44 +1,71 @@
 //! Params of the `synthesize` kind: their serde schema and the checks that
 //! run during validation, before anything is computed.
 
+use super::params::TypeName;
 use super::ParamProblem;
 use crate::dynamics::measurement::{Estimator, ImpactTestParams};
 use crate::frf::FrfQuantity;
-use serde::Deserialize;
-use serde_yaml_ng::{Mapping, Value};
+use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-#[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Params {
-    pub model: String,
-    #[serde(default)]
-    pub values: Option<Values>,
-    #[serde(default)]
-    pub positions: Option<Vec<Value>>,
-    #[serde(default)]
-    pub sensors: Option<Vec<String>>,
-    #[serde(default)]
-    pub excitations: Option<Vec<String>>,
-    pub frequency: Grid,
-    #[serde(default)]
-    pub noise: Option<Noise>,
-    #[serde(default)]
-    pub impact_test: Option<ImpactSpec>,
-    #[serde(default)]
-    pub modes: Option<Modes>,
-    #[serde(default)]
-    pub quantity: Option<String>,
-    #[serde(default)]
-    pub seed: Option<u64>,
+crate::string_enum! {
+    /// The FRF quantity synthesized.
+    pub enum Quantity {
+        Receptance = "receptance",
+        Mobility = "mobility",
+        Accelerance = "accelerance",
+    }
+}
+
+/// A position by index or by label.
+#[derive(Clone, Debug, Deserialize, Serialize, PartialEq)]
+#[serde(untagged, expecting = "a position index (integer) or label (string)")]
+pub enum PositionRef {
+    Index(usize),
+    Label(String),
+}
+
+crate::params! {
+    /// The `synthesize` kind's params.
+    pub struct Params {
+        /// model file (YAML), relative to the pipeline file
+        pub model: String,
+        /// `truth` (default), {name: value} overrides, {perturb: {relative,
+        /// seed, parameters: [names] (default all)}}, or {scale: {glob: factor}}
+        pub values: Option<Values> = None,
+        /// axis positions to synthesize, by index or label (default all)
+        pub positions: Option<Vec<PositionRef>> = None,
+        /// subset of the model's sensors by name (default all)
+        pub sensors: Option<Vec<String>> = None,
+        /// subset of the model's excitations by name (default all)
+        pub excitations: Option<Vec<String>> = None,
+        /// frequency grid {min, max, step} in Hz
+        pub frequency: Grid,
+        /// {relative: r}: complex Gaussian noise, r times each FRF's RMS
+        pub noise: Option<Noise> = None,
+        /// simulated hammer test (H1/H2, coherence): sample_rate_hz,
+        /// block_size, averages, force_noise, response_noise,
+        /// exponential_window_end, estimator, …
+        pub impact_test: Option<ImpactSpec> = None; check check_impact,
+        /// modes in the superposition: a count or {below: Hz} (default all
+        /// below 2·max frequency)
+        pub modes: Option<Modes> = None,
+        /// FRF quantity
+        pub quantity: Quantity = Quantity::Receptance,
+        /// noise seed (default: the pipeline's seed)
+        pub seed: Option<u64> = None,
+    }
 }
 
 /// Parameter values to synthesize with: `truth` (default), overrides by
 /// name, a seeded random perturbation of the truth (a disturbed model), or
 /// factors on the true values of every parameter a glob pattern matches
 /// (a worn component: `{scale: {"lgs_*.k_*": 0.6}}`).
-#[derive(Deserialize)]
-#[serde(untagged)]
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(
+    untagged,
+    expecting = "`truth`, {name: value}, {perturb: {relative, seed, parameters}} or {scale: {pattern: factor}}"
+)]
 pub enum Values {
     Perturb { perturb: Perturb },
     Scale { scale: BTreeMap<String, f64> },
@@ -46,7 +73,7 @@ pub enum Values {
     Named(String),
 }
 
-#[derive(Deserialize)]
+#[derive(Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Perturb {
     /// Log-normal spread: each value is multiplied by exp(relative · g),
@@ -61,7 +88,7 @@ pub struct Perturb {
     pub parameters: Option<Vec<String>>,
 }
 
-#[derive(Deserialize, Clone, Copy)]
+#[derive(Debug, Deserialize, Serialize, Clone, Copy)]
 #[serde(deny_unknown_fields)]
 pub struct Grid {
     pub min: f64,
@@ -77,7 +104,7 @@ impl Grid {
     }
 }
 
-#[derive(Deserialize)]
+#[derive(Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Noise {
     /// Complex Gaussian noise, standard deviation relative to each FRF's RMS.
@@ -85,15 +112,15 @@ pub struct Noise {
 }
 
 /// Modes used for synthesis: a count, or all below a frequency.
-#[derive(Deserialize)]
-#[serde(untagged)]
+#[derive(Debug, Deserialize, Serialize)]
+#[serde(untagged, expecting = "a mode count or {below: Hz}")]
 pub enum Modes {
     Count(usize),
     Below { below: f64 },
 }
 
 /// A partial [`ImpactTestParams`]: what is not given keeps its default.
-#[derive(Deserialize, Default)]
+#[derive(Debug, Deserialize, Serialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct ImpactSpec {
     sample_rate_hz: Option<f64>,
@@ -109,6 +136,35 @@ pub struct ImpactSpec {
     force_window_s: Option<f64>,
     exponential_window_end: Option<f64>,
     estimator: Option<String>,
+}
+
+/// Largest impact-test sizes: a record of `block_size · oversampling`
+/// samples is simulated per average, excitation and position, so these bound
+/// the memory and time a typo can ask for (defaults: 8192, 4, 5).
+pub const MAX_BLOCK_SIZE: usize = 1 << 20;
+pub const MAX_OVERSAMPLING: usize = 64;
+pub const MAX_AVERAGES: usize = 10_000;
+
+/// The impact-test sizes within their bounds (the physics is checked with
+/// the whole params, in [`check`]).
+pub fn check_impact(spec: &Option<ImpactSpec>) -> Vec<ParamProblem> {
+    let Some(s) = spec else { return Vec::new() };
+    let bounds = [
+        ("block_size", s.block_size, 16, MAX_BLOCK_SIZE),
+        ("oversampling", s.oversampling, 1, MAX_OVERSAMPLING),
+        ("averages", s.averages, 1, MAX_AVERAGES),
+    ];
+    bounds
+        .into_iter()
+        .filter_map(|(name, v, lo, hi)| {
+            let v = v.filter(|v| !(lo..=hi).contains(v))?;
+            Some(ParamProblem::new(
+                &[name],
+                format!("impact_test `{name}` = {v} is out of range [{lo}, {hi}]"),
+                format!("give `{name}` a value in [{lo}, {hi}]"),
+            ))
+        })
+        .collect()
 }
 
 impl ImpactSpec {
@@ -137,135 +193,151 @@ impl ImpactSpec {
     }
 }
 
-fn problem(path: &[&str], message: String, help: &str) -> ParamProblem {
-    ParamProblem {
-        path: path.iter().map(|s| s.to_string()).collect(),
-        message,
-        help: Some(help.into()),
+impl TypeName for PositionRef {
+    fn type_name() -> String {
+        "index or label".into()
     }
 }
 
-pub fn quantity(p: &Params) -> FrfQuantity {
-    match p.quantity.as_deref() {
-        Some("mobility") => FrfQuantity::Mobility,
-        Some("accelerance") => FrfQuantity::Accelerance,
-        _ => FrfQuantity::Receptance,
+impl TypeName for Values {
+    fn type_name() -> String {
+        "`truth` | {name: value} | {perturb: {…}} | {scale: {…}}".into()
     }
 }
 
-/// Deserialize and check everything that does not need the model file.
-pub fn parse(params: &Mapping) -> Result<Params, ParamProblem> {
-    let p: Params = serde_yaml_ng::from_value(Value::Mapping(params.clone())).map_err(|e| {
-        problem(
-            &[],
-            format!("invalid synthesize params: {e}"),
-            "see `modalflow kinds` for the params of `synthesize`",
-        )
-    })?;
+impl TypeName for Grid {
+    fn type_name() -> String {
+        "mapping {min, max, step}".into()
+    }
+}
+
+impl TypeName for Noise {
+    fn type_name() -> String {
+        "mapping {relative}".into()
+    }
+}
+
+impl TypeName for Modes {
+    fn type_name() -> String {
+        "count | {below: Hz}".into()
+    }
+}
+
+impl TypeName for ImpactSpec {
+    fn type_name() -> String {
+        "mapping (impact-test settings)".into()
+    }
+}
+
+impl From<Quantity> for FrfQuantity {
+    fn from(q: Quantity) -> FrfQuantity {
+        match q {
+            Quantity::Receptance => FrfQuantity::Receptance,
+            Quantity::Mobility => FrfQuantity::Mobility,
+            Quantity::Accelerance => FrfQuantity::Accelerance,
+        }
+    }
+}
+
+/// Checks across params, every problem at once; the model file is checked
+/// by the kind when the files are looked at.
+pub fn check(p: &Params) -> Vec<ParamProblem> {
+    let mut out = Vec::new();
+    let mut problem = |path: &[&str], message: String, help: &str| {
+        out.push(ParamProblem::new(path, message, help))
+    };
     let g = p.frequency;
     if !(g.min >= 0.0 && g.max > g.min && g.step > 0.0) {
-        return Err(problem(
+        problem(
             &["frequency"],
             format!(
                 "frequency grid {{min: {}, max: {}, step: {}}} is empty",
                 g.min, g.max, g.step
             ),
             "need 0 <= min < max and step > 0 (Hz)",
-        ));
-    }
-    if (g.max - g.min) / g.step > 2.0e6 {
-        return Err(problem(
+        );
+    } else if (g.max - g.min) / g.step > 2.0e6 {
+        problem(
             &["frequency", "step"],
             "more than 2 million frequency lines".into(),
             "use a coarser step",
-        ));
+        );
     }
     if let Some(n) = &p.noise {
         if !(n.relative.is_finite() && n.relative >= 0.0) {
-            return Err(problem(
+            problem(
                 &["noise", "relative"],
                 format!("noise level {} must be >= 0", n.relative),
                 "a fraction of each FRF's RMS, e.g. 0.01",
-            ));
+            );
         }
     }
     if p.noise.is_some() && p.impact_test.is_some() {
-        return Err(problem(
+        problem(
             &["impact_test"],
             "`noise` and `impact_test` exclude each other".into(),
             "an impact test brings its own noise (force_noise, response_noise)",
-        ));
+        );
     }
     if let Some(imp) = &p.impact_test {
-        let params = imp.resolve(&g, quantity(&p));
-        params.validate().map_err(|e| {
+        if let Err(e) = imp.resolve(&g, p.quantity.into()).validate() {
             problem(
                 &["impact_test"],
                 e.to_string(),
                 "see the impact_test fields in the README",
-            )
-        })?;
+            );
+        }
         if let Some(est) = &imp.estimator {
             if !["h1", "h2", "H1", "H2"].contains(&est.as_str()) {
-                return Err(problem(
+                problem(
                     &["impact_test", "estimator"],
                     format!("unknown estimator `{est}`"),
                     "h1 or h2",
-                ));
+                );
             }
         }
     }
-    if let Some(Values::Perturb { perturb }) = &p.values {
-        if !(perturb.relative.is_finite() && perturb.relative > 0.0) {
-            return Err(problem(
+    match &p.values {
+        Some(Values::Perturb { perturb })
+            if !(perturb.relative.is_finite() && perturb.relative > 0.0) =>
+        {
+            problem(
                 &["values", "perturb", "relative"],
                 "perturbation must be > 0".into(),
                 "e.g. 0.3 for about ±30 %",
-            ));
+            )
         }
-    }
-    if let Some(Values::Scale { scale }) = &p.values {
-        for (pattern, f) in scale {
-            if let Err(e) = glob::Pattern::new(pattern) {
-                return Err(problem(
-                    &["values", "scale", pattern],
-                    format!("`{pattern}` is not a valid pattern: {e}"),
-                    "use * and ? as in lgs_*.k_*",
-                ));
+        Some(Values::Scale { scale }) => {
+            for (pattern, f) in scale {
+                if let Err(e) = glob::Pattern::new(pattern) {
+                    problem(
+                        &["values", "scale", pattern],
+                        format!("`{pattern}` is not a valid pattern: {e}"),
+                        "use * and ? as in lgs_*.k_*",
+                    );
+                }
+                if !(f.is_finite() && *f > 0.0) {
+                    problem(
+                        &["values", "scale", pattern],
+                        format!("factor {f} must be a positive number"),
+                        "e.g. 0.6 for 60 % of the true value",
+                    );
+                }
             }
-            if !(f.is_finite() && *f > 0.0) {
-                return Err(problem(
-                    &["values", "scale", pattern],
-                    format!("factor {f} must be a positive number"),
-                    "e.g. 0.6 for 60 % of the true value",
-                ));
-            }
         }
-    }
-    if let Some(Values::Named(n)) = &p.values {
-        if n != "truth" {
-            return Err(problem(
-                &["values"],
-                format!("unknown values `{n}`"),
-                "`truth`, a map of parameter overrides, {perturb: {relative, seed}} or {scale: {pattern: factor}}",
-            ));
-        }
+        Some(Values::Named(n)) if n != "truth" => problem(
+            &["values"],
+            format!("unknown values `{n}`"),
+            "`truth`, a map of parameter overrides, {perturb: {relative, seed}} or {scale: {pattern: factor}}",
+        ),
+        _ => {}
     }
     if let Some(Modes::Count(0)) = p.modes {
-        return Err(problem(
+        problem(
             &["modes"],
             "zero modes".into(),
             "a mode count >= 1 or {below: Hz}",
-        ));
+        );
     }
-    if let Some(q) = &p.quantity {
-        if !["receptance", "mobility", "accelerance"].contains(&q.as_str()) {
-            return Err(problem(
-                &["quantity"],
-                format!("unknown quantity `{q}`"),
-                "receptance, mobility or accelerance",
-            ));
-        }
-    }
-    Ok(p)
+    out
 }

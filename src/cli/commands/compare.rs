@@ -27,7 +27,7 @@ pub struct Args {
     pattern: Option<String>,
     /// Print one JSON object on stdout.
     #[arg(long)]
-    json: bool,
+    pub json: bool,
     /// Print CSV on stdout.
     #[arg(long, conflicts_with = "json")]
     csv: bool,

@@ -12,7 +12,7 @@ pub struct Args {
     dry_run: bool,
     /// Print one JSON object on stdout.
     #[arg(long)]
-    json: bool,
+    pub json: bool,
     /// Cache directory.
     #[arg(long, env = "MODALFLOW_CACHE", default_value = "cache")]
     cache: PathBuf,

@@ -15,9 +15,12 @@ use std::path::PathBuf;
 pub struct Args {
     /// The pipeline file.
     file: PathBuf,
-    /// Stages run at once (default: number of cores).
+    /// Run only these stages and what they need (a matrix stage by its base
+    /// name for all expansions, or one expansion, e.g. `ema[measurement=noisy]`).
+    stages: Vec<String>,
+    /// Stages run at once, at least 1 (default: number of cores).
     #[arg(long, short)]
-    jobs: Option<usize>,
+    jobs: Option<std::num::NonZeroUsize>,
     /// After a failure, still run the stages that do not depend on it.
     #[arg(long)]
     keep_going: bool,
@@ -29,7 +32,7 @@ pub struct Args {
     dry_run: bool,
     /// Print one JSON object on stdout instead of a summary.
     #[arg(long)]
-    json: bool,
+    pub json: bool,
     /// Progress display on stderr.
     #[arg(long, value_enum, default_value_t = Progress::Auto)]
     progress: Progress,
@@ -68,14 +71,29 @@ pub fn options(
     progress: ProgressMode,
 ) -> RunOptions {
     RunOptions {
+        targets: Vec::new(),
         jobs: jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(2, |n| n.get())),
         keep_going,
         force,
         cache: locations.cache.clone(),
         results: locations.results.clone(),
         progress,
+        heartbeat: heartbeat(),
         executor: None,
     }
+}
+
+/// The heartbeat interval of `--progress lines`: 10 s, or
+/// `MODALFLOW_HEARTBEAT` seconds (tests).
+fn heartbeat() -> std::time::Duration {
+    std::env::var("MODALFLOW_HEARTBEAT")
+        .ok()
+        .and_then(|s| s.parse::<f64>().ok())
+        .filter(|s| *s > 0.0 && s.is_finite())
+        .map_or(
+            modalflow::pipeline::progress::HEARTBEAT,
+            std::time::Duration::from_secs_f64,
+        )
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
@@ -93,10 +111,11 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
     };
     let jobs = match (args.jobs, executor) {
         (None, ExecutorKind::Slurm) => Some(SLURM_JOBS),
-        (jobs, _) => jobs,
+        (jobs, _) => jobs.map(std::num::NonZeroUsize::get),
     };
     let mut opts = options(&args.locations, jobs, args.keep_going, args.force, progress);
     opts.executor = Some(executor);
+    opts.targets = args.stages;
     let report = if args.dry_run {
         run::status(&plan, &opts)?
     } else {

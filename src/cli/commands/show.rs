@@ -15,7 +15,7 @@ pub struct Args {
     stage: String,
     /// Print the manifest JSON on stdout.
     #[arg(long)]
-    json: bool,
+    pub json: bool,
     #[command(flatten)]
     locations: Locations,
 }
@@ -24,12 +24,13 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
     let plan = plan::load(&args.file)?;
     let Some(node) = plan.nodes.iter().find(|n| n.name == args.stage) else {
         let names: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
-        anyhow::bail!(
+        return Err(crate::cli::exit::Invalid(format!(
             "no stage `{}` in {}; stages: {}",
             args.stage,
             plan.file.display(),
             names.join(", ")
-        );
+        ))
+        .into());
     };
     let dir = args.locations.results.join(&plan.name).join(&node.name);
     let manifest = match read_manifest(&dir) {

@@ -15,7 +15,7 @@ pub struct Args {
     file: PathBuf,
     /// Print one JSON object on stdout.
     #[arg(long)]
-    json: bool,
+    pub json: bool,
     #[command(flatten)]
     locations: Locations,
 }

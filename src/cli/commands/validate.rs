@@ -1,6 +1,6 @@
 //! `modalflow validate`: check a pipeline file without running anything.
 
-use crate::cli::output::{print_json, print_text};
+use crate::cli::output::{print_json, print_text, Locations};
 use modalflow::pipeline::plan;
 use std::path::PathBuf;
 
@@ -11,7 +11,11 @@ pub struct Args {
     file: PathBuf,
     /// Print one JSON object on stdout.
     #[arg(long)]
-    json: bool,
+    pub json: bool,
+    /// Accepted like on every command that takes them, so one command line
+    /// works for `validate`, `status` and `run`; validation reads no cache.
+    #[command(flatten)]
+    _locations: Locations,
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {

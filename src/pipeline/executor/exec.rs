@@ -5,11 +5,9 @@
 //! calls it on a cluster node through [`exec`], from a [`Job`] description.
 
 use super::job::{self, Job, ShardRecord};
-use crate::pipeline::progress::Progress;
 use crate::pipeline::store::{self, ArtifactKind, OutputRecord, RunRecord, Store};
 use crate::stages::shard::{Batch, Role as BatchRole};
-use crate::stages::{self, InputSource, Stage, StageContext, StageError};
-use serde_yaml_ng::Mapping;
+use crate::stages::{self, InputSource, NoProgress, Progress, Stage, StageContext, StageError};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -30,11 +28,10 @@ pub enum Finished {
     Shard(ShardRecord),
 }
 
-/// One run of a stage job: what runs, and which part of it.
+/// One run of a stage job: what runs (the job, with its kind and parsed
+/// params), and which part of it.
 pub struct Run<'a> {
     pub job: &'a Job,
-    pub kind: &'a dyn Stage,
-    pub params: &'a Mapping,
     pub role: Role,
     /// Check the files the key hashed before running (a job on another host
     /// must see the same pipeline directory).
@@ -43,7 +40,7 @@ pub struct Run<'a> {
 
 /// Run (the `role` part of) the stage in a scratch directory and commit the
 /// result: the outputs and run record, or a shard's partial and its record.
-pub fn run(store: &Store, run: &Run, progress: &Progress) -> Result<Finished, String> {
+pub fn run(store: &Store, run: &Run, progress: &dyn Progress) -> Result<Finished, String> {
     let inputs_dir = store.temp_path("in");
     let scratch = store.temp_path("stage");
     let result = run_in(store, run, progress, &inputs_dir, &scratch);
@@ -55,17 +52,17 @@ pub fn run(store: &Store, run: &Run, progress: &Progress) -> Result<Finished, St
 fn run_in(
     store: &Store,
     run: &Run,
-    progress: &Progress,
+    progress: &dyn Progress,
     inputs_dir: &Path,
     scratch: &Path,
 ) -> Result<Finished, String> {
     let Run {
         job,
-        kind,
-        params,
         role,
         verify_files,
     } = *run;
+    let typed = job.typed()?;
+    let kind = typed.kind;
     std::fs::create_dir_all(scratch)
         .map_err(|e| format!("cannot create scratch directory: {e}"))?;
     let mut inputs: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
@@ -100,6 +97,7 @@ fn run_in(
         let labels = list.iter().map(|i| InputSource {
             stage: i.stage.clone(),
             output: i.output.clone(),
+            matrix: i.matrix.clone(),
         });
         sources.insert(name.clone(), labels.collect());
     }
@@ -124,7 +122,6 @@ fn run_in(
     };
     let ctx = StageContext {
         stage: &job.stage,
-        params,
         seed: job.seed,
         inputs: &inputs,
         sources: &sources,
@@ -135,7 +132,9 @@ fn run_in(
         batch: &batch,
     };
     let start = Instant::now();
-    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| kind.run(&ctx)));
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        kind.run(&typed.params, &ctx)
+    }));
     let seconds = start.elapsed().as_secs_f64();
     if let Role::Shard(index) = role {
         return commit_shard(store, job, kind, &batch, outcome, index, seconds);
@@ -270,8 +269,8 @@ pub enum ExecOutcome {
 /// key's lock; the job takes the cache's shared lock against `gc`.
 pub fn exec(store: &Store, path: &Path, shard: Option<usize>) -> Result<ExecOutcome, String> {
     let _guard = store.lock_cache(false).map_err(|e| e.to_string())?;
-    let job = Job::read(path)?;
-    let (kind, params) = job.check()?;
+    let mut job = Job::read(path)?;
+    job.check()?;
     let role = match shard {
         None => Role::Whole,
         Some(i) if job.shards > 1 && i < job.shards => Role::Shard(i),
@@ -303,12 +302,10 @@ pub fn exec(store: &Store, path: &Path, shard: Option<usize>) -> Result<ExecOutc
     }
     let call = Run {
         job: &job,
-        kind,
-        params: &params,
         role,
         verify_files: true,
     };
-    run(store, &call, &Progress::hidden()).map(ExecOutcome::Ran)
+    run(store, &call, &NoProgress).map(ExecOutcome::Ran)
 }
 
 fn panic_text(kind: &dyn Stage, panic: Box<dyn std::any::Any + Send>) -> String {

@@ -1,14 +1,14 @@
 //! A stage run as a self-contained job: the [`Job`] description — stage key,
-//! kind and version, params, seed, inputs by content hash — that the local
-//! executor builds in memory and the Slurm executor writes into the shared
-//! cache for `modalflow exec` ([`super::exec`]), which never parses the
-//! pipeline file; and the records shard tasks leave beside it.
+//! kind and version, params, seed, inputs by content hash — that the engine
+//! builds ([`crate::pipeline::execute`]) and the executors run: the local
+//! executor in memory, with the params already parsed; the Slurm executor
+//! writes it into the shared cache for `modalflow exec` ([`super::exec`]),
+//! which parses the params again and never reads the pipeline file. And the
+//! records shard tasks leave beside it.
 
-use crate::pipeline::execute::Done;
 use crate::pipeline::key::{canonical_params, KeyMaterial};
-use crate::pipeline::plan::{Node, Plan};
 use crate::pipeline::store::{Artifact, Store};
-use crate::stages::{self, Stage};
+use crate::stages::{self, Parsed, Stage};
 use serde::{Deserialize, Serialize};
 use serde_yaml_ng::{Mapping, Value};
 use std::collections::BTreeMap;
@@ -48,6 +48,23 @@ pub struct Job {
     /// Seconds the shards spent, added to the merge's record.
     #[serde(default)]
     pub partial_seconds: f64,
+    /// The kind and its typed params (in memory only; a description read
+    /// from disk gets them from [`Job::check`]).
+    #[serde(skip)]
+    pub typed: Option<Typed>,
+}
+
+/// A job's kind and params, parsed.
+#[derive(Clone)]
+pub struct Typed {
+    pub kind: &'static dyn Stage,
+    pub params: Parsed,
+}
+
+impl std::fmt::Debug for Typed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "Typed({})", self.kind.kind())
+    }
 }
 
 /// One input artifact, by content hash.
@@ -56,6 +73,9 @@ pub struct JobInput {
     /// Upstream stage and output (labels for reports).
     pub stage: String,
     pub output: String,
+    /// The upstream stage's matrix values.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub matrix: Vec<(String, Value)>,
     /// File or directory name the upstream stage gave it.
     pub file: String,
     #[serde(flatten)]
@@ -81,60 +101,19 @@ pub struct ShardRecord {
 }
 
 impl Job {
-    /// The description of `node` with key `key`, given finished upstream stages.
-    pub fn new(
-        plan: &Plan,
-        node: &Node,
-        key: &str,
-        material: &KeyMaterial,
-        done: &dyn Fn(usize) -> Option<Done>,
-    ) -> Result<Job, String> {
-        let output = |src: usize, out: &str| {
-            done(src)
-                .and_then(|d| d.outputs.get(out).cloned())
-                .ok_or_else(|| format!("upstream `{}` has no output `{out}`", plan.nodes[src].name))
-        };
-        let mut inputs = BTreeMap::new();
-        for b in &node.inputs {
-            let mut list = Vec::new();
-            for (src, out) in &b.sources {
-                let rec = output(*src, out)?;
-                list.push(JobInput {
-                    stage: plan.nodes[*src].name.clone(),
-                    output: out.clone(),
-                    file: rec.file,
-                    artifact: rec.artifact,
-                });
-            }
-            inputs.insert(b.name.clone(), list);
-        }
-        let mut restore = Vec::new();
-        for f in &node.files {
-            if let Some((src, out)) = &f.producer {
-                restore.push(Restore {
-                    path: f.path.clone(),
-                    artifact: output(*src, out)?.artifact,
-                });
-            }
-        }
-        let params = serde_yaml_ng::to_string(&Value::Mapping(node.params.clone()))
-            .map_err(|e| format!("cannot write the params: {e}"))?;
-        Ok(Job {
-            format: FORMAT,
-            key: key.to_string(),
-            stage: node.name.clone(),
-            material: material.clone(),
-            params,
-            seed: node.seed,
-            pipeline: plan.name.clone(),
-            pipeline_dir: plan.dir.clone(),
-            inputs,
-            restore,
-            outputs: node.outputs.clone(),
-            workspace_outputs: !node.workspace_outputs.is_empty(),
-            shards: 1,
-            partials: Vec::new(),
-            partial_seconds: 0.0,
+    /// The params as YAML text for the description.
+    pub fn params_text(params: &Mapping) -> Result<String, String> {
+        serde_yaml_ng::to_string(&Value::Mapping(params.clone()))
+            .map_err(|e| format!("cannot write the params: {e}"))
+    }
+
+    /// The kind and typed params of the job.
+    pub fn typed(&self) -> Result<&Typed, String> {
+        self.typed.as_ref().ok_or_else(|| {
+            format!(
+                "job {}: its params were not parsed (a bug, please report)",
+                self.stage
+            )
         })
     }
 
@@ -161,9 +140,9 @@ impl Job {
         store.write_atomic(path, &json).map_err(|e| e.to_string())
     }
 
-    /// The kind and params, checked against the key: the description is
-    /// internally consistent and this binary has the same kind version.
-    pub fn check(&self) -> Result<(&'static dyn Stage, Mapping), String> {
+    /// Parse the kind and params, checked against the key: the description
+    /// is internally consistent and this binary has the same kind version.
+    pub fn check(&mut self) -> Result<(), String> {
         let kind = stages::find(&self.material.kind).ok_or_else(|| {
             format!(
                 "job {}: unknown stage kind `{}`; is the job run by an older modalflow?",
@@ -193,7 +172,18 @@ impl Job {
                 self.stage, self.key
             ));
         }
-        Ok((kind, params))
+        let parsed = kind.parse(&params).map_err(|problems| {
+            let text: Vec<String> = problems
+                .iter()
+                .map(|p| format!("{}: {}", p.path.join("."), p.message))
+                .collect();
+            format!("job {}: params: {}", self.stage, text.join("; "))
+        })?;
+        self.typed = Some(Typed {
+            kind,
+            params: parsed,
+        });
+        Ok(())
     }
 }
 

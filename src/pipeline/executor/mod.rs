@@ -20,12 +20,10 @@ pub mod slurm;
 
 pub use config::{ExecutorKind, ExecutorSpec};
 
-use super::progress::Progress;
 use super::store::{RunRecord, Store};
-use crate::stages::Stage;
+use crate::stages::Progress;
 use exec::{Finished, Role, Run};
 use job::Job;
-use serde_yaml_ng::Mapping;
 
 /// The executor of one `modalflow run`.
 pub enum Executor {
@@ -47,36 +45,26 @@ impl Executor {
         &self,
         store: &Store,
         job: Job,
-        kind: &dyn Stage,
-        params: &Mapping,
-        progress: &Progress,
+        progress: &dyn Progress,
     ) -> Result<RunRecord, String> {
         match self {
             Executor::Slurm(s) => {
-                let resources = s.spec().resources(kind.kind());
+                let resources = s.spec().resources(&job.material.kind);
                 if resources.local {
-                    local(store, &job, kind, params, progress)
+                    local(store, &job, progress)
                 } else {
-                    s.compute(store, job, kind, params, &resources, progress)
+                    s.compute(store, job, &resources, progress)
                 }
             }
-            Executor::Local => local(store, &job, kind, params, progress),
+            Executor::Local => local(store, &job, progress),
         }
     }
 }
 
 /// Run the whole stage in this process.
-pub fn local(
-    store: &Store,
-    job: &Job,
-    kind: &dyn Stage,
-    params: &Mapping,
-    progress: &Progress,
-) -> Result<RunRecord, String> {
+pub fn local(store: &Store, job: &Job, progress: &dyn Progress) -> Result<RunRecord, String> {
     let call = Run {
         job,
-        kind,
-        params,
         role: Role::Whole,
         verify_files: false,
     };

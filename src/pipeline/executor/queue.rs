@@ -8,7 +8,7 @@
 //! The scheduler is asked only whether the job is still pending or running,
 //! and why it ended when it left no result.
 
-use crate::pipeline::progress::Progress;
+use crate::stages::Progress;
 use std::path::Path;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -174,7 +174,7 @@ pub fn wait(
     id: &str,
     ready: &dyn Fn() -> bool,
     poll_max: Duration,
-    progress: &Progress,
+    progress: &dyn Progress,
 ) -> Result<(), Ended> {
     let start = Instant::now();
     let mut queries = Queries::default();

@@ -16,10 +16,8 @@ use super::config::{ExecutorSpec, Resolved};
 use super::interrupt::{self, Live};
 use super::job::{self, Job};
 use super::queue::{self, Ended, TaskState};
-use crate::pipeline::progress::Progress;
 use crate::pipeline::store::{RunRecord, Store};
-use crate::stages::Stage;
-use serde_yaml_ng::Mapping;
+use crate::stages::Progress;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
@@ -64,11 +62,10 @@ impl Slurm {
         &self,
         store: &Store,
         mut job: Job,
-        kind: &dyn Stage,
-        params: &Mapping,
         resources: &Resolved,
-        progress: &Progress,
+        progress: &dyn Progress,
     ) -> Result<RunRecord, String> {
+        let typed = job.typed()?.clone();
         let dir = store.job_dir(&job.key);
         if finished(store, &job.key) {
             // A forced recompute: the job and this process could not tell the
@@ -79,7 +76,7 @@ impl Slurm {
         }
         std::fs::create_dir_all(dir.join("log"))
             .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-        let sharded = resources.shards > 1 && kind.shardable(params);
+        let sharded = resources.shards > 1 && typed.kind.shardable(&typed.params);
         if sharded {
             job.shards = resources.shards;
             let description = dir.join("job.json");
@@ -138,7 +135,7 @@ impl Slurm {
         resources: &Resolved,
         submission: &Submission,
         ready: &dyn Fn() -> bool,
-        progress: &Progress,
+        progress: &dyn Progress,
     ) -> Result<(), String> {
         let text = self.script(store, job, resources, submission);
         std::fs::write(&submission.script, text)

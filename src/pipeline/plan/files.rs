@@ -3,8 +3,7 @@
 //! files reference.
 
 use super::{Ctx, FileParam, Node};
-use crate::stages::{self, ParamType};
-use serde_yaml_ng::Value;
+use crate::stages;
 use std::collections::HashMap;
 use std::path::{Component, Path};
 
@@ -16,7 +15,7 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
         for (out, raw) in n
             .workspace_outputs
             .iter()
-            .zip(n.kind.workspace_outputs(&n.params))
+            .zip(n.kind.workspace_outputs(&n.parsed))
         {
             if let Some((j, _)) = producers.insert(out.clone(), (i, raw)) {
                 let loc = cx.spans.value(&["stages", &n.base, "params"]);
@@ -32,59 +31,48 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
         }
     }
     for (i, node) in nodes.iter_mut().enumerate() {
+        let before = cx.diags.len();
         let mut files = Vec::new();
-        for ps in node.kind.params() {
-            let Some(v) = node.params.get(ps.name) else {
-                continue;
-            };
-            if let (ParamType::Glob, Value::String(pattern)) = (ps.ty, v) {
-                match stages::expand_glob(dir, pattern) {
+        for f in node.kind.files(&node.parsed) {
+            // `deps[1]` is at `params.deps.1` in the file.
+            let mut loc_path = vec!["stages".to_string(), node.base.clone(), "params".into()];
+            match f.param.split_once('[') {
+                Some((name, rest)) => {
+                    loc_path.push(name.into());
+                    loc_path.push(rest.trim_end_matches(']').into());
+                }
+                None => loc_path.push(f.param.clone()),
+            }
+            let loc_path: Vec<&str> = loc_path.iter().map(String::as_str).collect();
+            if f.glob {
+                match stages::expand_glob(dir, &f.path) {
                     Ok(found) => files.extend(found.into_iter().map(|(rel, _)| FileParam {
-                        param: ps.name.to_string(),
+                        param: f.param.clone(),
                         path: rel,
                         producer: None,
                     })),
                     Err(message) => {
-                        let loc = cx.spans.value(&["stages", &node.base, "params", ps.name]);
-                        cx.at(loc, format!("param `{}` of stage `{}`: {message}", ps.name, node.name), Some("paths are relative to the pipeline file's directory; check the pattern".into()));
+                        let loc = cx.spans.value(&loc_path);
+                        cx.at(loc, format!("param `{}` of stage `{}`: {message}", f.param, node.name), Some("paths are relative to the pipeline file's directory; check the pattern".into()));
                     }
                 }
                 continue;
             }
-            let paths: Vec<(String, &str)> = match (ps.ty, v) {
-                (ParamType::Path, Value::String(s)) => vec![(ps.name.to_string(), s.as_str())],
-                (ParamType::Paths, Value::Sequence(items)) => items
-                    .iter()
-                    .enumerate()
-                    .filter_map(|(k, x)| x.as_str().map(|s| (format!("{}[{k}]", ps.name), s)))
-                    .collect(),
-                _ => continue,
-            };
-            for (k, (param, raw)) in paths.into_iter().enumerate() {
-                let path = normalize(raw);
-                let producer = producers.get(&path).filter(|(p, _)| *p != i).cloned();
-                if producer.is_none() && !dir.join(&path).exists() {
-                    let loc = match ps.ty {
-                        ParamType::Paths => cx.spans.value(&[
-                            "stages",
-                            &node.base,
-                            "params",
-                            ps.name,
-                            &k.to_string(),
-                        ]),
-                        _ => cx.spans.value(&["stages", &node.base, "params", ps.name]),
-                    };
-                    cx.at(loc, format!("file `{raw}` named by param `{param}` of stage `{}` does not exist", node.name), Some(format!("paths are relative to the pipeline file's directory ({}); create the file or let a `command` stage produce it via `outs`", dir.display())));
-                }
-                files.push(FileParam {
-                    param,
-                    path,
-                    producer,
-                });
+            let path = normalize(&f.path);
+            let producer = producers.get(&path).filter(|(p, _)| *p != i).cloned();
+            if producer.is_none() && !dir.join(&path).exists() {
+                let loc = cx.spans.value(&loc_path);
+                cx.at(loc, format!("file `{}` named by param `{}` of stage `{}` does not exist", f.path, f.param, node.name), Some(format!("paths are relative to the pipeline file's directory ({}); create the file or let a `command` stage produce it via `outs`", dir.display())));
             }
+            files.push(FileParam {
+                param: f.param,
+                path,
+                producer,
+            });
         }
-        if cx.diags.is_empty() {
-            match node.kind.file_dependencies(&node.params, dir) {
+        // Look into the files once they all exist and the params are good.
+        if node.parsed.is_valid() && cx.diags.len() == before {
+            match node.kind.file_dependencies(&node.parsed, dir) {
                 Ok(extra) => files.extend(extra.into_iter().map(|path| FileParam {
                     param: "(referenced)".into(),
                     path: normalize(&path),

@@ -3,8 +3,10 @@
 
 use super::{Binding, Ctx, Node};
 use crate::pipeline::diagnostic::closest;
+use crate::pipeline::diagnostic::Location;
 use crate::pipeline::matrix;
 use crate::pipeline::spec::{InputRef, InputValue, PipelineSpec, Selector};
+use crate::stages::Artifact;
 use serde_yaml_ng::Value;
 use std::collections::HashMap;
 
@@ -63,8 +65,18 @@ pub(super) fn resolve_inputs(cx: &mut Ctx, spec: &PipelineSpec, nodes: &mut [Nod
                             .value(&["stages", &node.base, "inputs", input, &ri.to_string()])
                     }
                 };
+                // A stage with problems of its own was reported already.
+                let target = InputRef::parse(&text).map(|r| r.stage);
+                if target.as_ref().is_some_and(|t| cx.invalid.contains(t)) {
+                    continue;
+                }
                 match resolve_ref(&text, &by_base, nodes) {
-                    Ok(found) => sources.extend(found),
+                    Ok(found) => {
+                        if let Some(want) = spec_in.flatten().map(|s| s.artifact) {
+                            check_artifact(cx, loc, node, input, want, &found, nodes);
+                        }
+                        sources.extend(found)
+                    }
                     Err((msg, help)) => cx.at(
                         loc,
                         format!("input `{input}` of stage `{}`: {msg}", node.name),
@@ -83,12 +95,17 @@ pub(super) fn resolve_inputs(cx: &mut Ctx, spec: &PipelineSpec, nodes: &mut [Nod
             });
         }
         let bound: Vec<&str> = st.inputs.keys().map(String::as_str).collect();
-        if let Err(p) = node.kind.check_inputs(&node.params, &bound) {
+        let own = if node.parsed.is_valid() {
+            node.kind.check_inputs(&node.parsed, &bound)
+        } else {
+            Vec::new()
+        };
+        for p in own {
             let loc = cx
                 .spans
                 .key(&["stages", &node.base, "inputs"])
                 .or_else(|| cx.spans.key(&["stages", &node.base]));
-            cx.at(loc, format!("stage `{}`: {}", node.name, p.message), p.help);
+            cx.at(loc, format!("stage `{}`: {}", node.base, p.message), p.help);
         }
         for s in declared.unwrap_or(&[]).iter().filter(|s| s.required) {
             if !st.inputs.contains_key(s.name) {
@@ -176,13 +193,18 @@ fn resolve_ref(
     };
     let mut out = Vec::new();
     for i in chosen {
-        if !nodes[i].outputs.contains(&r.output) {
+        // Bad params may hide outputs they would declare (a command's
+        // `outs`); those were reported already.
+        if !nodes[i].parsed.is_valid() && !nodes[i].has_output(&r.output) {
+            continue;
+        }
+        if !nodes[i].has_output(&r.output) {
             return Err((
                 format!("stage `{}` has no output `{}`", nodes[i].name, r.output),
                 format!(
                     "outputs of `{}`: {}",
                     nodes[i].name,
-                    nodes[i].outputs.join(", ")
+                    nodes[i].output_names().join(", ")
                 ),
             ));
         }
@@ -196,4 +218,49 @@ fn names_of(ix: &[usize], nodes: &[Node]) -> String {
         .map(|&i| nodes[i].name.as_str())
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// An input that takes `want` bound to outputs of another type.
+fn check_artifact(
+    cx: &mut Ctx,
+    loc: Option<Location>,
+    node: &Node,
+    input: &str,
+    want: Artifact,
+    found: &[(usize, String)],
+    nodes: &[Node],
+) {
+    for (src, out) in found {
+        let Some(o) = nodes[*src].outputs.iter().find(|o| &o.name == out) else {
+            continue;
+        };
+        if !want.accepts(o.artifact) {
+            let fitting: Vec<String> = nodes[*src]
+                .outputs
+                .iter()
+                .filter(|x| want.accepts(x.artifact))
+                .map(|x| format!("{}.{}", nodes[*src].base, x.name))
+                .collect();
+            let help = if fitting.is_empty() {
+                format!(
+                    "bind an output that holds {} (`modalflow kinds` lists each kind's outputs)",
+                    want.as_str()
+                )
+            } else {
+                format!("did you mean {}?", fitting.join(" or "))
+            };
+            cx.at(
+                loc,
+                format!(
+                    "input `{input}` of stage `{}` takes a `{}` artifact, but `{}.{out}` is a `{}` artifact",
+                    node.name,
+                    want.as_str(),
+                    nodes[*src].name,
+                    o.artifact.as_str()
+                ),
+                Some(help),
+            );
+            return;
+        }
+    }
 }

@@ -10,7 +10,7 @@ mod params;
 pub use files::normalize;
 use files::resolve_files;
 use inputs::resolve_inputs;
-use params::check_params;
+use params::parse_params;
 
 use super::diagnostic::{closest, Diagnostic, Diagnostics, Location};
 use super::executor::ExecutorSpec;
@@ -18,8 +18,8 @@ use super::graph;
 use super::matrix::{self, Combination};
 use super::span::SpanIndex;
 use super::spec::{PipelineSpec, StageSpec};
-use crate::stages::{self, Stage};
-use serde_yaml_ng::{Mapping, Value};
+use crate::stages::{self, Output, Parsed, Stage};
+use serde_yaml_ng::Mapping;
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
 
@@ -47,13 +47,30 @@ pub struct Node {
     /// The stage entry it came from.
     pub base: String,
     pub kind: &'static dyn Stage,
+    /// The params as written (matrix values substituted, `--set` applied):
+    /// canonical form for the key and the job description only.
     pub params: Mapping,
+    /// The params parsed once into the kind's typed struct; every later
+    /// use (checks, files, the run) sees this value.
+    pub parsed: Parsed,
     pub matrix: Combination,
     pub seed: u64,
     pub inputs: Vec<Binding>,
     pub files: Vec<FileParam>,
-    pub outputs: Vec<String>,
+    pub outputs: Vec<Output>,
     pub workspace_outputs: Vec<String>,
+}
+
+impl Node {
+    /// Whether the node has an output named `name`.
+    pub fn has_output(&self, name: &str) -> bool {
+        self.outputs.iter().any(|o| o.name == name)
+    }
+
+    /// The output names, in declaration order.
+    pub fn output_names(&self) -> Vec<String> {
+        self.outputs.iter().map(|o| o.name.clone()).collect()
+    }
 }
 
 /// An input name bound to one or more upstream outputs.
@@ -90,6 +107,9 @@ pub(super) struct Ctx<'a> {
     pub(super) source: &'a str,
     pub(super) spans: SpanIndex,
     pub(super) diags: Vec<Diagnostic>,
+    /// Stage entries that made no nodes (unknown kind, bad matrix, bad
+    /// matrix reference): references to them are not reported again.
+    pub(super) invalid: BTreeSet<String>,
 }
 
 impl Ctx<'_> {
@@ -132,6 +152,7 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
         source,
         spans: SpanIndex::default(),
         diags: Vec::new(),
+        invalid: BTreeSet::new(),
     };
     let spec: PipelineSpec = match serde_yaml_ng::from_str(source) {
         Ok(s) => s,
@@ -222,7 +243,9 @@ fn check_shards(cx: &mut Ctx, spec: &ExecutorSpec, nodes: &[Node]) {
             continue;
         }
         let mut of_kind = nodes.iter().filter(|n| n.kind.kind() == kind).peekable();
-        if of_kind.peek().is_none() || of_kind.any(|n| n.kind.shardable(&n.params)) {
+        if of_kind.peek().is_none()
+            || of_kind.any(|n| !n.parsed.is_valid() || n.kind.shardable(&n.parsed))
+        {
             continue;
         }
         let loc = cx.spans.nearest(&["executor", "kinds", kind, "shards"]);
@@ -312,14 +335,19 @@ fn expand(cx: &mut Ctx, spec: &PipelineSpec, _dir: &Path) -> Vec<Node> {
                 format!("unknown stage kind `{}` in stage `{base}`", st.kind),
                 Some(help),
             );
+            cx.invalid.insert(base.clone());
             continue;
         };
         if !check_matrix(cx, base, st) {
+            cx.invalid.insert(base.clone());
             continue;
         }
         for combo in matrix::combinations(&st.matrix) {
-            if let Some(node) = expand_one(cx, spec, base, st, kind, combo) {
-                nodes.push(node);
+            match expand_one(cx, spec, base, st, kind, combo) {
+                Some(node) => nodes.push(node),
+                None => {
+                    cx.invalid.insert(base.clone());
+                }
             }
         }
     }
@@ -380,14 +408,20 @@ fn expand_one(
             return None;
         }
     };
-    check_params(cx, base, kind, &params);
-    let seed = params
-        .get("seed")
-        .and_then(Value::as_u64)
-        .unwrap_or(spec.seed);
-    let outputs = kind.outputs(&params);
+    // A stage whose params are bad still takes part in the checks of
+    // references and inputs, so one round reports every problem.
+    let parsed = parse_params(cx, base, base, kind, &params).unwrap_or_else(Parsed::invalid);
+    let seed = kind.seed(&parsed).unwrap_or(spec.seed);
+    let outputs = if parsed.is_valid() {
+        kind.outputs(&parsed)
+    } else {
+        kind.all_outputs()
+            .iter()
+            .map(|(n, a)| Output::new(*n, *a))
+            .collect()
+    };
     let workspace_outputs = kind
-        .workspace_outputs(&params)
+        .workspace_outputs(&parsed)
         .iter()
         .map(|p| normalize(p))
         .collect();
@@ -396,6 +430,7 @@ fn expand_one(
         base: base.to_string(),
         kind,
         params,
+        parsed,
         matrix: combo,
         seed,
         inputs: Vec::new(),

@@ -1,34 +1,25 @@
-//! Params of one stage against its kind's schema: names, types, finiteness,
-//! then the kind's own checks.
+//! Params of one stage: finiteness (nothing else can hash NaN), then the
+//! kind's typed parse, every problem located in the file.
 
 use super::Ctx;
-use crate::pipeline::diagnostic::closest;
 use crate::pipeline::matrix;
-use crate::stages::{ParamType, Stage};
+use crate::stages::params::Class;
+use crate::stages::{ParamProblem, Parsed, Stage};
 use serde_yaml_ng::{Mapping, Value};
 
-pub(super) fn check_params(cx: &mut Ctx, base: &str, kind: &dyn Stage, params: &Mapping) {
-    let before = cx.diags.len();
-    let schema = kind.params();
+/// The stage's typed params, or `None` after reporting every problem.
+pub(super) fn parse_params(
+    cx: &mut Ctx,
+    base: &str,
+    name: &str,
+    kind: &dyn Stage,
+    params: &Mapping,
+) -> Option<Parsed> {
+    // Params holding NaN or infinity (nothing can hash them) are reported
+    // here; the kind's problems with them would only repeat it.
+    let mut non_finite_keys = Vec::new();
     for (k, v) in params {
         let key = matrix::scalar_text(k).unwrap_or_default();
-        let Some(ps) = schema.iter().find(|p| p.name == key) else {
-            let allowed: Vec<&str> = schema.iter().map(|p| p.name).collect();
-            let mut help = format!("`{}` accepts: {}", kind.kind(), allowed.join(", "));
-            if let Some(c) = closest(&key, allowed.iter().copied()) {
-                help = format!("did you mean `{c}`? {help}");
-            }
-            let loc = cx.spans.key(&["stages", base, "params", &key]);
-            cx.at(
-                loc,
-                format!(
-                    "unknown param `{key}` for stage `{base}` (kind `{}`)",
-                    kind.kind()
-                ),
-                Some(help),
-            );
-            continue;
-        };
         if let Some(bad) = non_finite(v, &mut vec![key.clone()]) {
             let mut path = vec!["stages", base, "params"];
             path.extend(bad.iter().map(String::as_str));
@@ -36,7 +27,7 @@ pub(super) fn check_params(cx: &mut Ctx, base: &str, kind: &dyn Stage, params: &
             cx.at(
                 loc,
                 format!(
-                    "param `{}` of stage `{base}` is not a finite number",
+                    "param `{}` of stage `{name}` is not a finite number",
                     bad.join(".")
                 ),
                 Some(
@@ -44,42 +35,58 @@ pub(super) fn check_params(cx: &mut Ctx, base: &str, kind: &dyn Stage, params: &
                         .into(),
                 ),
             );
-            continue;
-        }
-        if !type_matches(ps.ty, v) {
-            let loc = cx.spans.value(&["stages", base, "params", &key]);
-            cx.at(
-                loc,
-                format!(
-                    "param `{key}` of stage `{base}` must be {}",
-                    ps.ty.describe()
-                ),
-                Some(ps.doc.to_string()),
-            );
+            non_finite_keys.push(key);
         }
     }
-    for ps in schema.iter().filter(|p| p.required) {
-        if !params.contains_key(ps.name) {
-            let loc = cx.spans.key(&["stages", base]);
-            cx.at(
-                loc,
-                format!(
-                    "stage `{base}` (kind `{}`) needs param `{}`",
-                    kind.kind(),
-                    ps.name
-                ),
-                Some(format!("`{}`: {}", ps.name, ps.doc)),
-            );
+    let parsed = kind.parse(params);
+    let problems = match parsed {
+        Ok(p) if non_finite_keys.is_empty() => return Some(p),
+        Ok(_) => Vec::new(),
+        Err(problems) => problems,
+    };
+    for p in problems {
+        let repeats = p.class != Class::Unknown
+            && p.path.first().is_some_and(|k| non_finite_keys.contains(k));
+        if !repeats {
+            report(cx, base, name, kind, p);
         }
     }
-    if cx.diags.len() == before {
-        if let Err(p) = kind.check(params) {
-            let mut path = vec!["stages", base, "params"];
-            path.extend(p.path.iter().map(String::as_str));
-            let loc = cx.spans.nearest(&path);
-            cx.at(loc, format!("stage `{base}`: {}", p.message), p.help);
-        }
-    }
+    None
+}
+
+/// Report one param problem of stage `name` (entry `base`) at its place,
+/// worded with the stage and kind names the kind itself does not know.
+pub(super) fn report(cx: &mut Ctx, base: &str, name: &str, kind: &dyn Stage, p: ParamProblem) {
+    let mut path = vec!["stages", base, "params"];
+    path.extend(p.path.iter().map(String::as_str));
+    let kind = kind.kind();
+    let param = p.path.join(".");
+    let (loc, message) = match p.class {
+        // Point at the stage: the param is not there.
+        Class::Missing => (
+            cx.spans.key(&["stages", base]),
+            format!("stage `{name}` (kind `{kind}`) needs param `{param}`"),
+        ),
+        // Point at the key itself.
+        Class::Unknown => (
+            cx.spans.key(&path).or_else(|| cx.spans.nearest(&path)),
+            format!("unknown param `{param}` for stage `{name}` (kind `{kind}`)"),
+        ),
+        // A nested unknown key: point at the key; a bad value: at the value.
+        Class::Invalid if p.message.contains("unknown field") => (
+            cx.spans.key(&path).or_else(|| cx.spans.nearest(&path)),
+            format!("param `{param}` of stage `{name}` {}", p.message),
+        ),
+        Class::Invalid => (
+            cx.spans.nearest(&path),
+            format!("param `{param}` of stage `{name}` {}", p.message),
+        ),
+        Class::Check => (
+            cx.spans.nearest(&path),
+            format!("stage `{name}`: {}", p.message),
+        ),
+    };
+    cx.at(loc, message, p.help);
 }
 
 fn non_finite(v: &Value, path: &mut Vec<String>) -> Option<Vec<String>> {
@@ -98,23 +105,5 @@ fn non_finite(v: &Value, path: &mut Vec<String>) -> Option<Vec<String>> {
             r
         }),
         _ => None,
-    }
-}
-
-fn type_matches(ty: ParamType, v: &Value) -> bool {
-    let strings = |v: &Value| {
-        v.as_sequence()
-            .is_some_and(|s| s.iter().all(Value::is_string))
-    };
-    match ty {
-        ParamType::Bool => v.is_bool(),
-        ParamType::Integer => v.is_i64() || v.is_u64(),
-        ParamType::Number => v.is_number(),
-        ParamType::String => v.is_string(),
-        ParamType::Path | ParamType::Glob => v.as_str().is_some_and(|s| !s.trim().is_empty()),
-        ParamType::Paths | ParamType::Strings => strings(v),
-        ParamType::Enum(opts) => v.as_str().is_some_and(|s| opts.contains(&s)),
-        ParamType::Mapping => v.is_mapping(),
-        ParamType::Any => true,
     }
 }

@@ -26,128 +26,103 @@ pub use schema::{
 
 use super::artifacts::{read_frf, read_modes};
 use super::{
-    InputSpec, ParamProblem, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs,
+    Artifact, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
 };
 use crate::pairing::Pairing;
 use crate::stages::identify::cost::Cost;
-use serde_yaml_ng::{Mapping, Value};
 use std::path::Path;
 
 pub struct Evaluate;
 
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec {
-        name: "window",
-        ty: ParamType::Number,
-        required: false,
-        doc: "relative frequency window for pairing modes (default 0.2 = ±20 %)",
-    },
-    ParamSpec {
-        name: "min_mac",
-        ty: ParamType::Number,
-        required: false,
-        doc: "minimum MAC of a pair (default 0.3)",
-    },
-    ParamSpec {
-        name: "frequency_scale",
-        ty: ParamType::Number,
-        required: false,
-        doc: "pairing cost (1 − MAC) + NFD/frequency_scale: the NFD that costs as much as MAC 0 (default 0.1)",
-    },
-    ParamSpec {
-        name: "ambiguity",
-        ty: ParamType::Number,
-        required: false,
-        doc: "a pair whose margin (cost increase if it were forbidden) is below this is ambiguous (default 0.1)",
-    },
-];
+crate::params! {
+    /// The `evaluate` kind's params: the mode pairing.
+    pub struct Params {
+        /// relative frequency window for pairing modes (0.2 = ±20 %)
+        pub window: f64 = 0.2; range Range::above(0.0),
+        /// minimum MAC of a pair
+        pub min_mac: f64 = 0.3; range Range::closed(0.0, 1.0),
+        /// pairing cost (1 − MAC) + NFD/frequency_scale: the NFD that costs
+        /// as much as MAC 0
+        pub frequency_scale: f64 = Pairing::default().frequency_scale; range Range::above(0.0),
+        /// a pair whose margin (cost increase if it were forbidden) is below
+        /// this is ambiguous
+        pub ambiguity: f64 = Pairing::default().ambiguity; range Range::at_least(0.0),
+    }
+}
 
 const INPUTS: &[InputSpec] = &[
     InputSpec {
         name: "reference",
         required: false,
         list: false,
+        artifact: Artifact::Modes,
         doc: "reference modes (e.g. synthesize.modes)",
     },
     InputSpec {
         name: "candidate",
         required: false,
         list: false,
+        artifact: Artifact::Modes,
         doc: "candidate modes (e.g. autoema.modes)",
     },
     InputSpec {
         name: "reference_frf",
         required: false,
         list: false,
+        artifact: Artifact::Frf,
         doc: "reference FRFs",
     },
     InputSpec {
         name: "candidate_frf",
         required: false,
         list: false,
+        artifact: Artifact::Frf,
         doc: "candidate FRFs on the same lines (e.g. autoema.frf_fit)",
     },
     InputSpec {
         name: "initial_frf",
         required: false,
         list: false,
+        artifact: Artifact::Frf,
         doc: "FRFs before updating (e.g. a synthesize stage at the start values): a third curve in the overlays and their FRAC/CSF as `initial_mean_frac`/`initial_mean_csf`",
     },
     InputSpec {
         name: "truth",
         required: false,
         list: false,
+        artifact: Artifact::Parameters,
         doc: "true parameters (synthesize.truth)",
     },
     InputSpec {
         name: "estimate",
         required: false,
         list: false,
+        artifact: Artifact::Parameters,
         doc: "estimated parameters (parameters.csv)",
     },
     InputSpec {
         name: "cost",
         required: false,
         list: false,
+        artifact: Artifact::Cost,
         doc: "the identify cost.json of the candidate: its verdict is copied into metrics.json",
     },
 ];
 
-/// The pairing settings from the params: evaluate's defaults are a window
-/// of 0.2 and a MAC floor of 0.3, the rest [`Pairing::default`].
-fn pairing(params: &Mapping) -> Result<Pairing, ParamProblem> {
-    let mut p = Pairing {
-        window: 0.2,
-        min_mac: 0.3,
-        ..Pairing::default()
-    };
-    for (name, field) in [
-        ("window", &mut p.window),
-        ("min_mac", &mut p.min_mac),
-        ("frequency_scale", &mut p.frequency_scale),
-        ("ambiguity", &mut p.ambiguity),
-    ] {
-        if let Some(v) = params.get(name).and_then(Value::as_f64) {
-            *field = v;
-        }
+/// The pairing settings of the params.
+fn pairing(p: &Params) -> Pairing {
+    Pairing {
+        window: p.window,
+        min_mac: p.min_mac,
+        frequency_scale: p.frequency_scale,
+        ambiguity: p.ambiguity,
     }
-    p.check().map_err(|message| ParamProblem {
-        // The message starts with the setting's name, which is the param's.
-        path: vec![message
-            .split_whitespace()
-            .next()
-            .unwrap_or_default()
-            .to_string()],
-        message,
-        help: Some("see `modalflow kinds` for the evaluate params".into()),
-    })?;
-    Ok(p)
 }
 
-impl Stage for Evaluate {
-    fn kind(&self) -> &'static str {
-        "evaluate"
-    }
+impl Kind for Evaluate {
+    type Params = Params;
+    const NAME: &'static str = "evaluate";
+
     /// 2: modes paired by frequency and MAC. 3: pair margins, unpaired and
     /// ambiguous modes, the identification's verdict.
     fn version(&self) -> u32 {
@@ -156,31 +131,43 @@ impl Stage for Evaluate {
     fn summary(&self) -> &'static str {
         "compare candidate modes/FRFs/parameters with a reference: MAC, MACXP, NFD, NDD, FRAC, CSF, parameter errors, unpaired and ambiguous modes, the identification's verdict"
     }
-    fn params(&self) -> &'static [ParamSpec] {
-        PARAMS
-    }
     fn inputs(&self) -> Option<&'static [InputSpec]> {
         Some(INPUTS)
     }
-    fn outputs(&self, _params: &Mapping) -> Vec<String> {
-        ["metrics", "tables", "plots"].map(String::from).to_vec()
+    const OUTPUTS: &'static [(&'static str, Artifact)] = &[
+        ("metrics", Artifact::Metrics),
+        ("tables", Artifact::Tables),
+        ("plots", Artifact::Figure),
+    ];
+    fn check(&self, p: &Params) -> Vec<ParamProblem> {
+        match pairing(p).check() {
+            Ok(()) => Vec::new(),
+            // The message starts with the setting's name, which is the param's.
+            Err(message) => vec![ParamProblem::new(
+                &[message.split_whitespace().next().unwrap_or_default()],
+                message.clone(),
+                "see `modalflow kinds` for the evaluate params",
+            )],
+        }
     }
-    fn check(&self, params: &Mapping) -> Result<(), ParamProblem> {
-        pairing(params).map(|_| ())
-    }
-
-    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
-        let has = |n: &str| ctx.inputs.contains_key(n);
+    fn check_inputs(&self, _p: &Params, bound: &[&str]) -> Vec<ParamProblem> {
+        let has = |n: &str| bound.contains(&n);
         let pairs_ok = (has("reference") && has("candidate"))
             || (has("reference_frf") && has("candidate_frf"))
             || (has("truth") && has("estimate"));
-        if !pairs_ok {
-            return Err(StageError::Failed("nothing to compare: bind reference+candidate, reference_frf+candidate_frf, or truth+estimate".into()));
+        if pairs_ok {
+            return Vec::new();
         }
-        let settings = pairing(ctx.params).map_err(|p| StageError::InvalidParam {
-            param: p.path.join("."),
-            message: p.message,
-        })?;
+        vec![ParamProblem::new(
+            &[],
+            "nothing to compare",
+            "bind reference+candidate, reference_frf+candidate_frf, or truth+estimate",
+        )]
+    }
+
+    fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let has = |n: &str| ctx.has(n);
+        let settings = pairing(p);
         let tables = ctx.scratch.join("tables");
         let plots = ctx.scratch.join("plots");
         for d in [&tables, &plots] {

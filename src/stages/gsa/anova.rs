@@ -9,7 +9,6 @@
 use super::spec::{AnovaSource, AnovaSpec};
 use super::{build_model, num, write};
 use crate::modal::ModalModel;
-use crate::pipeline::matrix::parse_expanded_name;
 use crate::sensitivity::{self, AnovaRow, Design, Factor, FactorialResult};
 use crate::stages::{artifacts, StageContext, StageError, StageOutputs};
 use std::fmt::Write;
@@ -128,10 +127,7 @@ fn run_modes(
         message,
     };
     // Matrix values of every run, keys in the order of the first run.
-    let runs: Vec<Vec<(String, String)>> = sources
-        .iter()
-        .map(|s| parse_expanded_name(&s.stage).1)
-        .collect();
+    let runs: Vec<Vec<(String, String)>> = sources.iter().map(|s| s.matrix_text()).collect();
     let keys: Vec<String> = runs
         .first()
         .map(|r| r.iter().map(|(k, _)| k.clone()).collect())

@@ -1,14 +1,95 @@
 //! The `model` param of the `gsa` kind: a built-in test function, a
-//! JSON-lines command, or a modalflow model file, parsed with located problems.
+//! JSON-lines command, or a modalflow model file — its typed form as
+//! written ([`ModelParam`]) and the model it names ([`ModelSpec`]), with
+//! every problem located.
 
-use super::spec::{int, number, problem};
+use super::spec::{problem, Params};
 use crate::evaluation::{
     CommandModel, CommandOptions, EvalError, Ishigami, Model, Parameter, Scale, SobolG,
 };
+use crate::stages::params::TypeName;
 use crate::stages::ParamProblem;
-use serde_yaml_ng::{Mapping, Value};
+use indexmap::IndexMap;
+use serde::{Deserialize, Deserializer, Serialize};
 use std::path::Path;
 use std::time::Duration;
+
+/// `model:` as written: a model file path or a mapping.
+#[derive(Clone, Debug, Serialize)]
+#[serde(untagged)]
+pub enum ModelParam {
+    File(String),
+    Table(ModelTable),
+}
+
+/// `model: {builtin: …}` or `model: {command: …}`.
+#[derive(Clone, Debug, Default, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ModelTable {
+    #[serde(default)]
+    pub builtin: Option<String>,
+    #[serde(default)]
+    pub a: Option<Vec<f64>>,
+    #[serde(default)]
+    pub command: Option<String>,
+    #[serde(default)]
+    pub parameters: Option<IndexMap<String, ParameterParam>>,
+    #[serde(default)]
+    pub outputs: Option<Vec<String>>,
+    #[serde(default)]
+    pub timeout: Option<f64>,
+    #[serde(default)]
+    pub batch: Option<usize>,
+}
+
+crate::string_enum! {
+    /// How a command model's parameter is sampled.
+    pub enum ScaleName {
+        Linear = "linear",
+        Log = "log",
+    }
+}
+
+/// One parameter of a command model.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct ParameterParam {
+    pub lower: f64,
+    pub upper: f64,
+    #[serde(default)]
+    pub scale: Option<ScaleName>,
+    #[serde(default)]
+    pub nominal: Option<f64>,
+}
+
+impl<'de> Deserialize<'de> for ModelParam {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct Visitor;
+        impl<'de> serde::de::Visitor<'de> for Visitor {
+            type Value = ModelParam;
+            fn expecting(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+                f.write_str("a model file path, {builtin: ...} or {command: ...}")
+            }
+            fn visit_str<E: serde::de::Error>(self, v: &str) -> Result<ModelParam, E> {
+                Ok(ModelParam::File(v.to_string()))
+            }
+            fn visit_map<A: serde::de::MapAccess<'de>>(
+                self,
+                map: A,
+            ) -> Result<ModelParam, A::Error> {
+                ModelTable::deserialize(serde::de::value::MapAccessDeserializer::new(map))
+                    .map(ModelParam::Table)
+            }
+        }
+        d.deserialize_any(Visitor)
+    }
+}
+
+impl TypeName for ModelParam {
+    fn type_name() -> String {
+        "model file | {builtin: ishigami} | {builtin: sobol_g, a: [...]} | {command: CMD, parameters: {name: {lower, upper, scale, nominal}}, outputs: [...], timeout: s, batch: n}".into()
+    }
+}
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum ModelSpec {
@@ -68,109 +149,79 @@ impl ModelSpec {
     }
 }
 
-fn parameter(name: &str, v: &Value) -> Result<Parameter, ParamProblem> {
-    fn at<'a>(name: &'a str, field: &'a str) -> Vec<&'a str> {
-        vec!["model", "parameters", name, field]
-    }
-    let Some(map) = v.as_mapping() else {
-        return Err(problem(
-            &["model", "parameters", name],
-            format!("parameter `{name}` must be a mapping"),
-            "write {lower: 1.0e6, upper: 1.0e8, scale: log}",
-        ));
+/// A command model's parameter, checked.
+fn parameter(name: &str, p: &ParameterParam) -> Result<Parameter, ParamProblem> {
+    let at = |field: &str| ["model", "parameters", name, field].map(str::to_string);
+    let at_str = |field: &'static str| -> Vec<String> { at(field).to_vec() };
+    let located = |field: &'static str, message: String, help: &str| ParamProblem {
+        path: at_str(field),
+        message,
+        help: Some(help.into()),
+        class: crate::stages::params::Class::Check,
     };
-    for (k, _) in map {
-        let k = k.as_str().unwrap_or_default();
-        if !["lower", "upper", "scale", "nominal"].contains(&k) {
-            return Err(problem(
-                &at(name, k),
-                format!("unknown key `{k}` in parameter `{name}`"),
-                "a parameter takes lower, upper, scale (linear|log) and nominal",
+    for (field, v) in [
+        ("lower", Some(p.lower)),
+        ("upper", Some(p.upper)),
+        ("nominal", p.nominal),
+    ] {
+        if v.is_some_and(|x| !x.is_finite()) {
+            return Err(located(
+                field,
+                format!("`model.parameters.{name}.{field}` must be a finite number"),
+                "write a number such as 1.0e6",
             ));
         }
     }
-    let bound = |field: &str| match map.get(field) {
-        Some(v) => number(v, &at(name, field)),
-        None => Err(problem(
-            &["model", "parameters", name],
-            format!("parameter `{name}` needs `{field}`"),
-            "write {lower: 1.0e6, upper: 1.0e8, scale: log}",
-        )),
+    let scale = match p.scale {
+        None | Some(ScaleName::Linear) => Scale::Linear,
+        Some(ScaleName::Log) => Scale::Log,
     };
-    let (lower, upper) = (bound("lower")?, bound("upper")?);
-    let scale = match map.get("scale").map(|s| s.as_str()) {
-        None | Some(Some("linear")) => Scale::Linear,
-        Some(Some("log")) => Scale::Log,
-        Some(_) => {
-            return Err(problem(
-                &at(name, "scale"),
-                format!("scale of `{name}` must be `linear` or `log`"),
-                "scale: linear | log",
-            ))
-        }
+    let invalid = |e: crate::evaluation::ParameterError, field: &'static str| {
+        located(field, e.to_string(), "fix the bounds")
     };
-    let invalid = |e: crate::evaluation::ParameterError, field: &str| {
-        problem(&at(name, field), e.to_string(), "fix the bounds")
-    };
-    let p = Parameter::new(name, lower, upper, scale).map_err(|e| invalid(e, "lower"))?;
-    match map.get("nominal") {
-        None => Ok(p),
-        Some(v) => p
-            .with_nominal(number(v, &at(name, "nominal"))?)
-            .map_err(|e| invalid(e, "nominal")),
+    let param = Parameter::new(name, p.lower, p.upper, scale).map_err(|e| invalid(e, "lower"))?;
+    match p.nominal {
+        None => Ok(param),
+        Some(v) => param.with_nominal(v).map_err(|e| invalid(e, "nominal")),
     }
 }
 
 /// Params that only a model file takes.
 pub const FILE_ONLY: &[&str] = &["window", "modes", "bands", "band_step"];
 
-/// `bands: [[lo, hi], ...]` or `bands: {min, max, count}` (equal bands).
-fn parse_bands(params: &Mapping) -> Result<Vec<(f64, f64)>, ParamProblem> {
+/// Most FRF bands: each is two outputs (FRAC, CSF) per position, every one
+/// analyzed with bootstrap resamples.
+pub const MAX_BANDS: usize = 1000;
+
+/// The equal-width or listed bands of `bands` (Hz), checked.
+fn bands(p: &Params) -> Result<Vec<(f64, f64)>, ParamProblem> {
     const HELP: &str = "bands: [[10, 50], [50, 120]] or bands: {min: 0, max: 500, count: 10} (Hz)";
-    let bands = match params.get("bands") {
+    let bands: Vec<(f64, f64)> = match &p.bands {
         None => return Ok(Vec::new()),
-        Some(Value::Sequence(items)) => items
-            .iter()
-            .enumerate()
-            .map(|(i, b)| {
-                let at = ["bands".to_string(), i.to_string()];
-                let at: Vec<&str> = at.iter().map(String::as_str).collect();
-                match b.as_sequence().map(Vec::as_slice) {
-                    Some([lo, hi]) => Ok((number(lo, &at)?, number(hi, &at)?)),
-                    _ => Err(problem(&at, "a band is a pair [low, high] in Hz", HELP)),
-                }
-            })
-            .collect::<Result<Vec<_>, _>>()?,
-        Some(Value::Mapping(m)) => {
-            let get = |k: &str| {
-                m.get(k)
-                    .ok_or_else(|| problem(&["bands"], format!("`bands` needs `{k}`"), HELP))
-                    .and_then(|v| number(v, &["bands", k]))
-            };
-            let (lo, hi, count) = (get("min")?, get("max")?, get("count")?);
-            if count < 1.0 || count.fract() != 0.0 || count > 1000.0 {
-                return Err(problem(
-                    &["bands", "count"],
-                    "`count` must be a whole number of bands in 1..=1000",
-                    HELP,
-                ));
-            }
-            let n = count as usize;
-            let width = (hi - lo) / count;
-            (0..n)
-                .map(|i| (lo + i as f64 * width, lo + (i + 1) as f64 * width))
-                .collect()
-        }
-        Some(_) => {
+        Some(super::spec::Bands::List(list)) if list.is_empty() || list.len() > MAX_BANDS => {
             return Err(problem(
                 &["bands"],
-                "`bands` must be a list or a mapping",
+                format!("give 1 to {MAX_BANDS} bands, not {}", list.len()),
                 HELP,
             ))
         }
+        Some(super::spec::Bands::List(list)) => list.clone(),
+        Some(super::spec::Bands::Even { min, max, count }) => {
+            if *count < 1 || *count > MAX_BANDS {
+                return Err(problem(
+                    &["bands", "count"],
+                    format!("`count` must be a whole number of bands in 1..={MAX_BANDS}"),
+                    HELP,
+                ));
+            }
+            let width = (max - min) / *count as f64;
+            (0..*count)
+                .map(|i| (min + i as f64 * width, min + (i + 1) as f64 * width))
+                .collect()
+        }
     };
     for (i, &(lo, hi)) in bands.iter().enumerate() {
-        if !(lo >= 0.0 && lo < hi) {
+        if !(lo >= 0.0 && lo < hi && hi.is_finite()) {
             return Err(problem(
                 &["bands", &i.to_string()],
                 format!("band [{lo}, {hi}] Hz is empty or negative"),
@@ -181,113 +232,66 @@ fn parse_bands(params: &Mapping) -> Result<Vec<(f64, f64)>, ParamProblem> {
     Ok(bands)
 }
 
-pub fn parse_model(v: &Value, params: &Mapping) -> Result<ModelSpec, ParamProblem> {
+/// The model `model:` names, checked; file-model settings come from the
+/// other params.
+pub fn model_spec(m: &ModelParam, p: &Params) -> Result<ModelSpec, ParamProblem> {
     const HELP: &str = "model: {builtin: ishigami} | {builtin: sobol_g, a: [0, 1, 9]} | {command: \"./sim.sh\", parameters: {k: {lower: 1, upper: 10, scale: log}}, outputs: [f1]}";
-    if let Some(path) = v.as_str() {
-        let window = match params.get("window") {
-            None => 0.2,
-            Some(v) => {
-                let w = number(v, &["window"])?;
-                if w <= 0.0 {
-                    return Err(problem(
-                        &["window"],
-                        "`window` must be a positive fraction",
-                        "e.g. window: 0.2 for ±20 %",
-                    ));
-                }
-                w
-            }
-        };
-        let modes = int(params, "modes", 0, 0, 10_000)? as usize;
-        let band_step = match params.get("band_step") {
-            None => 0.5,
-            Some(v) => {
-                let s = number(v, &["band_step"])?;
-                if s <= 0.0 {
-                    return Err(problem(
-                        &["band_step"],
-                        "`band_step` must be a positive spacing in Hz",
-                        "e.g. band_step: 0.5",
-                    ));
-                }
-                s
-            }
-        };
-        return Ok(ModelSpec::File {
-            path: path.to_string(),
-            window,
-            modes,
-            bands: parse_bands(params)?,
-            band_step,
-        });
-    }
-    for key in FILE_ONLY {
-        if params.contains_key(key) {
-            return Err(problem(
-                &[key],
-                format!("`{key}` applies to model files only"),
-                "remove it for built-in and command models",
-            ));
+    let map = match m {
+        ModelParam::File(path) => {
+            return Ok(ModelSpec::File {
+                path: path.clone(),
+                window: p.window.unwrap_or(0.2),
+                modes: p.modes.unwrap_or(0),
+                bands: bands(p)?,
+                band_step: p.band_step.unwrap_or(0.5),
+            })
         }
-    }
-    let Some(map) = v.as_mapping() else {
-        return Err(problem(&["model"], "`model` must be a mapping", HELP));
+        ModelParam::Table(t) => t,
     };
-    let allowed: &[&str] = if map.contains_key("builtin") {
-        &["builtin", "a"]
-    } else if map.contains_key("command") {
-        &["command", "parameters", "outputs", "timeout", "batch"]
-    } else {
+    if let Some(key) = FILE_ONLY.iter().find(|k| p.given(k)) {
         return Err(problem(
-            &["model"],
-            "`model` needs `builtin` or `command`",
-            HELP,
+            &[key],
+            format!("`{key}` applies to model files only"),
+            "remove it for built-in and command models",
         ));
-    };
-    for (k, _) in map {
-        let k = k.as_str().unwrap_or_default();
-        if !allowed.contains(&k) {
+    }
+    if let Some(b) = &map.builtin {
+        let extra = [
+            ("command", map.command.is_some()),
+            ("parameters", map.parameters.is_some()),
+            ("outputs", map.outputs.is_some()),
+            ("timeout", map.timeout.is_some()),
+            ("batch", map.batch.is_some()),
+        ];
+        if let Some((k, _)) = extra.iter().find(|(_, given)| *given) {
             return Err(problem(
                 &["model", k],
                 format!("unknown key `{k}` in `model`"),
-                format!("this model takes: {}", allowed.join(", ")),
+                "this model takes: builtin, a",
             ));
         }
-    }
-    if let Some(b) = map.get("builtin") {
         return match b.as_str() {
-            Some("ishigami") if !map.contains_key("a") => Ok(ModelSpec::Ishigami),
-            Some("ishigami") => Err(problem(
+            "ishigami" if map.a.is_none() => Ok(ModelSpec::Ishigami),
+            "ishigami" => Err(problem(
                 &["model", "a"],
                 "the Ishigami function has fixed a = 7, b = 0.1",
                 "remove `a`",
             )),
-            Some("sobol_g") => {
-                let Some(items) = map.get("a").and_then(Value::as_sequence) else {
+            "sobol_g" => {
+                let Some(a) = &map.a else {
                     return Err(problem(
                         &["model"],
                         "the Sobol-G function needs `a`, one coefficient per input",
                         "e.g. a: [0, 1, 4.5, 9, 99]",
                     ));
                 };
-                let a = items
-                    .iter()
-                    .enumerate()
-                    .map(|(i, x)| {
-                        let path = ["model", "a", &i.to_string()];
-                        number(x, &path).and_then(|x| {
-                            if x >= 0.0 {
-                                Ok(x)
-                            } else {
-                                Err(problem(
-                                    &path,
-                                    "Sobol-G coefficients must be >= 0",
-                                    "use a >= 0",
-                                ))
-                            }
-                        })
-                    })
-                    .collect::<Result<Vec<f64>, _>>()?;
+                if let Some(i) = a.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
+                    return Err(problem(
+                        &["model", "a", &i.to_string()],
+                        "Sobol-G coefficients must be >= 0",
+                        "use a >= 0",
+                    ));
+                }
                 if a.is_empty() {
                     return Err(problem(
                         &["model", "a"],
@@ -295,7 +299,7 @@ pub fn parse_model(v: &Value, params: &Mapping) -> Result<ModelSpec, ParamProble
                         "give one coefficient per input",
                     ));
                 }
-                Ok(ModelSpec::SobolG { a })
+                Ok(ModelSpec::SobolG { a: a.clone() })
             }
             _ => Err(problem(
                 &["model", "builtin"],
@@ -304,11 +308,20 @@ pub fn parse_model(v: &Value, params: &Mapping) -> Result<ModelSpec, ParamProble
             )),
         };
     }
-    let command = map
-        .get("command")
-        .and_then(Value::as_str)
-        .unwrap_or_default()
-        .to_string();
+    let Some(command) = &map.command else {
+        return Err(problem(
+            &["model"],
+            "`model` needs `builtin` or `command`",
+            HELP,
+        ));
+    };
+    if map.a.is_some() {
+        return Err(problem(
+            &["model", "a"],
+            "unknown key `a` in `model`",
+            "this model takes: command, parameters, outputs, timeout, batch",
+        ));
+    }
     if command.trim().is_empty() {
         return Err(problem(
             &["model", "command"],
@@ -316,11 +329,7 @@ pub fn parse_model(v: &Value, params: &Mapping) -> Result<ModelSpec, ParamProble
             HELP,
         ));
     }
-    let Some(pmap) = map
-        .get("parameters")
-        .and_then(Value::as_mapping)
-        .filter(|m| !m.is_empty())
-    else {
+    let Some(pmap) = map.parameters.as_ref().filter(|m| !m.is_empty()) else {
         return Err(problem(
             &["model"],
             "a command model needs `parameters`: name → {lower, upper, scale}",
@@ -329,60 +338,28 @@ pub fn parse_model(v: &Value, params: &Mapping) -> Result<ModelSpec, ParamProble
     };
     let parameters = pmap
         .iter()
-        .map(|(k, v)| parameter(k.as_str().unwrap_or_default(), v))
+        .map(|(k, v)| parameter(k, v))
         .collect::<Result<Vec<_>, _>>()?;
-    let outputs = match map.get("outputs").and_then(Value::as_sequence) {
-        Some(items) if !items.is_empty() => items
-            .iter()
-            .enumerate()
-            .map(|(i, v)| {
-                v.as_str().map(str::to_string).ok_or_else(|| {
-                    problem(
-                        &["model", "outputs", &i.to_string()],
-                        "output names must be strings",
-                        "e.g. outputs: [f1, zeta1]",
-                    )
-                })
-            })
-            .collect::<Result<Vec<_>, _>>()?,
-        _ => {
-            return Err(problem(
-                &["model"],
-                "a command model needs `outputs`: the names in its answer lines",
-                HELP,
-            ))
-        }
+    let Some(outputs) = map.outputs.clone().filter(|o| !o.is_empty()) else {
+        return Err(problem(
+            &["model"],
+            "a command model needs `outputs`: the names in its answer lines",
+            HELP,
+        ));
     };
-    let timeout = match map.get("timeout") {
-        None => None,
-        Some(v) => Some(number(v, &["model", "timeout"]).and_then(|t| {
-            if t > 0.0 {
-                Ok(t)
-            } else {
-                Err(problem(
-                    &["model", "timeout"],
-                    "`timeout` must be positive (seconds)",
-                    "e.g. timeout: 600",
-                ))
-            }
-        })?),
-    };
-    let batch = match map.get("batch") {
-        None => 0,
-        Some(v) => v.as_u64().ok_or_else(|| {
-            problem(
-                &["model", "batch"],
-                "`batch` must be an integer >= 0",
-                "samples per process; 0 = all in one process",
-            )
-        })? as usize,
-    };
+    if let Some(t) = map.timeout.filter(|t| !(*t > 0.0 && t.is_finite())) {
+        return Err(problem(
+            &["model", "timeout"],
+            format!("`timeout` must be positive (seconds), not {t}"),
+            "e.g. timeout: 600",
+        ));
+    }
     let spec = ModelSpec::Command {
-        command,
+        command: command.clone(),
         parameters,
         outputs,
-        timeout,
-        batch,
+        timeout: map.timeout,
+        batch: map.batch.unwrap_or(0),
     };
     spec.build(Path::new("."))
         .map_err(|e| problem(&["model"], e.to_string(), HELP))?;

@@ -1,10 +1,136 @@
-//! The params of the `gsa` kind, parsed and validated into typed settings;
-//! every problem is located by its path below `params` for the validator.
+//! The params of the `gsa` kind ([`Params`], declared once) and the
+//! analysis they describe ([`GsaSpec`]): which method, which model, which
+//! settings; [`spec`] checks what the types cannot say, locating the problem
+//! by its path below `params`.
 
-use super::model_spec::{parse_model, ModelSpec};
-use crate::stages::ParamProblem;
-use serde_yaml_ng::{Mapping, Value};
+use super::model_spec::{model_spec, ModelParam, ModelSpec, FILE_ONLY};
+use crate::sensitivity::Combine;
+use crate::stages::params::{Numbers, TypeName};
+use crate::stages::{ParamProblem, Range};
+use indexmap::IndexMap;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::path::Path;
+
+crate::string_enum! {
+    /// What the gsa stage computes.
+    pub enum Method {
+        Sobol = "sobol",
+        Anova = "anova",
+    }
+}
+
+crate::string_enum! {
+    /// How total indices combine over outputs for the split.
+    pub enum CombineName {
+        Mean = "mean",
+        Max = "max",
+    }
+}
+
+/// FRF bands in Hz: listed pairs or `count` equal bands.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(untagged, expecting = "[[low, high], ...] or {min, max, count}")]
+pub enum Bands {
+    List(Vec<(f64, f64)>),
+    Even { min: f64, max: f64, count: usize },
+}
+
+impl TypeName for Bands {
+    fn type_name() -> String {
+        "[[low, high], ...] | {min, max, count}".into()
+    }
+}
+
+impl Numbers for Bands {
+    fn numbers(&self) -> Vec<f64> {
+        match self {
+            Bands::List(l) => l.numbers(),
+            Bands::Even { min, max, .. } => vec![*min, *max],
+        }
+    }
+}
+
+crate::params! {
+    /// The `gsa` kind's params.
+    pub struct Params {
+        /// sobol: Sobol indices of a model; anova: ANOVA table of a
+        /// factorial data set, a factorial design on a model, or modal models
+        /// of matrix runs
+        pub method: Method = Method::Sobol,
+        /// a modalflow model file (hashed with the files it references) |
+        /// {builtin: ishigami} | {builtin: sobol_g, a: [...]} | {command: CMD,
+        /// parameters: {name: {lower, upper, scale, nominal}}, outputs: [...],
+        /// timeout: seconds per process, batch: samples per process (parallel;
+        /// default all of a 256-sample chunk)}
+        pub model: Option<ModelParam> = None,
+        /// model files and modal ANOVA: relative frequency window for pairing
+        /// model and reference modes (default 0.2)
+        pub window: Option<f64> = None; range Range::above(0.0)
+            => "`window` must be a positive fraction", "e.g. window: 0.2 for ±20 %",
+        /// model files: modes computed per position (default: as many as the
+        /// reference has; required without `reference`)
+        pub modes: Option<usize> = None; range Range::closed(0.0, 10_000.0),
+        /// model files: frequency bands for FRAC/CSF outputs
+        /// p{i}.band{b}.frac|csf, [[lo, hi], ...] or {min, max, count} in Hz;
+        /// against the `reference_frf` input or the model's own FRFs at its
+        /// true values
+        pub bands: Option<Bands> = None; range Range::at_least(0.0),
+        /// model files: line spacing in Hz of the model's own reference FRFs
+        /// (default 0.5)
+        pub band_step: Option<f64> = None; range Range::above(0.0)
+            => "`band_step` must be a positive spacing in Hz", "e.g. band_step: 0.5",
+        /// files the model command reads (hashed into the cache key)
+        pub deps: Vec<String> = Vec::new(),
+        /// sobol: base sample size N, a power of two; N(d+2) evaluations,
+        /// N(2d+2) with second order
+        pub samples: usize = 1024; range Range::closed(2.0, crate::sensitivity::sobol::MAX_SAMPLES as f64),
+        /// sobol: bootstrap resamples for the confidence intervals
+        pub bootstrap: usize = 100; range Range::closed(1.0, 100_000.0),
+        /// sobol: confidence level of S1_conf/ST_conf
+        pub confidence: f64 = 0.95; range Range::open(0.0, 1.0)
+            => "`confidence` must lie strictly between 0 and 1", "e.g. confidence: 0.95",
+        /// sobol: also compute second-order indices (second_order.csv)
+        pub second_order: bool = false,
+        /// model outputs to analyze (default all)
+        pub outputs: Vec<String> = Vec::new(),
+        /// sobol: parameters to vary (default all; the others stay at their
+        /// nominal values)
+        pub parameters: Vec<String> = Vec::new(),
+        /// sobol: output → weight for combining total indices (unlisted
+        /// outputs weigh 1)
+        pub weights: BTreeMap<String, f64> = BTreeMap::new(); range Range::at_least(0.0)
+            => "weights must be >= 0", "use 0 to ignore an output",
+        /// sobol: total-index threshold for significant parameters
+        pub threshold: f64 = 0.05; range Range::open(0.0, 1.0)
+            => "`threshold` must lie strictly between 0 and 1", "e.g. threshold: 0.05 (a total index)",
+        /// sobol: how total indices combine over outputs for the split: mean
+        /// (weighted mean, PUB2) or max (significant for any output)
+        pub combine: CombineName = CombineName::Mean,
+        /// sobol: Monte Carlo samples validating the split (significant at
+        /// nominal values, the others random; PUB2 used ≥ 1000); 0 = none
+        pub validation: usize = 0; range Range::closed(0.0, 10_000_000.0),
+        /// seed of the scrambled Sobol sequence and the bootstrap (default:
+        /// the pipeline's seed)
+        pub seed: Option<u64> = None,
+        /// anova: CSV table of factor levels and the response, relative to
+        /// the pipeline file
+        pub data: Option<String> = None,
+        /// anova: name of the response column
+        pub response: Option<String> = None,
+        /// anova: factor columns in order (default every column but the
+        /// response), or the matrix keys that are factors
+        pub factors: Vec<String> = Vec::new(),
+        /// anova: 1 = main effects, 2 = with two-factor interactions
+        pub interactions: u8 = 2; range Range::closed(1.0, 2.0),
+        /// anova of modal models: least MAC for pairing a run's mode with a
+        /// reference mode (default 0.5)
+        pub min_mac: Option<f64> = None; range Range::open_closed(0.0, 1.0),
+        /// anova on a model: parameter → list of levels; the full factorial
+        /// is run (others at nominal), one ANOVA per output
+        pub levels: Option<IndexMap<String, Vec<f64>>> = None,
+    }
+}
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct SobolSpec {
@@ -88,137 +214,31 @@ pub const ANOVA_ONLY: &[&str] = &[
 ];
 
 pub fn problem(path: &[&str], message: impl Into<String>, help: impl Into<String>) -> ParamProblem {
-    ParamProblem {
-        path: path.iter().map(|s| s.to_string()).collect(),
-        message: message.into(),
-        help: Some(help.into()),
-    }
+    ParamProblem::new(path, message, help)
 }
 
-pub fn int(
-    params: &Mapping,
-    key: &str,
-    default: u64,
-    min: u64,
-    max: u64,
-) -> Result<u64, ParamProblem> {
-    match params.get(key) {
-        None => Ok(default),
-        Some(v) => match v.as_u64() {
-            Some(n) if (min..=max).contains(&n) => Ok(n),
-            _ => Err(problem(
-                &[key],
-                format!("`{key}` must be an integer in {min}..={max}"),
-                format!("e.g. `{key}: {default}`"),
-            )),
-        },
-    }
-}
-
-pub fn number(v: &Value, path: &[&str]) -> Result<f64, ParamProblem> {
-    v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
-        problem(
-            path,
-            format!("`{}` must be a finite number", path.join(".")),
-            "write a number such as 1.0e6",
-        )
-    })
-}
-
-fn strings(params: &Mapping, key: &str) -> Result<Vec<String>, ParamProblem> {
-    match params.get(key) {
-        None => Ok(Vec::new()),
-        Some(Value::Sequence(items)) => items
-            .iter()
-            .enumerate()
-            .map(|(i, v)| {
-                v.as_str().map(str::to_string).ok_or_else(|| {
-                    problem(
-                        &[key, &i.to_string()],
-                        format!("`{key}` must list names"),
-                        "write names as strings",
-                    )
-                })
-            })
-            .collect(),
-        Some(_) => Err(problem(
-            &[key],
-            format!("`{key}` must be a list of names"),
-            "e.g. [f1, f2]",
-        )),
-    }
-}
-
-fn sobol(params: &Mapping) -> Result<SobolSpec, ParamProblem> {
-    let Some(m) = params.get("model") else {
+fn sobol(p: &Params) -> Result<SobolSpec, ParamProblem> {
+    let Some(m) = &p.model else {
         return Err(problem(
             &[],
             "method `sobol` needs param `model`",
             "e.g. model: {builtin: ishigami}",
         ));
     };
-    let model = parse_model(m, params)?;
-    let outputs = strings(params, "outputs")?;
-    let subset = strings(params, "parameters")?;
-    let mut weights = Vec::new();
-    match params.get("weights") {
-        None => {}
-        Some(Value::Mapping(w)) => {
-            for (k, v) in w {
-                let k = k.as_str().unwrap_or_default();
-                let x = number(v, &["weights", k])?;
-                if x < 0.0 {
-                    return Err(problem(
-                        &["weights", k],
-                        "weights must be >= 0",
-                        "use 0 to ignore an output",
-                    ));
-                }
-                weights.push((k.to_string(), x));
-            }
-        }
-        Some(_) => {
-            return Err(problem(
-                &["weights"],
-                "`weights` must map output names to weights",
-                "e.g. weights: {f1: 2, f2: 1}; unlisted outputs weigh 1",
-            ))
-        }
-    }
+    let model = model_spec(m, p)?;
+    let weights: Vec<(String, f64)> = p.weights.iter().map(|(k, w)| (k.clone(), *w)).collect();
     // Names are known before running except for model files (checked at run time).
-    let mut d = subset.len();
+    let mut d = p.parameters.len();
     if !matches!(model, ModelSpec::File { .. }) {
         let built = model
             .build(Path::new("."))
             .map_err(|e| problem(&["model"], e.to_string(), "check the model definition"))?;
         let names: Vec<String> = built.parameters().iter().map(|p| p.name.clone()).collect();
-        check_names(&names, built.outputs(), &outputs, &subset, &weights)?;
+        check_names(&names, built.outputs(), &p.outputs, &p.parameters, &weights)?;
         if d == 0 {
             d = names.len();
         }
     }
-    let threshold = match params.get("threshold") {
-        None => 0.05,
-        Some(v) => number(v, &["threshold"])?,
-    };
-    let confidence = match params.get("confidence") {
-        None => 0.95,
-        Some(v) => {
-            let c = number(v, &["confidence"])?;
-            if !(c > 0.0 && c < 1.0) {
-                return Err(problem(
-                    &["confidence"],
-                    "`confidence` must lie strictly between 0 and 1",
-                    "e.g. confidence: 0.95",
-                ));
-            }
-            c
-        }
-    };
-    let second_order = params
-        .get("second_order")
-        .and_then(Value::as_bool)
-        .unwrap_or(false);
     if d > crate::sensitivity::sobol::MAX_VARIED {
         return Err(problem(
             &["model"],
@@ -229,34 +249,32 @@ fn sobol(params: &Mapping) -> Result<SobolSpec, ParamProblem> {
             "analyze a subset with `parameters`",
         ));
     }
+    if !p.samples.is_power_of_two() {
+        return Err(problem(
+            &["samples"],
+            format!("`samples` = {} is not a power of two", p.samples),
+            format!(
+                "Sobol sequences balance at powers of two: use {} or {}",
+                p.samples.next_power_of_two() / 2,
+                p.samples.next_power_of_two()
+            ),
+        ));
+    }
     Ok(SobolSpec {
         model,
-        samples: int(
-            params,
-            "samples",
-            1024,
-            2,
-            crate::sensitivity::sobol::MAX_SAMPLES as u64,
-        )? as usize,
-        bootstrap: int(params, "bootstrap", 100, 0, 100_000)? as usize,
-        confidence,
-        second_order,
-        outputs,
-        parameters: subset,
+        samples: p.samples,
+        bootstrap: p.bootstrap,
+        confidence: p.confidence,
+        second_order: p.second_order,
+        outputs: p.outputs.clone(),
+        parameters: p.parameters.clone(),
         weights,
-        threshold,
-        combine: match params.get("combine").and_then(Value::as_str) {
-            None | Some("mean") => crate::sensitivity::Combine::Mean,
-            Some("max") => crate::sensitivity::Combine::Max,
-            Some(other) => {
-                return Err(problem(
-                    &["combine"],
-                    format!("unknown rule `{other}`"),
-                    "combine: mean (weighted mean, PUB2) | max (significant for any output)",
-                ))
-            }
+        threshold: p.threshold,
+        combine: match p.combine {
+            CombineName::Mean => Combine::Mean,
+            CombineName::Max => Combine::Max,
         },
-        validation: int(params, "validation", 0, 0, 10_000_000)? as usize,
+        validation: p.validation,
     })
 }
 
@@ -328,12 +346,12 @@ pub fn resolve_weights(analyzed: &[String], weights: &[(String, f64)]) -> Vec<f6
         .collect()
 }
 
-fn anova(params: &Mapping) -> Result<AnovaSpec, ParamProblem> {
-    let interactions = int(params, "interactions", 2, 1, 2)? as u8;
-    if let Some(m) = params.get("model") {
+fn anova(params: &Params) -> Result<AnovaSpec, ParamProblem> {
+    let interactions = params.interactions;
+    if let Some(m) = &params.model {
         if let Some(k) = ["data", "response", "factors"]
             .iter()
-            .find(|k| params.contains_key(**k))
+            .find(|k| params.given(k))
         {
             return Err(problem(
                 &[k],
@@ -341,35 +359,34 @@ fn anova(params: &Mapping) -> Result<AnovaSpec, ParamProblem> {
                 "give either `data` + `response` or `model` + `levels`",
             ));
         }
-        let model = parse_model(m, params)?;
-        let outputs = strings(params, "outputs")?;
+        let model = model_spec(m, params)?;
         return Ok(AnovaSpec {
             source: AnovaSource::Model {
                 model,
                 levels: levels(params)?,
-                outputs,
+                outputs: params.outputs.clone(),
             },
             interactions,
         });
     }
-    if params.contains_key("levels") {
+    if params.given("levels") {
         return Err(problem(
             &["levels"],
             "`levels` needs a `model` to run the factorial design on",
             "add `model:` or remove `levels`",
         ));
     }
-    if !params.contains_key("data") && !params.contains_key("response") {
+    if !params.given("data") && !params.given("response") {
         return modes_source(params, interactions);
     }
-    if params.contains_key("min_mac") {
+    if params.given("min_mac") {
         return Err(problem(
             &["min_mac"],
             "`min_mac` applies to an ANOVA of modal models (the `modes` input)",
             "remove it for a data table",
         ));
     }
-    let text = |key: &str, help: &str| match params.get(key).and_then(Value::as_str) {
+    let text = |key: &str, value: &Option<String>, help: &str| match value {
         Some(s) if !s.trim().is_empty() => Ok(s.to_string()),
         _ => Err(problem(
             &[],
@@ -379,10 +396,10 @@ fn anova(params: &Mapping) -> Result<AnovaSpec, ParamProblem> {
             help.to_string(),
         )),
     };
-    if let Some(k) = super::model_spec::FILE_ONLY
+    if let Some(k) = FILE_ONLY
         .iter()
         .chain(&["outputs", "deps"])
-        .find(|k| params.contains_key(**k))
+        .find(|k| params.given(k))
     {
         return Err(problem(
             &[k],
@@ -390,14 +407,19 @@ fn anova(params: &Mapping) -> Result<AnovaSpec, ParamProblem> {
             format!("remove `{k}` or give `model` + `levels`"),
         ));
     }
-    let factors = strings(params, "factors")?;
+    let factors = params.factors.clone();
     Ok(AnovaSpec {
         source: AnovaSource::Table {
             data: text(
                 "data",
+                &params.data,
                 "data: a CSV file of factor levels and the response, relative to the pipeline file",
             )?,
-            response: text("response", "response: the name of the response column")?,
+            response: text(
+                "response",
+                &params.response,
+                "response: the name of the response column",
+            )?,
             factors: (!factors.is_empty()).then_some(factors),
         },
         interactions,
@@ -405,10 +427,10 @@ fn anova(params: &Mapping) -> Result<AnovaSpec, ParamProblem> {
 }
 
 /// An ANOVA of the modal models bound to the `modes` input.
-fn modes_source(params: &Mapping, interactions: u8) -> Result<AnovaSpec, ParamProblem> {
+fn modes_source(params: &Params, interactions: u8) -> Result<AnovaSpec, ParamProblem> {
     if let Some(k) = ["modes", "bands", "band_step", "deps"]
         .iter()
-        .find(|k| params.contains_key(**k))
+        .find(|k| params.given(k))
     {
         return Err(problem(
             &[k],
@@ -416,27 +438,20 @@ fn modes_source(params: &Mapping, interactions: u8) -> Result<AnovaSpec, ParamPr
             format!("remove `{k}`"),
         ));
     }
-    let fraction = |key: &str, default: f64, max: f64| match params.get(key) {
-        None => Ok(default),
-        Some(v) => {
-            let x = number(v, &[key])?;
-            if x > 0.0 && x <= max {
-                Ok(x)
-            } else {
-                Err(problem(
-                    &[key],
-                    format!("`{key}` must lie in (0, {max}]"),
-                    format!("e.g. {key}: {default}"),
-                ))
-            }
-        }
-    };
+    let window = params.window.unwrap_or(0.2);
+    if window > 10.0 {
+        return Err(problem(
+            &["window"],
+            "`window` must lie in (0, 10]",
+            "e.g. window: 0.2",
+        ));
+    }
     Ok(AnovaSpec {
         source: AnovaSource::Modes {
-            factors: strings(params, "factors")?,
-            window: fraction("window", 0.2, 10.0)?,
-            min_mac: fraction("min_mac", 0.5, 1.0)?,
-            outputs: strings(params, "outputs")?,
+            factors: params.factors.clone(),
+            window,
+            min_mac: params.min_mac.unwrap_or(0.5),
+            outputs: params.outputs.clone(),
         },
         interactions,
     })
@@ -444,68 +459,57 @@ fn modes_source(params: &Mapping, interactions: u8) -> Result<AnovaSpec, ParamPr
 
 /// `levels: {parameter: [v1, v2, ...]}`, each parameter with at least two
 /// distinct finite levels (factors in the order written).
-fn levels(params: &Mapping) -> Result<Vec<(String, Vec<f64>)>, ParamProblem> {
+fn levels(params: &Params) -> Result<Vec<(String, Vec<f64>)>, ParamProblem> {
     const HELP: &str = "levels: {bsd_preload: [0.5e8, 1.0e8, 2.0e8], lgs_preload: [1e8, 3e8]}";
-    let Some(Value::Mapping(m)) = params.get("levels") else {
+    let Some(m) = &params.levels else {
         return Err(problem(
             &[],
             "an ANOVA on a model needs `levels`: the factor levels per parameter",
             HELP,
         ));
     };
-    let mut out = Vec::new();
-    for (k, v) in m {
-        let name = k.as_str().unwrap_or_default().to_string();
-        let Some(items) = v.as_sequence() else {
+    for (name, values) in m {
+        if let Some(i) = values.iter().position(|x| !x.is_finite()) {
             return Err(problem(
-                &["levels", &name],
-                "levels must be a list of values",
-                HELP,
+                &["levels", name, &i.to_string()],
+                format!("`levels.{name}.{i}` must be a finite number"),
+                "write a number such as 1.0e6",
             ));
-        };
-        let values = items
-            .iter()
-            .enumerate()
-            .map(|(i, x)| number(x, &["levels", &name, &i.to_string()]))
-            .collect::<Result<Vec<f64>, _>>()?;
+        }
         let distinct = values
             .iter()
             .enumerate()
             .all(|(i, x)| !values[..i].contains(x));
         if values.len() < 2 || !distinct {
             return Err(problem(
-                &["levels", &name],
+                &["levels", name],
                 format!("`{name}` needs at least two distinct levels"),
                 HELP,
             ));
         }
-        out.push((name, values));
     }
-    if out.is_empty() {
+    if m.is_empty() {
         return Err(problem(&["levels"], "`levels` lists no parameter", HELP));
     }
-    Ok(out)
+    Ok(m.iter().map(|(k, v)| (k.clone(), v.clone())).collect())
 }
 
-/// Parse and validate the params of a `gsa` stage.
-pub fn parse(params: &Mapping) -> Result<GsaSpec, ParamProblem> {
-    let method = params
-        .get("method")
-        .and_then(Value::as_str)
-        .unwrap_or("sobol");
-    let (foreign, other) = if method == "anova" {
+/// The analysis the params describe, or the first problem with them.
+pub fn spec(params: &Params) -> Result<GsaSpec, ParamProblem> {
+    let method = params.method.as_str();
+    let (foreign, other) = if params.method == Method::Anova {
         (SOBOL_ONLY, "sobol")
     } else {
         (ANOVA_ONLY, "anova")
     };
-    if let Some(k) = foreign.iter().find(|k| params.contains_key(**k)) {
+    if let Some(k) = foreign.iter().find(|k| params.given(k)) {
         return Err(problem(
             &[k],
             format!("param `{k}` belongs to method `{other}`, not `{method}`"),
             format!("remove `{k}` or set `method: {other}`"),
         ));
     }
-    if method == "anova" {
+    if params.method == Method::Anova {
         anova(params).map(GsaSpec::Anova)
     } else {
         sobol(params).map(GsaSpec::Sobol)

@@ -23,15 +23,18 @@ mod params;
 pub mod tables;
 
 use super::artifacts;
-use super::{InputSpec, ParamProblem, ParamSpec, Stage, StageContext, StageError, StageOutputs};
+use super::{
+    Artifact, FileRef, InputSpec, Kind, Output, ParamProblem, StageContext, StageError,
+    StageOutputs,
+};
 use crate::dynamics::{self, directory_resolver};
 use crate::identify::updating::{update, Plan, Strategy, Update};
 use crate::identify::{ModalObjective, NamedMode, Screening, SubproblemSpec};
 use crate::optimize::Optimizer;
 use cost::{Cost, Phases};
 use outputs::write;
-use params::{parse, problem, Spec};
-use serde_yaml_ng::{Mapping, Value};
+pub use params::Params;
+use params::{problem, spec, Spec, StrategyName};
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
@@ -43,62 +46,77 @@ const INPUTS: &[InputSpec] = &[
         name: "model",
         required: false,
         list: false,
+        artifact: Artifact::Model,
         doc: "a synthesize `model` artifact (model.json); or give the `model` param",
     },
     InputSpec {
         name: "reference",
         required: true,
         list: false,
+        artifact: Artifact::Modes,
         doc: "reference modes (a `modes` artifact)",
     },
     InputSpec {
         name: "sensitivity",
         required: false,
         list: false,
+        artifact: Artifact::Subproblems,
         doc: "sensitivity_guided: a gsa `subproblems` artifact",
     },
 ];
 
-impl Stage for Identify {
-    fn kind(&self) -> &'static str {
-        "identify"
-    }
+impl Kind for Identify {
+    type Params = Params;
+    const NAME: &'static str = "identify";
+
     fn version(&self) -> u32 {
         6
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
     }
-    fn params(&self) -> &'static [ParamSpec] {
-        params::PARAMS
-    }
     fn inputs(&self) -> Option<&'static [InputSpec]> {
         Some(INPUTS)
     }
-    fn outputs(&self, params: &Mapping) -> Vec<String> {
-        let mut out: Vec<String> = [
-            "parameters",
-            "history",
-            "updated_modes",
-            "cost",
-            "correlation",
-            "identifiability",
-        ]
-        .map(String::from)
-        .to_vec();
-        if params.get("strategy").and_then(Value::as_str) == Some("sensitivity_guided") {
-            out.push("subproblems".into());
-        }
-        out
+    /// `subproblems` with `strategy: sensitivity_guided` only.
+    const OUTPUTS: &'static [(&'static str, Artifact)] = &[
+        ("parameters", Artifact::Parameters),
+        ("history", Artifact::History),
+        ("updated_modes", Artifact::Modes),
+        ("cost", Artifact::Cost),
+        ("correlation", Artifact::Correlation),
+        ("identifiability", Artifact::Identifiability),
+        ("subproblems", Artifact::Json),
+    ];
+    fn outputs(&self, p: &Params) -> Vec<Output> {
+        let guided = p.strategy == StrategyName::SensitivityGuided;
+        Self::OUTPUTS
+            .iter()
+            .filter(|(n, _)| guided || *n != "subproblems")
+            .map(|(n, a)| Output::new(*n, *a))
+            .collect()
     }
-    fn check(&self, params: &Mapping) -> Result<(), ParamProblem> {
-        parse(params).map(|_| ())
+    fn check(&self, p: &Params) -> Vec<ParamProblem> {
+        spec(p).err().unwrap_or_default()
     }
     fn uses_seed(&self) -> bool {
         true
     }
-    fn file_dependencies(&self, params: &Mapping, dir: &Path) -> Result<Vec<String>, ParamProblem> {
-        let Some(path) = params.get("model").and_then(Value::as_str) else {
+    fn seed(&self, p: &Params) -> Option<u64> {
+        p.seed
+    }
+    fn files(&self, p: &Params) -> Vec<FileRef> {
+        p.model
+            .iter()
+            .map(|m| FileRef {
+                param: "model".into(),
+                path: m.clone(),
+                glob: false,
+            })
+            .collect()
+    }
+    fn file_dependencies(&self, p: &Params, dir: &Path) -> Result<Vec<String>, ParamProblem> {
+        let Some(path) = &p.model else {
             return Ok(Vec::new());
         };
         super::synthesize::model_file_dependencies(dir, path).map_err(|m| {
@@ -110,35 +128,40 @@ impl Stage for Identify {
         })
     }
 
-    fn check_inputs(&self, params: &Mapping, bound: &[&str]) -> Result<(), ParamProblem> {
-        let guided = params.get("strategy").and_then(Value::as_str) == Some("sensitivity_guided");
+    fn check_inputs(&self, p: &Params, bound: &[&str]) -> Vec<ParamProblem> {
+        let mut out = Vec::new();
+        let guided = p.strategy == StrategyName::SensitivityGuided;
         if guided && !bound.contains(&"sensitivity") {
-            return Err(ParamProblem {
-                path: vec!["strategy".into()],
-                message: "strategy sensitivity_guided needs the `sensitivity` input".into(),
-                help: Some(
-                    "bind a gsa stage's subproblems: `inputs: {sensitivity: gsa.subproblems}`"
-                        .into(),
-                ),
-            });
+            out.push(problem(
+                &["strategy"],
+                "strategy sensitivity_guided needs the `sensitivity` input",
+                "bind a gsa stage's subproblems: `inputs: {sensitivity: gsa.subproblems}`",
+            ));
         }
-        if !bound.contains(&"model") && !params.contains_key("model") {
-            return Err(ParamProblem {
-                path: vec![],
-                message: "no model: bind the `model` input (a synthesize `model` output) or give the `model` param".into(),
-                help: None,
-            });
+        if !bound.contains(&"model") && p.model.is_none() {
+            out.push(problem(
+                &[],
+                "no model: bind the `model` input (a synthesize `model` output) or give the `model` param",
+                "",
+            ));
         }
-        Ok(())
+        out
     }
 
-    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+    fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
         let started = Instant::now();
-        let spec = parse(ctx.params).map_err(|p| StageError::InvalidParam {
-            param: p.path.join("."),
-            message: p.message,
+        let spec = spec(p).map_err(|problems| StageError::InvalidParam {
+            param: problems
+                .first()
+                .map(|p| p.path.join("."))
+                .unwrap_or_default(),
+            message: problems
+                .iter()
+                .map(|p| p.message.as_str())
+                .collect::<Vec<_>>()
+                .join("; "),
         })?;
-        let model = load_model(ctx)?;
+        let model = load_model(ctx, p.model.as_deref())?;
         let reference = artifacts::read_modes(ctx.input("reference")?, "reference")?;
         let invalid_reference = |e: crate::identify::IdentifyError| StageError::InvalidInput {
             input: "reference".into(),
@@ -310,13 +333,9 @@ struct ScreeningInput {
 }
 
 /// The model from the `model` input (model.json) or the `model` param.
-fn load_model(ctx: &StageContext) -> Result<dynamics::Model, StageError> {
-    if let Some(file) = ctx.path_param("model") {
-        let rel = ctx
-            .params
-            .get("model")
-            .and_then(Value::as_str)
-            .unwrap_or_default();
+fn load_model(ctx: &StageContext, param: Option<&str>) -> Result<dynamics::Model, StageError> {
+    if let Some(rel) = param {
+        let file = ctx.pipeline_dir.join(rel);
         let text = std::fs::read_to_string(&file)
             .map_err(|e| StageError::io(format!("cannot read model file `{rel}`"), e))?;
         let base = file.parent().unwrap_or(ctx.pipeline_dir).to_path_buf();

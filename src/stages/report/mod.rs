@@ -18,104 +18,109 @@ mod screening;
 mod tables;
 mod verdicts;
 
-use super::{InputSpec, ParamSpec, ParamType, Stage, StageContext, StageError, StageOutputs};
+use super::{Artifact, InputSpec, Kind, StageContext, StageError, StageOutputs};
 use crate::report::document::Document;
 use crate::stages::evaluate::Metrics;
 use crate::stages::identify::cost::Cost;
 use serde_json::Value as Json;
-use serde_yaml_ng::{Mapping, Value};
 use std::path::{Path, PathBuf};
 
 pub struct Report;
 
-const PARAMS: &[ParamSpec] = &[
-    ParamSpec {
-        name: "title",
-        ty: ParamType::String,
-        required: false,
-        doc: "page title (default: the pipeline name)",
-    },
-    ParamSpec {
-        name: "description",
-        ty: ParamType::String,
-        required: false,
-        doc: "a paragraph under the title",
-    },
-];
+crate::params! {
+    /// The `report` kind's params.
+    pub struct Params {
+        /// page title (default: the pipeline name)
+        pub title: Option<String> = None,
+        /// a paragraph under the title
+        pub description: Option<String> = None,
+    }
+}
 
 const INPUTS: &[InputSpec] = &[
     InputSpec {
         name: "metrics",
         required: false,
         list: true,
+        artifact: Artifact::Metrics,
         doc: "evaluate metrics (one row each in the accuracy table; unpaired and ambiguous modes listed)",
     },
     InputSpec {
         name: "tables",
         required: false,
         list: true,
+        artifact: Artifact::Tables,
         doc: "evaluate tables (parameter errors become a bar chart)",
     },
     InputSpec {
         name: "costs",
         required: false,
         list: true,
+        artifact: Artifact::Cost,
         doc: "identify cost.json files: evaluations, seconds and the verdict (a failed one is shown at the top)",
     },
     InputSpec {
         name: "identifiability",
         required: false,
         list: true,
+        artifact: Artifact::Identifiability,
         doc: "identify identifiability.json files: the parameter combinations the data do not determine",
     },
     InputSpec {
         name: "parameters",
         required: false,
         list: true,
+        artifact: Artifact::Parameters,
         doc: "identify parameters.csv files: identified values with standard errors and 95 % intervals",
     },
     InputSpec {
         name: "correlation",
         required: false,
         list: true,
+        artifact: Artifact::Correlation,
         doc: "identify correlation.csv files: which reference mode paired with which model mode, which were excluded and why",
     },
     InputSpec {
         name: "histories",
         required: false,
         list: true,
+        artifact: Artifact::History,
         doc: "history.csv files (evaluation,best_objective[,mean_mac]): convergence curves",
     },
     InputSpec {
         name: "splits",
         required: false,
         list: true,
+        artifact: Artifact::Significant,
         doc: "gsa significant.csv files: the split per stage and its stability between stages",
     },
     InputSpec {
         name: "validations",
         required: false,
         list: true,
+        artifact: Artifact::Validation,
         doc: "gsa validation.json files: min and mean conformity of each split",
     },
     InputSpec {
         name: "csv",
         required: false,
         list: true,
+        artifact: Artifact::Table,
         doc: "any CSV tables (e.g. anova.csv), shown as they are (first 200 rows)",
     },
     InputSpec {
         name: "figures",
         required: false,
         list: true,
+        artifact: Artifact::Figure,
         doc: "SVG files or directories of SVG files to include",
     },
 ];
 
-impl Stage for Report {
-    fn kind(&self) -> &'static str {
-        "report"
-    }
+impl Kind for Report {
+    type Params = Params;
+    const NAME: &'static str = "report";
+
     /// 3: verdicts, unpaired and ambiguous modes, identifiability and
     /// correlation sections.
     fn version(&self) -> u32 {
@@ -124,24 +129,18 @@ impl Stage for Report {
     fn summary(&self) -> &'static str {
         "an HTML report (self-contained) and a Markdown twin from verdicts, metrics, costs, identifiability, histories and figures"
     }
-    fn params(&self) -> &'static [ParamSpec] {
-        PARAMS
-    }
     fn inputs(&self) -> Option<&'static [InputSpec]> {
         Some(INPUTS)
     }
-    fn outputs(&self, _params: &Mapping) -> Vec<String> {
-        vec!["report".into()]
-    }
+    const OUTPUTS: &'static [(&'static str, Artifact)] = &[("report", Artifact::Any)];
 
-    fn run(&self, ctx: &StageContext) -> Result<StageOutputs, StageError> {
-        let title = ctx
-            .params
-            .get("title")
-            .and_then(Value::as_str)
-            .map_or_else(|| format!("{} report", ctx.pipeline), str::to_string);
+    fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        let title = p
+            .title
+            .clone()
+            .unwrap_or_else(|| format!("{} report", ctx.pipeline));
         let mut doc = Document::new(title);
-        if let Some(d) = ctx.params.get("description").and_then(Value::as_str) {
+        if let Some(d) = &p.description {
             doc.paragraph(d);
         }
         // Each bound artifact with a label: its stage (one row per stage in
