@@ -23,10 +23,9 @@
 //! test bench the screw modes have v = 0.05–0.22 and every global mode
 //! v ≥ 0.46.
 
-use super::objective::ModalObjective;
+use super::objective::{ModalObjective, SlotPairing};
 use super::IdentifyError;
 use crate::metrics::nfd;
-use crate::pairing::{cost_matrix, margins, pair_modes};
 use serde::Serialize;
 
 /// A mode of the nominal model at one position.
@@ -82,18 +81,14 @@ impl Correspondence {
         for (p, model) in models.iter().enumerate() {
             let n_ref = o.modes_at(p);
             // Modes already left out (duplicates) take no partner.
-            let idx: Vec<usize> = (0..n_ref).filter(|&k| usable[p][k]).collect();
-            let rf: Vec<f64> = idx.iter().map(|&k| o.reference_frequency(p, k)).collect();
-            let rs: Vec<_> = idx
-                .iter()
-                .map(|&k| o.reference_shape(p, k).to_vec())
-                .collect();
-            let mf: Vec<f64> = model.modes.iter().map(|m| m.frequency_hz).collect();
-            let ms: Vec<_> = model.modes.iter().map(|m| m.shape.clone()).collect();
-            let pairs = pair_modes(&rf, &rs, &mf, &ms, &o.pairing);
-            let macs = crate::metrics::mac_matrix(&rs, &ms);
-            let costs = cost_matrix(&rf, &mf, &macs, &o.pairing);
-            let margin = margins(&costs, &pairs);
+            let SlotPairing {
+                idx,
+                rf,
+                mf,
+                model_shapes: ms,
+                pairs,
+                margins: margin,
+            } = o.pair_with_margins(p, model, &usable);
             // The band the reference covers, widened by the pairing window.
             let lo = rf.iter().copied().fold(f64::INFINITY, f64::min) * (1.0 - o.pairing.window);
             let hi = rf.iter().copied().fold(0.0, f64::max) * (1.0 + o.pairing.window);

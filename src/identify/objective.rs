@@ -38,7 +38,7 @@ use crate::dynamics::{self, PreparedModel};
 use crate::metrics::nfd;
 use crate::modal::{ModalModel, Mode};
 use crate::optimize::{Bounds, Scale};
-use crate::pairing::{pair_modes, Pairing};
+use crate::pairing::{cost_matrix, margins, pair_modes, Pair, Pairing};
 use num_complex::Complex64;
 
 /// Weights of the three terms of J (and of the residuals' two kinds).
@@ -108,6 +108,20 @@ pub struct Match {
     pub frequency_hz: f64,
     pub damping_ratio: f64,
     pub mac: f64,
+}
+
+/// The pairing at one slot ([`ModalObjective::pair_with_margins`]).
+pub struct SlotPairing {
+    /// Reference mode numbers (0-based) taking part; pairs index into it.
+    pub idx: Vec<usize>,
+    /// Their frequencies (Hz).
+    pub rf: Vec<f64>,
+    /// Model frequencies (Hz) and shapes.
+    pub mf: Vec<f64>,
+    pub model_shapes: Vec<Vec<Complex64>>,
+    pub pairs: Vec<Pair>,
+    /// Per pair, its margin.
+    pub margins: Vec<f64>,
 }
 
 /// A prepared model with reference modes: J(x), residuals and their parts.
@@ -351,6 +365,35 @@ impl ModalObjective {
                 out
             })
             .collect()
+    }
+
+    /// The pairing of the usable reference modes at slot `p` with the modes
+    /// of `model`, with each pair's margin (how much the assignment's cost
+    /// rises if that pair is forbidden): the one computation behind the
+    /// correspondence at the start and the final pairs at the result.
+    pub fn pair_with_margins(&self, p: usize, model: &ModalModel, set: &ModeSet) -> SlotPairing {
+        let idx: Vec<usize> = (0..self.modes_at(p)).filter(|&k| set[p][k]).collect();
+        let rf: Vec<f64> = idx
+            .iter()
+            .map(|&k| self.reference_frequency(p, k))
+            .collect();
+        let rs: Vec<Vec<Complex64>> = idx
+            .iter()
+            .map(|&k| self.reference_shape(p, k).to_vec())
+            .collect();
+        let mf: Vec<f64> = model.modes.iter().map(|m| m.frequency_hz).collect();
+        let ms: Vec<Vec<Complex64>> = model.modes.iter().map(|m| m.shape.clone()).collect();
+        let pairs = pair_modes(&rf, &rs, &mf, &ms, &self.pairing);
+        let macs = crate::metrics::mac_matrix(&rs, &ms);
+        let margins = margins(&cost_matrix(&rf, &mf, &macs, &self.pairing), &pairs);
+        SlotPairing {
+            idx,
+            rf,
+            mf,
+            model_shapes: ms,
+            pairs,
+            margins,
+        }
     }
 
     /// Per position and usable reference mode, the paired model mode at `x`.

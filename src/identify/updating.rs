@@ -8,13 +8,12 @@ use super::correspondence::Correspondence;
 use super::guided::{guided, GuidedParams, GuidedResult, Screening};
 use super::history::HistoryRow;
 use super::identifiability::{analyze, Identifiability};
-use super::objective::{Match, ModalObjective};
+use super::objective::{Match, ModalObjective, SlotPairing};
 use super::verdict::{ModeCounts, Status, Verdict};
 use super::{black_box, IdentifyError};
 use crate::optimize::jacobian;
 use crate::optimize::slsqp::SlsqpParams;
 use crate::optimize::{OptimizeResult, Optimizer, Scale};
-use crate::pairing::{cost_matrix, margins, pair_modes};
 use rayon::prelude::*;
 
 /// The strategy and its settings.
@@ -253,17 +252,14 @@ fn assess(
     let mut pairs = Vec::new();
     let mut close = Vec::new();
     for (p, model) in models.iter().enumerate() {
-        let idx: Vec<usize> = (0..o.modes_at(p)).filter(|&k| usable[p][k]).collect();
-        let rf: Vec<f64> = idx.iter().map(|&k| o.reference_frequency(p, k)).collect();
-        let rs: Vec<_> = idx
-            .iter()
-            .map(|&k| o.reference_shape(p, k).to_vec())
-            .collect();
-        let mf: Vec<f64> = model.modes.iter().map(|m| m.frequency_hz).collect();
-        let ms: Vec<_> = model.modes.iter().map(|m| m.shape.clone()).collect();
-        let found = pair_modes(&rf, &rs, &mf, &ms, &o.pairing);
-        let macs = crate::metrics::mac_matrix(&rs, &ms);
-        let m = margins(&cost_matrix(&rf, &mf, &macs, &o.pairing), &found);
+        let SlotPairing {
+            idx,
+            rf,
+            mf,
+            pairs: found,
+            margins: m,
+            ..
+        } = o.pair_with_margins(p, model, &usable);
         let mut slot: Vec<FinalPair> = (0..o.modes_at(p))
             .map(|k| FinalPair {
                 matched: matched[p][k],
