@@ -119,24 +119,16 @@ not run yet.
             );
             continue;
         }
-        let scores: Vec<(u32, Score)> = seeds
-            .iter()
-            .map(|&s| {
-                let truth = results.join((f.truth)(s));
-                (
-                    s,
-                    score(&truth, &results.join((f.identify)(s)), &significant),
-                )
-            })
-            .collect();
-        let starts: Vec<Score> = seeds
+        // Per seed: the identification's score and its start's.
+        let (scores, starts): (Vec<(u32, Score)>, Vec<Score>) = seeds
             .iter()
             .map(|&s| {
                 let truth = results.join((f.truth)(s));
                 let id = results.join((f.identify)(s));
-                score_start(&truth, &results.join("nominal/modes"), &id, &significant)
+                let start = score_start(&truth, &results.join("nominal/modes"), &id, &significant);
+                ((s, score(&truth, &id, &significant)), start)
             })
-            .collect();
+            .unzip();
         let model_error = f.min_mac.is_nan();
         let better = |k: usize, s: &Score| {
             s.mean_mac > starts[k].mean_mac

@@ -86,12 +86,7 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
     ));
     // The start is the model file's nominal value; exact data determine
     // every stiffness: a standard error and an interval around the value.
-    let k1: Vec<&str> = params
-        .lines()
-        .find(|l| l.starts_with("k1.k_x,"))
-        .unwrap()
-        .split(',')
-        .collect();
+    let k1 = util::csv_row(&params, "k1.k_x");
     assert_eq!(k1[4], "2000000.0");
     assert_eq!((k1[5], k1[6]), ("true", "true"));
     let (v, lo, hi): (f64, f64, f64) = (

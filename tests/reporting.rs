@@ -149,12 +149,7 @@ fn failed_verdicts_are_prominent_in_report_and_compare() {
             "| parameter | value | start | std error % | 95 % interval | identifiable |"
         ));
         let params = ws.read(&format!("results/verdicts/{stage}/parameters.csv"));
-        let k1: Vec<&str> = params
-            .lines()
-            .find(|l| l.starts_with("k1.k_x,"))
-            .unwrap()
-            .split(',')
-            .collect();
+        let k1 = util::csv_row(&params, "k1.k_x");
         let row = section
             .lines()
             .find(|l| l.starts_with("| k1.k_x |"))

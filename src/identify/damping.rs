@@ -22,6 +22,12 @@
 
 use super::{IdentifyError, ModalObjective};
 
+/// Model evaluations a fit of `free` damping parameters costs: two
+/// Gauss–Newton passes of 1 + `free` each (the budget reserves this).
+pub fn evaluations(free: usize) -> usize {
+    2 * (1 + free)
+}
+
 /// The fitted damping values and the fit's bookkeeping.
 #[derive(Clone, Debug)]
 pub struct DampingFit {
@@ -131,7 +137,7 @@ pub fn identify_damping(
     }
     Ok(DampingFit {
         x: out,
-        evaluations: 2 * (1 + n),
+        evaluations: evaluations(n),
         equations,
         rms_residual: rms,
     })
@@ -274,5 +280,6 @@ mod tests {
         assert!(fit.rms_residual < 1e-9);
         assert!(o.cost(&fit.x) < 1e-9);
         assert_eq!(fit.evaluations, 8);
+        assert_eq!(evaluations(3), 8);
     }
 }

@@ -217,7 +217,7 @@ pub fn guided(
         stiffness.sort_unstable();
         stiffness.dedup();
     }
-    let damping_cost = 2 * (d.damping.len() + 1);
+    let damping_cost = super::damping::evaluations(d.damping.len());
     let n = stiffness.len();
     let runs_total = d.subproblems.len() * settings.repeats;
     let share = if settings.refine {

@@ -88,6 +88,16 @@ impl Workspace {
     }
 }
 
+/// The fields of the CSV line of `text` whose first field is `key`
+/// (panics naming the key when there is none).
+pub fn csv_row<'a>(text: &'a str, key: &str) -> Vec<&'a str> {
+    text.lines()
+        .find(|l| l.split(',').next() == Some(key))
+        .unwrap_or_else(|| panic!("no row `{key}` in:\n{text}"))
+        .split(',')
+        .collect()
+}
+
 pub fn text(b: &[u8]) -> String {
     String::from_utf8_lossy(b).into_owned()
 }
