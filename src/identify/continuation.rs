@@ -74,6 +74,20 @@ pub struct ContinuationParams {
     /// the prior that ties it to its start value (0: none); see the module
     /// docs.
     pub regularization: f64,
+    /// The order in which reference modes enter: `isolation` (the mode
+    /// farthest from its neighbours first) or `frequency` (lowest first).
+    pub order: ModeOrder,
+}
+
+/// The order in which the continuation brings reference modes in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ModeOrder {
+    /// The mode farthest (relatively) from its neighbours first.
+    #[default]
+    Isolation,
+    /// The lowest mode first.
+    Frequency,
 }
 
 impl Default for ContinuationParams {
@@ -85,6 +99,7 @@ impl Default for ContinuationParams {
             max_step: 0.05,
             outlier: 3.0,
             regularization: 0.25,
+            order: ModeOrder::default(),
         }
     }
 }
@@ -162,12 +177,12 @@ pub fn schedule(o: &ModalObjective, settings: &ContinuationParams) -> Vec<(usize
         .iter()
         .enumerate()
         .map(|(p, u)| {
-            let mut idx: Vec<usize> = (0..u.len()).filter(|&k| u[k]).collect();
-            idx.sort_by(|&a, &b| {
-                o.reference_frequency(p, a)
-                    .total_cmp(&o.reference_frequency(p, b))
-            });
-            idx
+            let idx: Vec<usize> = (0..u.len()).filter(|&k| u[k]).collect();
+            let f: Vec<f64> = idx.iter().map(|&k| o.reference_frequency(p, k)).collect();
+            let key = sort_keys(&f, settings.order);
+            let mut order: Vec<usize> = (0..idx.len()).collect();
+            order.sort_by(|&a, &b| key[a].total_cmp(&key[b]).then(f[a].total_cmp(&f[b])));
+            order.into_iter().map(|j| idx[j]).collect()
         })
         .collect();
     let most = order.iter().map(Vec::len).max().unwrap_or(0);
@@ -190,6 +205,31 @@ pub fn schedule(o: &ModalObjective, settings: &ContinuationParams) -> Vec<(usize
             return out;
         }
         count += settings.step;
+    }
+}
+
+/// Per mode (frequencies `f` of one position) the key the schedule sorts
+/// by, ascending: the frequency, or minus the relative gap to the nearest
+/// other mode (`isolation`: a mode far from every other pairs without
+/// doubt even when the start is 10–20 % off, wherever it lies in the band
+/// — the lowest, global modes and an isolated top mode alike; the crowded
+/// band comes last, when the fit of the rest has pulled it close).
+fn sort_keys(f: &[f64], order: ModeOrder) -> Vec<f64> {
+    match order {
+        ModeOrder::Frequency => f.to_vec(),
+        ModeOrder::Isolation => f
+            .iter()
+            .enumerate()
+            .map(|(a, fa)| {
+                let gap = f
+                    .iter()
+                    .enumerate()
+                    .filter(|&(b, _)| b != a)
+                    .map(|(_, fb)| (fa - fb).abs() / fa.max(*fb))
+                    .fold(f64::INFINITY, f64::min);
+                -gap.min(1.0)
+            })
+            .collect(),
     }
 }
 
@@ -326,8 +366,8 @@ impl Runner<'_> {
         self.prior_scale = sigma.clamp(1e-6, 1.0);
     }
 
-    /// Modes of `set` whose residual RMS at `x` exceeds `outlier` × the
-    /// median (at least `outlier` σ), not yet down-weighted; one evaluation.
+    /// Modes of `set` whose (unweighted) residual RMS at `x` exceeds
+    /// `outlier` × the median (at least `outlier` σ); one evaluation.
     fn outliers(&self, set: &ModeSet, x: &[f64]) -> Vec<Outlier> {
         let limit = self.settings.outlier;
         if limit <= 0.0 {
@@ -354,7 +394,7 @@ impl Runner<'_> {
         segments
             .iter()
             .zip(&rms)
-            .filter(|((slot, mode, _), &r)| r > bar && self.weights[*slot][*mode] == 1.0)
+            .filter(|(_, &r)| r > bar)
             .map(|(&(slot, mode, _), &r)| Outlier {
                 position: self.o.position(slot).index,
                 mode: mode + 1,
@@ -364,6 +404,28 @@ impl Runner<'_> {
                 weight: bar / r,
             })
             .collect()
+    }
+}
+
+impl Runner<'_> {
+    /// Set the weights of the modes of `set`: `found`'s to theirs, the
+    /// rest to 1; true when the set of down-weighted modes changed.
+    fn reweight(&mut self, set: &ModeSet, found: &[Outlier]) -> bool {
+        let mut changed = false;
+        for (slot, modes) in set.iter().enumerate() {
+            for (mode, &inside) in modes.iter().enumerate() {
+                if !inside {
+                    continue;
+                }
+                let w = found
+                    .iter()
+                    .find(|f| self.o.slot(f.position) == Some(slot) && f.mode == mode + 1)
+                    .map_or(1.0, |f| f.weight);
+                changed |= (w < 1.0) != (self.weights[slot][mode] < 1.0);
+                self.weights[slot][mode] = w;
+            }
+        }
+        changed
     }
 }
 
@@ -427,17 +489,17 @@ pub fn continuation(
         used += r.evaluations;
         let found = runner.outliers(set, &runner.point(&x, &r.x_best));
         used += 1;
-        // Down-weight them and fit the stage again from its start.
+        // Re-weight every mode of the stage from the residuals at its end
+        // (iteratively reweighted Huber): a mode down-weighted while the
+        // model was still far is restored once it fits, a new outlier is
+        // down-weighted; when that changes the weights, fit the stage
+        // again from its start.
         let redo = stage_budget.saturating_sub(r.evaluations + 1);
-        if !found.is_empty() && redo >= n + 2 {
-            for f in &found {
-                let slot = o.slot(f.position).unwrap_or(0);
-                runner.weights[slot][f.mode - 1] = f.weight;
-            }
-            outliers.extend(found);
+        if runner.reweight(set, &found) && redo >= n + 2 {
             r = runner.stage(set, &x, redo, later == 0)?;
             used += r.evaluations;
         }
+        outliers = found;
         runner.update_prior_scale(set, &r);
         if r.cost.is_finite() {
             x = runner.point(&x, &r.x_best);

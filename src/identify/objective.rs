@@ -227,6 +227,39 @@ impl ModalObjective {
         }
     }
 
+    /// Raise the uncertainty of mode `mode` (0-based) of reference position
+    /// `position` to what the estimate states about itself: the relative
+    /// spreads `frequency` and `damping` of an AutoEMA column, taken as
+    /// standard deviations through [`uncertainty::SPREAD_TO_SIGMA`]. A mode whose frequency is k = σ_f,r/σ_f times less certain
+    /// than the default is taken to be k times less certain in its shape
+    /// too (see [`Uncertainty`]); the defaults `u` stay the floor. Unknown
+    /// positions and modes are ignored (the reference may have been cut to
+    /// `positions`).
+    pub fn raise_uncertainty(
+        &mut self,
+        u: &Uncertainty,
+        position: u32,
+        mode: usize,
+        frequency: f64,
+        damping: f64,
+    ) {
+        let Some(r) = self
+            .references
+            .iter_mut()
+            .find(|r| r.position.index == position)
+        else {
+            return;
+        };
+        if mode >= r.frequencies.len() {
+            return;
+        }
+        let to_sigma = uncertainty::SPREAD_TO_SIGMA;
+        r.sigma_f[mode] = r.sigma_f[mode].max(to_sigma * frequency);
+        let k = r.sigma_f[mode] / u.frequency;
+        r.sigma_s[mode] = r.sigma_s[mode].max(u.shape * k);
+        r.sigma_z[mode] = r.sigma_z[mode].max(to_sigma * damping);
+    }
+
     /// The standard deviations (relative frequency, shape component) of
     /// reference mode `r` at slot `p`.
     pub fn uncertainty_of(&self, p: usize, r: usize) -> (f64, f64) {
@@ -564,5 +597,32 @@ mod tests {
         assert!(o.cost(&truth()) < 1e-12);
         let e = o.evaluate(&truth(), &o.usable()).unwrap();
         assert_eq!(e.residuals.len(), 14);
+    }
+
+    #[test]
+    fn a_stated_spread_raises_frequency_and_shape_sigma_together() {
+        let mut o = objective();
+        let u = super::Uncertainty {
+            from_complexity: false,
+            ..Default::default()
+        };
+        o.set_uncertainty(u);
+        let position = o.position(0).index;
+        // A spread implying 5× the default σ_f: the shape is taken 5× less
+        // certain too.
+        let to_sigma = super::uncertainty::SPREAD_TO_SIGMA;
+        o.raise_uncertainty(&u, position, 1, 5.0 * u.frequency / to_sigma, 0.5);
+        let (f, s) = o.uncertainty_of(0, 1);
+        assert!((f - 5.0 * u.frequency).abs() < 1e-15, "{f}");
+        assert!((s - 5.0 * u.shape).abs() < 1e-14, "{s}");
+        assert!((o.references[0].sigma_z[1] - 0.5 * to_sigma).abs() < 1e-15);
+        // Below the defaults, a spread changes nothing; unknown modes and
+        // positions are ignored.
+        o.raise_uncertainty(&u, position, 0, 1e-6, 1e-6);
+        assert_eq!(o.uncertainty_of(0, 0), (u.frequency, u.shape));
+        o.raise_uncertainty(&u, position, 99, 1.0, 1.0);
+        o.raise_uncertainty(&u, position + 7, 0, 1.0, 1.0);
+        assert_eq!(o.uncertainty_of(0, 0), (u.frequency, u.shape));
+        assert_eq!(o.references[0].sigma_z[0], u.damping);
     }
 }

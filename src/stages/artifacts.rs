@@ -5,7 +5,9 @@
 //!   set per position;
 //! - `modes`: a directory with `modes.csv` (`position,mode,frequency_hz,
 //!   damping_ratio`) and `mode_shapes.csv` (`position,mode,node,direction,
-//!   real,imag`).
+//!   real,imag`), and, when the estimate states it, `uncertainty.csv`
+//!   (`position,mode,frequency_spread,damping_spread`: relative standard
+//!   deviations per mode, see [`ModeSpread`]).
 
 use super::StageError;
 use crate::frf::FrfSet;
@@ -60,4 +62,110 @@ pub fn read_modes(dir: &Path, input: &str) -> Result<Vec<ModalModel>, StageError
             message: e.to_string(),
         }
     })
+}
+
+/// The stated uncertainty of one identified mode (`uncertainty.csv` of a
+/// `modes` artifact): relative standard deviations of its frequency and
+/// damping ratio, e.g. an AutoEMA stable column's spread.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModeSpread {
+    pub position: u32,
+    /// 1-based, as in modes.csv.
+    pub mode: usize,
+    pub frequency: f64,
+    pub damping: f64,
+}
+
+const SPREAD_FILE: &str = "uncertainty.csv";
+const SPREAD_HEADER: &str = "position,mode,frequency_spread,damping_spread";
+
+/// Write `uncertainty.csv` into a `modes` artifact directory.
+pub fn write_mode_spread(dir: &Path, spread: &[ModeSpread]) -> Result<(), StageError> {
+    use std::fmt::Write as _;
+    let mut out = format!("{SPREAD_HEADER}\n");
+    for s in spread {
+        let _ = writeln!(
+            out,
+            "{},{},{},{}",
+            s.position, s.mode, s.frequency, s.damping
+        );
+    }
+    write(&dir.join(SPREAD_FILE), out.as_bytes())
+}
+
+/// Read `uncertainty.csv` of the `modes` artifact bound to `input`: `None`
+/// when the artifact states no uncertainty; an error naming the line when
+/// the file is malformed or a value is not a finite number ≥ 0.
+pub fn read_mode_spread(dir: &Path, input: &str) -> Result<Option<Vec<ModeSpread>>, StageError> {
+    let path = dir.join(SPREAD_FILE);
+    let text = match std::fs::read_to_string(&path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(StageError::io(format!("cannot read {}", path.display()), e)),
+    };
+    let bad = |line: usize, why: String| StageError::InvalidInput {
+        input: input.to_string(),
+        message: format!("{SPREAD_FILE} line {line}: {why} (expected `{SPREAD_HEADER}`)"),
+    };
+    let mut lines = text.lines();
+    if lines.next().map(str::trim) != Some(SPREAD_HEADER) {
+        return Err(bad(1, "unexpected header".into()));
+    }
+    let mut out = Vec::new();
+    for (i, line) in lines.enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        if f.len() != 4 {
+            return Err(bad(i + 2, format!("{} fields, not 4", f.len())));
+        }
+        let number = |k: usize| -> Result<f64, StageError> {
+            f[k].parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite() && *v >= 0.0)
+                .ok_or_else(|| bad(i + 2, format!("`{}` is not a finite number ≥ 0", f[k])))
+        };
+        let (position, mode) = (number(0)?, number(1)?);
+        if position.fract() != 0.0 || mode.fract() != 0.0 || mode < 1.0 {
+            return Err(bad(i + 2, "position and mode must be whole numbers, mode ≥ 1".into()));
+        }
+        out.push(ModeSpread {
+            position: position as u32,
+            mode: mode as usize,
+            frequency: number(2)?,
+            damping: number(3)?,
+        });
+    }
+    Ok(Some(out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mode_spread_round_trips_and_is_optional() {
+        let dir = tempfile::tempdir().unwrap();
+        assert_eq!(read_mode_spread(dir.path(), "reference").unwrap(), None);
+        let spread = [
+            ModeSpread { position: 0, mode: 1, frequency: 2e-4, damping: 0.01 },
+            ModeSpread { position: 3, mode: 2, frequency: 0.041, damping: 0.3 },
+        ];
+        write_mode_spread(dir.path(), &spread).unwrap();
+        let back = read_mode_spread(dir.path(), "reference").unwrap().unwrap();
+        assert_eq!(back, spread);
+    }
+
+    #[test]
+    fn malformed_mode_spread_names_the_line() {
+        let dir = tempfile::tempdir().unwrap();
+        for (body, needle) in [
+            ("position,mode,frequency_spread,damping_spread\n0,1,NaN,0\n", "line 2"),
+            ("position,mode,frequency_spread,damping_spread\n0,1,0.1\n", "3 fields"),
+            ("position,mode,frequency_spread,damping_spread\n0,0,0.1,0\n", "mode ≥ 1"),
+            ("pos,mode\n", "header"),
+        ] {
+            std::fs::write(dir.path().join(SPREAD_FILE), body).unwrap();
+            let e = read_mode_spread(dir.path(), "reference").unwrap_err().to_string();
+            assert!(e.contains(needle) && e.contains("reference"), "{e}");
+        }
+    }
 }

@@ -189,7 +189,7 @@ impl Kind for AutoEma {
     const NAME: &'static str = "autoema";
 
     fn version(&self) -> u32 {
-        2
+        3
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"
@@ -284,6 +284,27 @@ fn modal_models(sets: &[FrfSet], data: &[FrfData], results: &[AutoEmaResult]) ->
                     }
                 })
                 .collect(),
+        })
+        .collect()
+}
+
+/// Per written mode (same order as [`modal_models`]) its root's stable
+/// column spread ([`crate::ema::roots::Root::spread`]): the estimate's own
+/// statement of how well it knows the mode, which `identify` turns into
+/// residual weights.
+fn mode_spread(sets: &[FrfSet], results: &[AutoEmaResult]) -> Vec<artifacts::ModeSpread> {
+    sets.iter()
+        .zip(results)
+        .flat_map(|(set, r)| {
+            r.fit.shape_pole.iter().enumerate().map(move |(m, &k)| {
+                let (frequency, damping) = r.best.roots[k].spread(&r.orders);
+                artifacts::ModeSpread {
+                    position: set.position.index,
+                    mode: m + 1,
+                    frequency,
+                    damping,
+                }
+            })
         })
         .collect()
 }
@@ -411,6 +432,7 @@ fn write_outputs(
 ) -> Result<StageOutputs, StageError> {
     let modes_dir = ctx.scratch.join(artifacts::MODES_DIR);
     artifacts::write_modes(&modes_dir, &modal_models(sets, data, results))?;
+    artifacts::write_mode_spread(&modes_dir, &mode_spread(sets, results))?;
     let poles_path = ctx.scratch.join("poles.csv");
     write(&poles_path, poles_csv(sets, results).as_bytes())?;
     let fit_path = ctx.scratch.join("frf_fit.uff");

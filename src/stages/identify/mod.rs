@@ -70,7 +70,7 @@ impl Kind for Identify {
     const NAME: &'static str = "identify";
 
     fn version(&self) -> u32 {
-        6
+        7
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -176,6 +176,18 @@ impl Kind for Identify {
         )
         .map_err(invalid_reference)?;
         objective.set_uncertainty(spec.uncertainty);
+        if spec.uncertainty.from_estimate {
+            let dir = ctx.input("reference")?;
+            for m in artifacts::read_mode_spread(dir, "reference")?.unwrap_or_default() {
+                objective.raise_uncertainty(
+                    &spec.uncertainty,
+                    m.position,
+                    m.mode - 1,
+                    m.frequency,
+                    m.damping,
+                );
+            }
+        }
         ctx.progress.set_length(spec.budget as u64);
         let progress = |n: u64| ctx.progress.inc(n);
         let screening_input = if spec.guided {

@@ -68,6 +68,8 @@ pub fn correlation_csv(o: &ModalObjective, u: &Update) -> Result<String, StageEr
                 reference_mode: r + 1,
                 reference_hz: o.reference_frequency(p, r),
                 used: o.exclusion(p, r).is_none(),
+                sigma_frequency: o.uncertainty_of(p, r).0,
+                sigma_shape: o.uncertainty_of(p, r).1,
                 reason: o.exclusion(p, r).unwrap_or("").to_string(),
                 nominal_mode: nominal.map_or(String::new(), |n| {
                     format!("p{}.mode{}", slot.position, n.number)

@@ -113,7 +113,7 @@ macro_rules! settings_type_name {
 }
 settings_type_name!(
     Weights => "mapping {mac, nfd, ndd}",
-    Uncertainty => "mapping {frequency, shape, damping, from_complexity}",
+    Uncertainty => "mapping {frequency, shape, damping, from_complexity, from_estimate}",
     Mapping => "mapping"
 );
 
@@ -163,7 +163,8 @@ crate::params! {
         /// standard deviations of the reference modes: {frequency: 0.002
         /// (relative), shape: 0.02 (per unit-shape component), damping: 0.1
         /// (relative), from_complexity: true (raise a mode's by its shape's
-        /// complexity)}
+        /// complexity), from_estimate: true (raise a mode's to the spread the
+        /// reference states in its uncertainty.csv, as AutoEMA writes it)}
         pub uncertainty: Uncertainty = Uncertainty::default(),
         /// largest a-priori relative standard error of a parameter the data
         /// determine

@@ -35,6 +35,14 @@ pub struct CorrelationRow {
     pub reference_mode: usize,
     pub reference_hz: f64,
     pub used: bool,
+    /// The standard deviations its residuals are scaled by: relative
+    /// frequency and per shape component (defaults raised by the shape's
+    /// complexity and the spread the reference states; 0 in files written
+    /// before these columns existed).
+    #[serde(default)]
+    pub sigma_frequency: f64,
+    #[serde(default)]
+    pub sigma_shape: f64,
     /// Why it is not used.
     pub reason: String,
     /// `p<position>.mode<r>` of its partner at the start.
