@@ -58,9 +58,24 @@ fn external_files(spec: &model_file::ModelFile, rel: &str) -> Vec<String> {
 /// and list the files it references, for cache keys of other kinds that
 /// read model files.
 pub(crate) fn model_file_dependencies(dir: &Path, rel: &str) -> Result<Vec<String>, String> {
-    let (_, text) = load_model(dir, rel)?;
+    let (model, text) = load_model(dir, rel)?;
+    if let Some(p) = model_memory(&model) {
+        return Err(p.message);
+    }
     let spec = model_file::parse(&text, rel).map_err(|e| e.to_string())?;
     Ok(external_files(&spec, rel))
+}
+
+/// The dense eigenproblem of a model against the memory limit: K, M, the
+/// damping matrices, the eigenvectors and the solver's workspace, about six
+/// n × n matrices for n DOFs (every mode of a reduced model is at most n).
+fn model_memory(model: &Model) -> Option<ParamProblem> {
+    let n = model.n_dofs() as f64;
+    crate::resources::memory_problem(
+        &["model"],
+        &format!("{n} DOF: DOF × DOF × modes of the dense eigenproblem"),
+        8.0 * 6.0 * n * n,
+    )
 }
 
 /// Configuration indices selected by `positions` (indices or labels).
@@ -182,6 +197,9 @@ impl Kind for Synthesize {
                 "use the model's parameter names and stay within bounds",
             )
         })?;
+        if let Some(problem) = model_memory(&model) {
+            return Err(problem);
+        }
         let spec = model_file::parse(&text, &p.model)
             .map_err(|e| problem(&["model"], e.to_string(), ""))?;
         let check_names = |names: Option<&[String]>,
