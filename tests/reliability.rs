@@ -248,6 +248,32 @@ mod file_system {
     }
 
     #[test]
+    fn a_stage_whose_own_output_fills_the_disk_exits_3_too() {
+        let ws = util::study("quickstart", &[]);
+        ws.write(
+            "p.yaml",
+            "name: q\nstages:\n  truth:\n    kind: synthesize\n    params: {model: models/three_mass.yaml, frequency: {min: 0, max: 400, step: 0.25}}\n",
+        );
+        std::fs::create_dir(ws.path().join("cache")).unwrap();
+        let script = "mount -t tmpfs -o size=16k tmpfs cache || exit 99; \
+                      \"$B\" run p.yaml --progress none; echo \"rc=$?\"; ls -A cache/tmp";
+        let Some(out) = in_namespace(&ws, script) else {
+            return;
+        };
+        let (stdout, stderr) = (text(&out.stdout), text(&out.stderr));
+        assert_eq!(stdout.trim_end(), "rc=3", "{stderr}");
+        assert!(
+            stderr.contains("stage truth: cannot write ") && stderr.contains("frf.uff"),
+            "{stderr}"
+        );
+        assert_eq!(
+            stderr.matches("No space left on device").count(),
+            1,
+            "{stderr}"
+        );
+    }
+
+    #[test]
     fn a_read_only_complete_cache_serves_cached_runs_and_status() {
         let ws = tree();
         std::fs::remove_dir_all(ws.path().join("results")).unwrap();
@@ -335,5 +361,50 @@ mod records {
         );
         assert_eq!(ws.read("results/tree/up/b.txt"), "HELLO\n");
         assert!(ws.run(&[], 0).all("cached"));
+    }
+}
+
+#[path = "../benchmarks/fuzz_targets.rs"]
+mod fuzz_targets;
+
+mod fuzz {
+    use super::fuzz_targets::{mutate, seeds, targets, Rng};
+    use std::path::Path;
+
+    /// Every kept corpus entry and crasher of `benchmarks/fuzz.rs`, and a
+    /// short seeded mutation burst from the seeds, parse without a panic.
+    #[test]
+    fn corpus_crashers_and_a_short_burst_parse_without_panics() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        modalflow::resources::set_memory_limit(256 << 20);
+        for t in targets() {
+            let mut inputs = seeds(root, &t);
+            assert!(!inputs.is_empty(), "{}: no seeds", t.name);
+            let ok = inputs.iter().filter(|i| (t.run)(i) == "ok").count();
+            assert!(ok > 0, "{}: no seed parses", t.name);
+            for dir in ["tests/fuzz/corpus", "tests/fuzz/crashers"] {
+                let d = root.join(dir).join(t.name);
+                for e in std::fs::read_dir(d).into_iter().flatten().flatten() {
+                    inputs.push(std::fs::read(e.path()).unwrap());
+                }
+            }
+            let mut rng = Rng(17);
+            let seeds = inputs.len();
+            for _ in 0..2000 {
+                let (a, b) = (rng.below(seeds), rng.below(seeds));
+                let m = mutate(&mut rng, &inputs[a], &inputs[b]);
+                inputs.push(m);
+            }
+            for (i, input) in inputs.iter().enumerate() {
+                let r = std::panic::catch_unwind(|| (t.run)(input));
+                assert!(
+                    r.is_ok(),
+                    "{}: input {i} panics:\n{}",
+                    t.name,
+                    String::from_utf8_lossy(&input[..input.len().min(2000)])
+                );
+            }
+        }
+        super::fuzz_targets::cleanup();
     }
 }

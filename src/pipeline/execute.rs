@@ -231,6 +231,13 @@ impl Engine<'_> {
                     }
                     Err(JobError::Stage(e)) => return fail(report, e, warnings),
                     Err(JobError::Store(e)) => return fatal(report, e.into(), warnings),
+                    Err(JobError::Storage(message)) => {
+                        let e = RunError::Storage {
+                            stage: node.name.clone(),
+                            message,
+                        };
+                        return fatal(report, e, warnings);
+                    }
                 }
             }
         };

@@ -58,6 +58,9 @@ pub enum RunError {
     UnknownTarget { name: String, known: String },
     #[error("executor: {0}")]
     Executor(String),
+    /// A stage's own writes failed for lack of storage.
+    #[error("stage {stage}: {message}")]
+    Storage { stage: String, message: String },
     /// A stage has to be computed but the cache is read-only.
     #[error(
         "stage {stage} is not in the read-only cache {} ({reason}); computing it needs a \

@@ -23,6 +23,11 @@ pub enum JobError {
     /// exit code 3.
     #[error(transparent)]
     Store(#[from] StoreError),
+    /// The stage's own writes failed for lack of storage (full disk, quota,
+    /// read-only file system): a file-system failure like `Store`, not the
+    /// stage's fault.
+    #[error("{0}")]
+    Storage(String),
 }
 
 impl From<String> for JobError {
@@ -157,6 +162,7 @@ fn run_in(
     }
     let produced = match outcome {
         Ok(Ok(p)) => p,
+        Ok(Err(e)) if out_of_storage(&e) => return Err(JobError::Storage(stage_error_text(&e))),
         Ok(Err(e)) => return Err(stage_error_text(&e).into()),
         Err(panic) => return Err(panic_text(kind, panic).into()),
     };
@@ -331,6 +337,13 @@ fn panic_text(kind: &dyn Stage, panic: Box<dyn std::any::Any + Send>) -> String 
         "internal error in kind `{}` (a bug, please report): {what}",
         kind.kind()
     )
+}
+
+/// Whether a stage failed because the storage refused its writes.
+fn out_of_storage(e: &StageError) -> bool {
+    use std::io::ErrorKind as K;
+    matches!(e, StageError::Io { source, .. }
+        if matches!(source.kind(), K::StorageFull | K::QuotaExceeded | K::ReadOnlyFilesystem))
 }
 
 /// A stage error with its sources, each once.
