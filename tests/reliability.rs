@@ -207,6 +207,15 @@ mod bounds {
             &["--max-memory", "100"],
         );
         assert!(m.contains("`model`") && m.contains("3 DOF"), "{m}");
+        let m = problem(
+            "synthesize",
+            "{model: models/three_mass.yaml, frequency: {min: 0, max: 400, step: 0.001}}",
+            &["--max-memory", "10M"],
+        );
+        assert!(
+            m.contains("`frequency.step`") && m.contains("3 sensors"),
+            "{m}"
+        );
     }
 
     #[test]

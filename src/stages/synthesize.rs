@@ -66,6 +66,26 @@ pub(crate) fn model_file_dependencies(dir: &Path, rel: &str) -> Result<Vec<Strin
     Ok(external_files(&spec, rel))
 }
 
+/// The synthesized FRFs against the memory limit: complex lines ×
+/// sensors × excitations × positions, twice (the FRFs and the noisy or
+/// measured copy with its coherence).
+fn frf_memory(p: &Params, spec: &model_file::ModelFile) -> Option<ParamProblem> {
+    let g = p.frequency;
+    let lines = ((g.max - g.min) / g.step).max(0.0) + 1.0;
+    let count = |given: Option<usize>, all: usize| given.unwrap_or(all).max(1) as f64;
+    let sensors = count(p.sensors.as_ref().map(Vec::len), spec.sensors.len());
+    let excitations = count(p.excitations.as_ref().map(Vec::len), spec.excitations.len());
+    let all_positions = spec.axes.iter().map(|a| a.positions.len().max(1)).product();
+    let positions = count(p.positions.as_ref().map(Vec::len), all_positions);
+    crate::resources::memory_problem(
+        &["frequency", "step"],
+        &format!(
+            "{lines} lines × {sensors} sensors × {excitations} excitations × {positions} positions"
+        ),
+        2.0 * 16.0 * lines * sensors * excitations * positions,
+    )
+}
+
 /// The dense eigenproblem of a model against the memory limit: K, M, the
 /// damping matrices, the eigenvectors and the solver's workspace, about six
 /// n × n matrices for n DOFs (every mode of a reduced model is at most n).
@@ -220,6 +240,9 @@ impl Kind for Synthesize {
         };
         check_names(p.sensors.as_deref(), &spec.sensors, "sensor")?;
         check_names(p.excitations.as_deref(), &spec.excitations, "excitation")?;
+        if let Some(problem) = frf_memory(p, &spec) {
+            return Err(problem);
+        }
         Ok(external_files(&spec, &p.model))
     }
 
