@@ -106,22 +106,38 @@ pub struct RunRecord {
     pub seconds: f64,
     pub counters: BTreeMap<String, u64>,
     pub modalflow_version: String,
-    /// blake3 of the record's JSON with this field empty: a record edited
-    /// after it was written (a swapped output hash that still parses) is
-    /// told apart from a genuine one and recomputed. Set by
-    /// [`Store::write_record`].
+    /// blake3 of the record file's text without this field (the last one):
+    /// a record edited after it was written (a swapped output hash that
+    /// still parses) is told apart from a genuine one and recomputed. Set by
+    /// [`Store::write_record`]; over the text, not re-serialized values, so
+    /// float parsing cannot make a genuine record look edited.
     #[serde(default, skip_serializing_if = "String::is_empty")]
     pub checksum: String,
 }
 
 impl RunRecord {
-    /// The checksum this record's content should carry.
-    fn content_checksum(&self) -> String {
+    /// The record file's text: the record's pretty JSON with the checksum
+    /// of that text appended as the last field.
+    fn sealed_text(&self) -> String {
         let mut bare = self.clone();
         bare.checksum.clear();
-        let json = serde_json::to_vec(&bare).unwrap_or_default();
-        blake3::hash(&json).to_hex().to_string()
+        let text = serde_json::to_string_pretty(&bare).unwrap_or_default();
+        let sum = blake3::hash(text.as_bytes()).to_hex();
+        let body = text.strip_suffix("\n}").unwrap_or(&text);
+        format!("{body},\n  \"checksum\": \"{sum}\"\n}}")
     }
+}
+
+/// Whether a record file's text carries the checksum of the rest of it
+/// (the inverse of [`RunRecord::sealed_text`]).
+fn seal_matches(text: &[u8], checksum: &str) -> bool {
+    let tail = format!(",\n  \"checksum\": \"{checksum}\"\n}}");
+    let Some(body) = text.strip_suffix(tail.as_bytes()) else {
+        return false;
+    };
+    let mut bare = body.to_vec();
+    bare.extend_from_slice(b"\n}");
+    blake3::hash(&bare).to_hex().as_str() == checksum
 }
 
 /// Handle on a cache directory.
@@ -397,7 +413,7 @@ impl Store {
         if rec.checksum.is_empty() {
             return Err("run record has no checksum".into());
         }
-        if rec.checksum != rec.content_checksum() {
+        if !seal_matches(&bytes, &rec.checksum) {
             return Err(
                 "run record does not match its checksum (edited after it was written)".into(),
             );
@@ -408,10 +424,7 @@ impl Store {
     /// Commit a run record (the last write of a stage run), sealed with
     /// its checksum.
     pub fn write_record(&self, rec: &RunRecord) -> Result<()> {
-        let mut sealed = rec.clone();
-        sealed.checksum = rec.content_checksum();
-        let json = serde_json::to_vec_pretty(&sealed).unwrap_or_default();
-        self.write_atomic(&self.record_path(&rec.key), &json)
+        self.write_atomic(&self.record_path(&rec.key), rec.sealed_text().as_bytes())
     }
 
     pub fn remove_record(&self, key: &str) {
@@ -616,6 +629,26 @@ mod tests {
         let out = dir.path().join("out");
         store.checkout(&t, &out).unwrap();
         assert_eq!(fs::read(out.join("sub/y")).unwrap(), b"2");
+
+        let rec = RunRecord {
+            key: "k".into(),
+            kind: "command".into(),
+            version: 1,
+            stage: "s".into(),
+            outputs: BTreeMap::new(),
+            // Not exactly representable sums parse back 1 ulp off in
+            // serde_json's fast float path: the seal must not care.
+            seconds: 0.009991630000000001,
+            counters: BTreeMap::new(),
+            modalflow_version: "0".into(),
+            checksum: String::new(),
+        };
+        store.write_record(&rec).unwrap();
+        assert!(store.read_record("k").unwrap().is_some());
+        let path = store.record_path("k");
+        let text = fs::read_to_string(&path).unwrap();
+        fs::write(&path, text.replace("\"s\"", "\"t\"")).unwrap();
+        assert!(store.read_record("k").unwrap_err().contains("checksum"));
 
         fs::write(store.object_path(&a.hash), b"hellO").unwrap();
         let e = store.verify(&a).unwrap_err();
