@@ -74,10 +74,15 @@ impl Owners {
         };
         for entry in fs::read_dir(tmp).into_iter().flatten().flatten() {
             let name = entry.file_name().to_string_lossy().into_owned();
-            let Some(owner) = name
+            // An announcement, or one a process was killed while making.
+            let owner = name
                 .strip_prefix("live-")
                 .and_then(|r| r.strip_suffix(".lock"))
-            else {
+                .or_else(|| {
+                    name.strip_prefix(".live-")
+                        .and_then(|r| r.strip_suffix(".new"))
+                });
+            let Some(owner) = owner else {
                 continue;
             };
             let alive = match File::open(entry.path()) {
@@ -142,10 +147,12 @@ fn remove(path: &Path) -> io::Result<()> {
     }
 }
 
-/// Remove the temp files of dead processes from `cache/tmp` and their
-/// staging folders from `results` (one pipeline's results directory).
-/// Removal is best effort: what cannot be removed now is tried next time.
-pub fn clean(cache_tmp: &Path, results: &Path) -> Cleaned {
+/// Remove the temp files of dead processes from `cache/tmp`, their
+/// staging folders from `results` (one pipeline's results directory) and
+/// their half-restored `.<file>.modalflow-tmp-…` files from `workspace`
+/// (the pipeline file's directory, top level). Removal is best effort:
+/// what cannot be removed now is tried next time.
+pub fn clean(cache_tmp: &Path, results: &Path, workspace: &Path) -> Cleaned {
     let owners = Owners::scan(cache_tmp);
     let mut cleaned = Cleaned::default();
     for entry in fs::read_dir(&owners.tmp).into_iter().flatten().flatten() {
@@ -169,6 +176,16 @@ pub fn clean(cache_tmp: &Path, results: &Path) -> Cleaned {
         };
         if !owners.alive(owner) && remove(&entry.path()).is_ok() {
             cleaned.staging += 1;
+        }
+    }
+    for entry in fs::read_dir(workspace).into_iter().flatten().flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if !(name.starts_with('.') && name.contains(".modalflow-tmp-")) {
+            continue;
+        }
+        let dead = temp_owner(&name).is_some_and(|o| !owners.alive(&o));
+        if dead && entry.path().is_file() && fs::remove_file(entry.path()).is_ok() {
+            cleaned.temp += 1;
         }
     }
     // Announcements of dead processes go last, after what they named, and
@@ -207,6 +224,8 @@ mod tests {
         // A dead announced process: its lock file is not held.
         fs::write(tmp.join("live-4194398-0123456789ab.lock"), "").unwrap();
         fs::write(tmp.join("obj-4194398-0123456789ab-0"), "x").unwrap();
+        // Killed while announcing itself.
+        fs::write(tmp.join(".live-4194396-dddddddddddd.new"), "").unwrap();
         // Unannounced, pid not running.
         fs::create_dir_all(tmp.join("stage-4194397-bbbbbbbbbbbb-1")).unwrap();
         // This process, announced.
@@ -216,16 +235,20 @@ mod tests {
         // Unannounced but running here (this test's pid).
         let running = tmp.join(format!("rec-{}-cccccccccccc-0", std::process::id()));
         fs::write(&running, "z").unwrap();
-        let c = clean(&tmp, &results);
-        assert_eq!(
-            c,
-            Cleaned {
-                temp: 2,
-                staging: 1
-            }
-        );
+        let half = dir
+            .path()
+            .join(".j.txt.modalflow-tmp-4194398-0123456789ab-2");
+        fs::write(&half, "half").unwrap();
+        let c = clean(&tmp, &results, dir.path());
+        let expected = Cleaned {
+            temp: 3,
+            staging: 1,
+        };
+        assert_eq!(c, expected);
+        assert!(!half.exists());
         assert!(mine.exists() && running.exists() && results.join("a").exists());
         assert!(!tmp.join("live-4194398-0123456789ab.lock").exists());
+        assert!(!tmp.join(".live-4194396-dddddddddddd.new").exists());
         assert!(tmp.join(format!("live-{}.lock", process_nonce())).exists());
     }
 }

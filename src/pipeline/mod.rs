@@ -14,6 +14,7 @@ pub mod matrix;
 pub mod plan;
 pub mod progress;
 pub mod provenance;
+pub mod record;
 pub mod results;
 pub mod run;
 pub mod span;

@@ -163,7 +163,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     let engine = engine(plan, opts, executor)?;
     let _cache_lock = engine.store.lock_cache(false)?;
     if !engine.store.read_only() {
-        super::leftovers::clean(&engine.store.root().join("tmp"), &engine.results);
+        super::leftovers::clean(&engine.store.root().join("tmp"), &engine.results, &plan.dir);
     }
     let n = plan.nodes.len();
     let to_run = wanted.iter().filter(|w| **w).count();
