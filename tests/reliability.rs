@@ -186,6 +186,17 @@ mod bounds {
                 && m.contains("64.0 MiB"),
             "{m}"
         );
+        // Within the bound with one mode and channel, over it with the
+        // model's 3 modes and 3 sensors, once the model file is read.
+        let m = problem(
+            "synthesize",
+            &format!("{{{SYN}, impact_test: {{block_size: 262144}}}}"),
+            &["--max-memory", "64M"],
+        );
+        assert!(
+            m.contains("`impact_test.block_size`") && m.contains("× 3 modes"),
+            "{m}"
+        );
         let m = problem(
             "gsa",
             "{model: models/three_mass.yaml, modes: 3, bands: {min: 0, max: 1e9, count: 10}}",

@@ -243,6 +243,12 @@ impl Kind for Synthesize {
         if let Some(problem) = frf_memory(p, &spec) {
             return Err(problem);
         }
+        if let Some(imp) = &p.impact_test {
+            let model = Some((model.n_dofs(), spec.sensors.len()));
+            if let Some(problem) = sp::impact_resources(p, imp, model).into_iter().next() {
+                return Err(problem);
+            }
+        }
         Ok(external_files(&spec, &p.model))
     }
 
