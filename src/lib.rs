@@ -18,5 +18,6 @@ pub mod optimize;
 pub mod pairing;
 pub mod pipeline;
 pub mod report;
+pub mod resources;
 pub mod sensitivity;
 pub mod stages;

@@ -18,6 +18,11 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Memory a stage may be estimated to need (e.g. 4G, 512M); params
+    /// asking for more are rejected at validation. Default: half the RAM.
+    #[arg(long, global = true, env = "MODALFLOW_MAX_MEMORY", value_name = "SIZE",
+          value_parser = modalflow::resources::parse_size)]
+    max_memory: Option<u64>,
 }
 
 #[derive(Subcommand)]
@@ -28,6 +33,7 @@ enum Command {
     Show(commands::show::Args),
     Compare(commands::compare::Args),
     Validate(commands::validate::Args),
+    Verify(commands::verify::Args),
     Gc(commands::gc::Args),
     Kinds(commands::kinds::Args),
     Exec(commands::exec::Args),
@@ -43,6 +49,7 @@ impl Command {
             Command::Show(a) => a.json,
             Command::Compare(a) => a.json,
             Command::Validate(a) => a.json,
+            Command::Verify(a) => a.json,
             Command::Gc(a) => a.json,
             Command::Kinds(a) => a.json,
             Command::Dag(_) | Command::Exec(_) => false,
@@ -53,6 +60,9 @@ impl Command {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     let json = cli.command.json();
+    if let Some(bytes) = cli.max_memory {
+        modalflow::resources::set_memory_limit(bytes);
+    }
     let result = match cli.command {
         Command::Run(a) => commands::run::exec(a),
         Command::Status(a) => commands::status::exec(a),
@@ -60,10 +70,12 @@ pub fn main() -> ExitCode {
         Command::Show(a) => commands::show::exec(a),
         Command::Compare(a) => commands::compare::exec(a),
         Command::Validate(a) => commands::validate::exec(a),
+        Command::Verify(a) => commands::verify::exec(a),
         Command::Gc(a) => commands::gc::exec(a),
         Command::Kinds(a) => commands::kinds::exec(a),
         Command::Exec(a) => commands::exec::exec(a),
     };
+    modalflow::pipeline::leftovers::retire();
     match result {
         Ok(code) => ExitCode::from(code),
         Err(e) => {

@@ -88,6 +88,19 @@ impl Model {
         Model::from_spec(&spec, file, resolver)
     }
 
+    /// Degrees of freedom before any reduction: 6 (or fewer) per rigid
+    /// body, every node DOF of flexible bodies. Bounds the size of the
+    /// dense eigenproblem, for the resource checks at validation.
+    pub fn n_dofs(&self) -> usize {
+        self.bodies
+            .iter()
+            .map(|b| match &b.kind {
+                super::bodies::BodyKind::Rigid { dofs, .. } => dofs.len(),
+                super::bodies::BodyKind::Fe { fe, .. } => fe.M.nrows(),
+            })
+            .sum()
+    }
+
     /// Index of a parameter by name.
     pub fn parameter_index(&self, name: &str) -> Option<usize> {
         self.parameters.iter().position(|p| p.name == name)

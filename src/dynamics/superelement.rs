@@ -40,6 +40,17 @@ fn read_matrix(
     if r != c {
         return Err(fail(format!("matrix is {r}×{c}, expected square")));
     }
+    // Held dense: bound the declared size by the memory limit first.
+    let bytes = 8.0 * r as f64 * c as f64;
+    let limit = crate::resources::memory_limit() as f64;
+    if bytes > limit {
+        return Err(fail(format!(
+            "a {r}×{c} matrix needs an estimated {} held dense, more than the limit of {} \
+             (--max-memory)",
+            crate::resources::human(bytes),
+            crate::resources::human(limit)
+        )));
+    }
     let mut A = Mat::<f64>::zeros(r, c);
     for (v, (i, j)) in tri.triplet_iter() {
         if !v.is_finite() {

@@ -2,13 +2,15 @@
 //! verified cache entry or have the [`Executor`] run the kind (which commits
 //! the outputs, objects first, record last), and materialize results.
 
+use super::executor::exec::JobError;
 use super::executor::job::{Job, JobInput, Restore, Typed, FORMAT};
 use super::executor::Executor;
 use super::key::{canonical_params, KeyMaterial};
 use super::plan::{Node, Plan};
 use super::provenance::{self, LastRun, StageProvenance};
 use super::results::{self, InputOrigin, Manifest};
-use super::store::{self, OutputRecord, RunRecord, Store};
+use super::run::RunError;
+use super::store::{self, OutputRecord, RunRecord, Store, StoreError};
 use crate::stages::Progress;
 use serde_yaml_ng::Value;
 use std::collections::BTreeMap;
@@ -54,6 +56,8 @@ pub struct Outcome {
     pub provenance: Option<StageProvenance>,
     /// Problems worth a warning line that did not fail the stage.
     pub warnings: Vec<String>,
+    /// A cache or file-system failure: the run stops and exits with 3.
+    pub fatal: Option<RunError>,
 }
 
 /// Shared, read-only context of one run.
@@ -134,9 +138,10 @@ impl Engine<'_> {
             .collect()
     }
 
-    /// Verified cache entry for `key`, or why there is none usable.
+    /// Verified cache entry for `key`, or why there is none usable
+    /// (`None`: no entry; `Some`: an entry that is corrupt).
     pub fn cached(&self, key: &str) -> Result<RunRecord, Option<String>> {
-        let rec = self.store.record(key).ok_or(None)?;
+        let rec = self.store.read_record(key).map_err(Some)?.ok_or(None)?;
         for out in rec.outputs.values() {
             self.store.verify(&out.artifact).map_err(Some)?;
         }
@@ -170,6 +175,14 @@ impl Engine<'_> {
                 done: None,
                 provenance: None,
                 warnings,
+                fatal: None,
+            }
+        };
+        let fatal = |report: StageReport, e: RunError, warnings| {
+            let message = e.to_string();
+            Outcome {
+                fatal: Some(e),
+                ..fail(report, message, warnings)
             }
         };
         let material = match self.material(i, done) {
@@ -187,7 +200,7 @@ impl Engine<'_> {
         let mut warnings = Vec::new();
         let _lock = match self.store.lock_key(&key) {
             Ok(l) => l,
-            Err(e) => return fail(report, e.to_string(), warnings),
+            Err(e) => return fatal(report, e.into(), warnings),
         };
         let record = match (self.forced[i], self.cached(&key)) {
             (false, Ok(rec)) => {
@@ -203,19 +216,35 @@ impl Engine<'_> {
                     ));
                     report.reason = format!("cache entry corrupt ({problem})");
                 }
+                if self.store.read_only() {
+                    let e = RunError::ReadOnly {
+                        stage: node.name.clone(),
+                        cache: self.store.root().to_path_buf(),
+                        reason: report.reason.clone(),
+                    };
+                    return fatal(report, e, warnings);
+                }
                 match self.compute(node, &key, &material, done, progress) {
                     Ok(rec) => {
                         report.status = Status::Ran;
                         rec
                     }
-                    Err(e) => return fail(report, e, warnings),
+                    Err(JobError::Stage(e)) => return fail(report, e, warnings),
+                    Err(JobError::Store(e)) => return fatal(report, e.into(), warnings),
+                    Err(JobError::Storage(message)) => {
+                        let e = RunError::Storage {
+                            stage: node.name.clone(),
+                            message,
+                        };
+                        return fatal(report, e, warnings);
+                    }
                 }
             }
         };
         report.seconds = record.seconds;
         report.counters = record.counters.clone();
         if let Err(e) = self.place(node, &material, &key, &record, done) {
-            return fail(report, e, warnings);
+            return fatal(report, e.into(), warnings);
         }
         let outputs = record
             .outputs
@@ -234,6 +263,7 @@ impl Engine<'_> {
             }),
             report,
             warnings,
+            fatal: None,
         }
     }
 
@@ -245,7 +275,7 @@ impl Engine<'_> {
         material: &KeyMaterial,
         done: &dyn Fn(usize) -> Option<Done>,
         progress: &dyn Progress,
-    ) -> Result<RunRecord, String> {
+    ) -> Result<RunRecord, JobError> {
         let job = self.job(node, key, material, done)?;
         self.executor.compute(&self.store, job, progress)
     }
@@ -321,16 +351,14 @@ impl Engine<'_> {
         key: &str,
         record: &RunRecord,
         done: &dyn Fn(usize) -> Option<Done>,
-    ) -> Result<(), String> {
+    ) -> Result<(), StoreError> {
         for (name, out) in &record.outputs {
             if node.workspace_outputs.is_empty() {
                 break;
             }
             let dest = self.plan.dir.join(super::plan::normalize(name));
             if store::hash_path(&dest).ok().as_deref() != Some(out.artifact.hash.as_str()) {
-                self.store
-                    .checkout(&out.artifact, &dest)
-                    .map_err(|e| e.to_string())?;
+                self.store.checkout(&out.artifact, &dest)?;
             }
         }
         let origins = node
@@ -360,6 +388,5 @@ impl Engine<'_> {
             record.counters.clone(),
         );
         results::materialize(&self.store, &self.results.join(&node.name), &manifest)
-            .map_err(|e| e.to_string())
     }
 }

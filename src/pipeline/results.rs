@@ -3,7 +3,7 @@
 //! materialized from the cache, so deleting them costs no recomputation.
 
 use super::key::KeyMaterial;
-use super::store::{OutputRecord, Store, StoreError};
+use super::store::{err, hash_path, process_nonce, ArtifactKind, OutputRecord, Store, StoreError};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fs;
@@ -64,67 +64,109 @@ impl Manifest {
 }
 
 /// Make `dir` hold exactly the manifest's outputs and the manifest. Skips the
-/// copy when the directory already holds this key's outputs (same sizes).
+/// copy when the directory already holds them, checked by content: every
+/// output file (every file of a directory output) hashes to the manifest's
+/// hash and the manifest itself is the same text. Anything edited, missing
+/// or added inside an output is replaced from the cache.
+///
+/// The content check reads every result file on every run. A stat
+/// fingerprint (size, mtime, inode) would be cheaper on large results but
+/// misses an edit that keeps size and mtime (`cp -p`, `rsync -t`, two
+/// writes within the timestamp granularity); the cache verifies its own
+/// objects by content on every run too, so this at most doubles that cost
+/// (`benchmarks/engine.rs`).
 pub fn materialize(store: &Store, dir: &Path, manifest: &Manifest) -> Result<(), StoreError> {
-    if up_to_date(dir, manifest) {
+    let json = serde_json::to_vec_pretty(manifest).unwrap_or_default();
+    if fs::read(dir.join("manifest.json")).is_ok_and(|old| old == json)
+        && drift(dir, manifest).is_empty()
+    {
         return Ok(());
     }
     let parent = dir.parent().unwrap_or(Path::new("."));
-    let io = |op: &'static str, p: &Path| {
-        let p = p.to_path_buf();
-        move |source| StoreError {
-            op,
-            path: p,
-            source,
-        }
-    };
-    fs::create_dir_all(parent).map_err(io("create", parent))?;
+    fs::create_dir_all(parent).map_err(err("create directory", parent))?;
     let name = dir
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
-    let staging = parent.join(format!(".{name}.staging-{}", std::process::id()));
-    if staging.exists() {
-        fs::remove_dir_all(&staging).map_err(io("remove", &staging))?;
+    let staging = parent.join(format!(".{name}.staging-{}", process_nonce()));
+    let result = stage_and_swap(store, dir, &staging, manifest, &json);
+    if result.is_err() {
+        // A full disk or a read-only results directory must not leave
+        // half a copy behind.
+        let _ = fs::remove_dir_all(&staging);
     }
-    fs::create_dir_all(&staging).map_err(io("create", &staging))?;
+    result
+}
+
+fn stage_and_swap(
+    store: &Store,
+    dir: &Path,
+    staging: &Path,
+    manifest: &Manifest,
+    json: &[u8],
+) -> Result<(), StoreError> {
+    if staging.exists() {
+        fs::remove_dir_all(staging).map_err(err("remove", staging))?;
+    }
+    fs::create_dir_all(staging).map_err(err("create directory", staging))?;
     for out in manifest.outputs.values() {
         store.checkout(&out.artifact, &staging.join(&out.file))?;
     }
-    let json = serde_json::to_vec_pretty(manifest).unwrap_or_default();
-    fs::write(staging.join("manifest.json"), json).map_err(io("write", &staging))?;
+    let path = staging.join("manifest.json");
+    fs::write(&path, json).map_err(err("write", &path))?;
     // Another run of the same pipeline may materialize the same stage at the
     // same moment; whoever renames last wins, and a loser whose rename fails
-    // accepts the winner's directory when it holds the same key.
+    // accepts the winner's directory when it holds the same outputs.
     for _ in 0..3 {
         if dir.exists() {
             let _ = fs::remove_dir_all(dir);
         }
-        if fs::rename(&staging, dir).is_ok() {
+        if fs::rename(staging, dir).is_ok() {
             return Ok(());
         }
-        if up_to_date(dir, manifest) {
-            let _ = fs::remove_dir_all(&staging);
+        if read_manifest(dir).is_some_and(|m| m.key == manifest.key)
+            && drift(dir, manifest).is_empty()
+        {
+            let _ = fs::remove_dir_all(staging);
             return Ok(());
         }
     }
-    fs::rename(&staging, dir).map_err(io("rename", dir))
+    fs::rename(staging, dir).map_err(err("rename", dir))
 }
 
-fn up_to_date(dir: &Path, manifest: &Manifest) -> bool {
-    let Ok(bytes) = fs::read(dir.join("manifest.json")) else {
-        return false;
-    };
-    let Ok(old) = serde_json::from_slice::<Manifest>(&bytes) else {
-        return false;
-    };
-    old.key == manifest.key
-        && manifest.outputs.values().all(|o| match o.artifact.kind {
-            super::store::ArtifactKind::File => {
-                fs::metadata(dir.join(&o.file)).is_ok_and(|m| m.len() == o.artifact.bytes)
-            }
-            super::store::ArtifactKind::Dir => dir.join(&o.file).is_dir(),
+/// How one output in a results directory differs from its manifest.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct Drift {
+    /// The output's file or directory name inside the stage's directory.
+    pub path: String,
+    /// `missing` or `modified` (a directory output: a file in it edited,
+    /// missing or added).
+    pub problem: &'static str,
+}
+
+/// The outputs of `dir` whose content differs from `manifest` (empty: all
+/// intact).
+pub fn drift(dir: &Path, manifest: &Manifest) -> Vec<Drift> {
+    manifest
+        .outputs
+        .values()
+        .filter_map(|o| {
+            let path = dir.join(&o.file);
+            let problem = match o.artifact.kind {
+                ArtifactKind::File if !path.is_file() => "missing",
+                ArtifactKind::Dir if !path.is_dir() => "missing",
+                _ => match hash_path(&path) {
+                    Ok(h) if h == o.artifact.hash => return None,
+                    Ok(_) => "modified",
+                    Err(_) => "missing",
+                },
+            };
+            Some(Drift {
+                path: o.file.clone(),
+                problem,
+            })
         })
+        .collect()
 }
 
 /// The manifest in a results directory, if any.

@@ -58,6 +58,20 @@ pub enum RunError {
     UnknownTarget { name: String, known: String },
     #[error("executor: {0}")]
     Executor(String),
+    /// A stage's own writes failed for lack of storage.
+    #[error("stage {stage}: {message}")]
+    Storage { stage: String, message: String },
+    /// A stage has to be computed but the cache is read-only.
+    #[error(
+        "stage {stage} is not in the read-only cache {} ({reason}); computing it needs a \
+         writable cache\n  = help: run with --cache on writable storage (e.g. a copy of this cache)",
+        cache.display()
+    )]
+    ReadOnly {
+        stage: String,
+        cache: PathBuf,
+        reason: String,
+    },
 }
 
 impl RunError {
@@ -148,6 +162,9 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     let wanted = wanted(plan, &opts.targets)?;
     let engine = engine(plan, opts, executor)?;
     let _cache_lock = engine.store.lock_cache(false)?;
+    if !engine.store.read_only() {
+        super::leftovers::clean(&engine.store.root().join("tmp"), &engine.results, &plan.dir);
+    }
     let n = plan.nodes.len();
     let to_run = wanted.iter().filter(|w| **w).count();
     let mut reporter = Reporter::new(to_run, opts.progress, opts.heartbeat);
@@ -166,6 +183,7 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     let mut reports: Vec<Option<StageReport>> = vec![None; n];
     let mut updates: Vec<(String, StageProvenance)> = Vec::new();
     let mut stop_reason: Option<String> = None;
+    let mut fatal: Option<RunError> = None;
     let jobs = opts.jobs.max(1);
 
     std::thread::scope(|scope| {
@@ -241,6 +259,12 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
                     outcome.report.name
                 ));
             }
+            if let Some(e) = outcome.fatal {
+                stop_reason.get_or_insert_with(|| {
+                    format!("not started: {} hit a cache failure", outcome.report.name)
+                });
+                fatal.get_or_insert(e);
+            }
             if let Some(p) = outcome.provenance {
                 updates.push((plan.nodes[i].name.clone(), p));
             }
@@ -256,8 +280,17 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
         }
     }
     let keep: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
-    provenance::update(&engine.store, &plan.name, updates, &keep)?;
-    Ok(in_plan_order(plan, reports))
+    if !engine.store.read_only() {
+        let saved = provenance::update(&engine.store, &plan.name, updates, &keep);
+        // The first failure is the one to report; a full disk fails this too.
+        if fatal.is_none() {
+            saved?;
+        }
+    }
+    match fatal {
+        Some(e) => Err(e),
+        None => Ok(in_plan_order(plan, reports)),
+    }
 }
 
 fn in_plan_order(plan: &Plan, mut reports: Vec<Option<StageReport>>) -> RunReport {

@@ -15,29 +15,43 @@
 //! and a run record is written only after all its objects, so a killed run
 //! leaves either a complete entry or none.
 
+pub use super::record::RunRecord;
 use serde::{Deserialize, Serialize};
-use std::collections::BTreeMap;
 use std::fs::{self, File};
 use std::io::{self, Read, Write};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// What a cache operation was doing when the file system failed.
+/// What a cache or results operation was doing when the file system
+/// failed. The message names the operation, the path and the system's
+/// reason once (the reason is part of the text, not a separate `source`,
+/// so a printed error chain does not repeat it).
 #[derive(Debug, thiserror::Error)]
-#[error("cache {op} {}: {source}", path.display())]
+#[error("cannot {op} {}: {cause}", path.display())]
 pub struct StoreError {
     pub op: &'static str,
     pub path: PathBuf,
-    #[source]
-    pub source: io::Error,
+    pub cause: io::Error,
 }
 
-fn err<'a>(op: &'static str, path: &'a Path) -> impl FnOnce(io::Error) -> StoreError + 'a {
-    move |source| StoreError {
+pub(crate) fn err<'a>(
+    op: &'static str,
+    path: &'a Path,
+) -> impl FnOnce(io::Error) -> StoreError + 'a {
+    move |cause| StoreError {
         op,
         path: path.to_path_buf(),
-        source,
+        cause,
     }
+}
+
+/// Whether a failed write means the storage refuses writes (a read-only
+/// mount or missing permissions) rather than a broken disk.
+pub fn is_read_only(e: &io::Error) -> bool {
+    matches!(
+        e.kind(),
+        io::ErrorKind::ReadOnlyFilesystem | io::ErrorKind::PermissionDenied
+    )
 }
 
 pub type Result<T> = std::result::Result<T, StoreError>;
@@ -80,43 +94,58 @@ pub struct OutputRecord {
     pub artifact: Artifact,
 }
 
-/// The cache entry for one stage key. Written last, after every object.
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct RunRecord {
-    pub key: String,
-    pub kind: String,
-    pub version: u32,
-    /// Stage that first produced it (informational; keys do not depend on names).
-    pub stage: String,
-    pub outputs: BTreeMap<String, OutputRecord>,
-    pub seconds: f64,
-    pub counters: BTreeMap<String, u64>,
-    pub modalflow_version: String,
-}
-
 /// Handle on a cache directory.
 #[derive(Clone, Debug)]
 pub struct Store {
     root: PathBuf,
+    /// The cache refuses writes (a published or shared cache on read-only
+    /// storage): cached results are served, nothing is written, no lock
+    /// file is created.
+    read_only: bool,
 }
 
 static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
 impl Store {
-    /// Open (creating if needed) the cache at `root`.
+    /// Open (creating if needed) the cache at `root`. A complete cache that
+    /// refuses writes opens read-only (see [`Store::read_only`]); this
+    /// process announces itself in `tmp/` otherwise, so that the temp files
+    /// it leaves when killed can be told from a live run's
+    /// ([`super::leftovers`]).
     pub fn open(root: &Path) -> Result<Store> {
+        let mut read_only = false;
         for sub in ["objects", "runs", "pipelines", "locks", "tmp"] {
             let p = root.join(sub);
-            fs::create_dir_all(&p).map_err(err("create", &p))?;
+            if let Err(e) = fs::create_dir_all(&p) {
+                if !(is_read_only(&e) && root.join("runs").is_dir()) {
+                    return Err(err("create directory", &p)(e));
+                }
+                read_only = true;
+            }
         }
         // Absolute, so scratch and object paths handed to stages (and to
         // commands running in another directory) stay valid.
         let root = fs::canonicalize(root).map_err(err("open", root))?;
-        Ok(Store { root })
+        if !read_only {
+            // Existing directories on a read-only mount "create" fine; the
+            // announcement is the first real write and tells.
+            match super::leftovers::announce(&root.join("tmp")) {
+                Ok(()) => {}
+                Err(e) if is_read_only(&e.cause) && root.join("runs").is_dir() => read_only = true,
+                Err(e) => return Err(e),
+            }
+        }
+        Ok(Store { root, read_only })
     }
 
     pub fn root(&self) -> &Path {
         &self.root
+    }
+
+    /// Whether the cache refuses writes: fully cached runs and `status`
+    /// work, computing a stage does not.
+    pub fn read_only(&self) -> bool {
+        self.read_only
     }
 
     /// A fresh path in the staging area, unique across the processes and
@@ -167,11 +196,20 @@ impl Store {
         }
     }
 
-    /// Copy one file into the object store, hashing while copying.
+    /// Copy one file into the object store, hashing while copying; a
+    /// failed copy (a full disk) leaves no temp file behind.
     fn put_file(&self, path: &Path) -> Result<Artifact> {
-        let mut src = File::open(path).map_err(err("read", path))?;
         let tmp = self.temp_path("obj");
-        let mut dst = File::create(&tmp).map_err(err("write", &tmp))?;
+        let result = self.copy_in(path, &tmp);
+        if result.is_err() {
+            let _ = fs::remove_file(&tmp);
+        }
+        result
+    }
+
+    fn copy_in(&self, path: &Path, tmp: &Path) -> Result<Artifact> {
+        let mut src = File::open(path).map_err(err("read", path))?;
+        let mut dst = File::create(tmp).map_err(err("write", tmp))?;
         let mut hasher = blake3::Hasher::new();
         let mut buf = vec![0u8; 1 << 16];
         let mut bytes = 0u64;
@@ -181,13 +219,13 @@ impl Store {
                 break;
             }
             hasher.update(&buf[..n]);
-            dst.write_all(&buf[..n]).map_err(err("write", &tmp))?;
+            dst.write_all(&buf[..n]).map_err(err("write", tmp))?;
             bytes += n as u64;
         }
-        dst.sync_all().map_err(err("sync", &tmp))?;
+        dst.sync_all().map_err(err("sync", tmp))?;
         drop(dst);
         let hash = hasher.finalize().to_hex().to_string();
-        self.commit_object(&tmp, &hash)?;
+        self.commit_object(tmp, &hash)?;
         Ok(Artifact {
             kind: ArtifactKind::File,
             hash,
@@ -210,7 +248,7 @@ impl Store {
     fn commit_object(&self, tmp: &Path, hash: &str) -> Result<()> {
         let dest = self.object_path(hash);
         if let Some(dir) = dest.parent() {
-            fs::create_dir_all(dir).map_err(err("create", dir))?;
+            fs::create_dir_all(dir).map_err(err("create directory", dir))?;
         }
         fs::rename(tmp, &dest).map_err(err("rename", &dest))?;
         sync_dir(dest.parent().unwrap_or(&self.root));
@@ -244,9 +282,9 @@ impl Store {
         let p = self.object_path(hash);
         let bytes = fs::read(&p).map_err(err("read", &p))?;
         let tree: Tree = serde_json::from_slice(&bytes).map_err(|e| StoreError {
-            op: "parse tree",
+            op: "parse the tree object",
             path: p.clone(),
-            source: io::Error::new(io::ErrorKind::InvalidData, e),
+            cause: io::Error::new(io::ErrorKind::InvalidData, e),
         })?;
         Ok(tree.entries)
     }
@@ -269,12 +307,15 @@ impl Store {
     /// via a temp path and rename so readers never see half a file.
     pub fn checkout(&self, a: &Artifact, dest: &Path) -> Result<()> {
         if let Some(dir) = dest.parent() {
-            fs::create_dir_all(dir).map_err(err("create", dir))?;
+            fs::create_dir_all(dir).map_err(err("create directory", dir))?;
         }
         match a.kind {
             ArtifactKind::File => {
                 let tmp = sibling_temp(dest);
-                fs::copy(self.object_path(&a.hash), &tmp).map_err(err("copy", &tmp))?;
+                if let Err(e) = fs::copy(self.object_path(&a.hash), &tmp) {
+                    let _ = fs::remove_file(&tmp);
+                    return Err(err("write", dest)(e));
+                }
                 fs::rename(&tmp, dest).map_err(err("rename", dest))?;
             }
             ArtifactKind::Dir => {
@@ -289,33 +330,13 @@ impl Store {
                 for e in self.tree(&a.hash)? {
                     let target = dest.join(&e.path);
                     if let Some(dir) = target.parent() {
-                        fs::create_dir_all(dir).map_err(err("create", dir))?;
+                        fs::create_dir_all(dir).map_err(err("create directory", dir))?;
                     }
-                    fs::copy(self.object_path(&e.hash), &target).map_err(err("copy", &target))?;
+                    fs::copy(self.object_path(&e.hash), &target).map_err(err("write", &target))?;
                 }
             }
         }
         Ok(())
-    }
-
-    fn record_path(&self, key: &str) -> PathBuf {
-        self.root.join("runs").join(format!("{key}.json"))
-    }
-
-    /// The run record for `key`, if one was committed and parses.
-    pub fn record(&self, key: &str) -> Option<RunRecord> {
-        let bytes = fs::read(self.record_path(key)).ok()?;
-        serde_json::from_slice(&bytes).ok()
-    }
-
-    /// Commit a run record (the last write of a stage run).
-    pub fn write_record(&self, rec: &RunRecord) -> Result<()> {
-        let json = serde_json::to_vec_pretty(rec).unwrap_or_default();
-        self.write_atomic(&self.record_path(&rec.key), &json)
-    }
-
-    pub fn remove_record(&self, key: &str) {
-        let _ = fs::remove_file(self.record_path(key));
     }
 
     /// Write `data` to `dest` atomically (temp in the cache, fsync, rename).
@@ -328,14 +349,29 @@ impl Store {
     }
 
     /// Exclusive lock on one stage key while it is computed, so two runs that
-    /// need the same result compute it once.
-    pub fn lock_key(&self, key: &str) -> Result<File> {
-        lock(&self.root.join("locks").join(format!("{key}.lock")), true)
+    /// need the same result compute it once. A read-only cache computes
+    /// nothing, so it needs none (`None`).
+    pub fn lock_key(&self, key: &str) -> Result<Option<File>> {
+        if self.read_only {
+            return Ok(None);
+        }
+        lock(&self.root.join("locks").join(format!("{key}.lock")), true).map(Some)
     }
 
-    /// Whole-cache lock: shared for runs, exclusive for `gc`.
-    pub fn lock_cache(&self, exclusive: bool) -> Result<File> {
-        lock(&self.root.join("lock"), exclusive)
+    /// Whole-cache lock: shared for runs, exclusive for `gc`. On a
+    /// read-only cache a shared lock is taken on an existing lock file where
+    /// the file system allows it (`None` otherwise); `gc` is refused.
+    pub fn lock_cache(&self, exclusive: bool) -> Result<Option<File>> {
+        let path = self.root.join("lock");
+        if !self.read_only {
+            return lock(&path, exclusive).map(Some);
+        }
+        if exclusive {
+            return Err(err("lock for writing", &path)(io::Error::from(
+                io::ErrorKind::ReadOnlyFilesystem,
+            )));
+        }
+        Ok(File::open(&path).ok().filter(|f| f.lock_shared().is_ok()))
     }
 }
 
@@ -345,7 +381,7 @@ fn lock(path: &Path, exclusive: bool) -> Result<File> {
         .truncate(false)
         .write(true)
         .open(path)
-        .map_err(err("open lock", path))?;
+        .map_err(err("open the lock file", path))?;
     let r = if exclusive { f.lock() } else { f.lock_shared() };
     r.map_err(err("lock", path))?;
     Ok(f)
@@ -353,7 +389,7 @@ fn lock(path: &Path, exclusive: bool) -> Result<File> {
 
 /// A name part unique to this process on any host: the host name, the pid
 /// and the start time, hashed (pids repeat across the nodes of a cluster).
-fn process_nonce() -> &'static str {
+pub(crate) fn process_nonce() -> &'static str {
     static NONCE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
     NONCE.get_or_init(|| {
         let host = fs::read_to_string("/proc/sys/kernel/hostname")
@@ -369,10 +405,19 @@ fn process_nonce() -> &'static str {
     })
 }
 
+/// Write and fsync `path` (a temp file); on failure it is removed, so a
+/// full disk leaves nothing behind.
 fn write_synced(path: &Path, data: &[u8]) -> Result<()> {
-    let mut f = File::create(path).map_err(err("write", path))?;
-    f.write_all(data).map_err(err("write", path))?;
-    f.sync_all().map_err(err("sync", path))
+    let write = || -> Result<()> {
+        let mut f = File::create(path).map_err(err("write", path))?;
+        f.write_all(data).map_err(err("write", path))?;
+        f.sync_all().map_err(err("sync", path))
+    };
+    let result = write();
+    if result.is_err() {
+        let _ = fs::remove_file(path);
+    }
+    result
 }
 
 fn sync_dir(dir: &Path) {
@@ -470,6 +515,7 @@ pub fn list_objects(store: &Store) -> Vec<(String, PathBuf, u64)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::collections::BTreeMap;
 
     #[test]
     fn put_verify_checkout_roundtrip_and_corruption() {
@@ -492,6 +538,26 @@ mod tests {
         let out = dir.path().join("out");
         store.checkout(&t, &out).unwrap();
         assert_eq!(fs::read(out.join("sub/y")).unwrap(), b"2");
+
+        let rec = RunRecord {
+            key: "k".into(),
+            kind: "command".into(),
+            version: 1,
+            stage: "s".into(),
+            outputs: BTreeMap::new(),
+            // Not exactly representable sums parse back 1 ulp off in
+            // serde_json's fast float path: the seal must not care.
+            seconds: 0.009991630000000001,
+            counters: BTreeMap::new(),
+            modalflow_version: "0".into(),
+            checksum: String::new(),
+        };
+        store.write_record(&rec).unwrap();
+        assert!(store.read_record("k").unwrap().is_some());
+        let path = store.record_path("k");
+        let text = fs::read_to_string(&path).unwrap();
+        fs::write(&path, text.replace("\"s\"", "\"t\"")).unwrap();
+        assert!(store.read_record("k").unwrap_err().contains("checksum"));
 
         fs::write(store.object_path(&a.hash), b"hellO").unwrap();
         let e = store.verify(&a).unwrap_err();

@@ -58,9 +58,44 @@ fn external_files(spec: &model_file::ModelFile, rel: &str) -> Vec<String> {
 /// and list the files it references, for cache keys of other kinds that
 /// read model files.
 pub(crate) fn model_file_dependencies(dir: &Path, rel: &str) -> Result<Vec<String>, String> {
-    let (_, text) = load_model(dir, rel)?;
+    let (model, text) = load_model(dir, rel)?;
+    if let Some(p) = model_memory(&model) {
+        return Err(p.message);
+    }
     let spec = model_file::parse(&text, rel).map_err(|e| e.to_string())?;
     Ok(external_files(&spec, rel))
+}
+
+/// The synthesized FRFs against the memory limit: complex lines ×
+/// sensors × excitations × positions, twice (the FRFs and the noisy or
+/// measured copy with its coherence).
+fn frf_memory(p: &Params, spec: &model_file::ModelFile) -> Option<ParamProblem> {
+    let g = p.frequency;
+    let lines = ((g.max - g.min) / g.step).max(0.0) + 1.0;
+    let count = |given: Option<usize>, all: usize| given.unwrap_or(all).max(1) as f64;
+    let sensors = count(p.sensors.as_ref().map(Vec::len), spec.sensors.len());
+    let excitations = count(p.excitations.as_ref().map(Vec::len), spec.excitations.len());
+    let all_positions = spec.axes.iter().map(|a| a.positions.len().max(1)).product();
+    let positions = count(p.positions.as_ref().map(Vec::len), all_positions);
+    crate::resources::memory_problem(
+        &["frequency", "step"],
+        &format!(
+            "{lines} lines × {sensors} sensors × {excitations} excitations × {positions} positions"
+        ),
+        2.0 * 16.0 * lines * sensors * excitations * positions,
+    )
+}
+
+/// The dense eigenproblem of a model against the memory limit: K, M, the
+/// damping matrices, the eigenvectors and the solver's workspace, about six
+/// n × n matrices for n DOFs (every mode of a reduced model is at most n).
+fn model_memory(model: &Model) -> Option<ParamProblem> {
+    let n = model.n_dofs() as f64;
+    crate::resources::memory_problem(
+        &["model"],
+        &format!("{n} DOF: DOF × DOF × modes of the dense eigenproblem"),
+        8.0 * 6.0 * n * n,
+    )
 }
 
 /// Configuration indices selected by `positions` (indices or labels).
@@ -182,6 +217,9 @@ impl Kind for Synthesize {
                 "use the model's parameter names and stay within bounds",
             )
         })?;
+        if let Some(problem) = model_memory(&model) {
+            return Err(problem);
+        }
         let spec = model_file::parse(&text, &p.model)
             .map_err(|e| problem(&["model"], e.to_string(), ""))?;
         let check_names = |names: Option<&[String]>,
@@ -202,6 +240,15 @@ impl Kind for Synthesize {
         };
         check_names(p.sensors.as_deref(), &spec.sensors, "sensor")?;
         check_names(p.excitations.as_deref(), &spec.excitations, "excitation")?;
+        if let Some(problem) = frf_memory(p, &spec) {
+            return Err(problem);
+        }
+        if let Some(imp) = &p.impact_test {
+            let model = Some((model.n_dofs(), spec.sensors.len()));
+            if let Some(problem) = sp::impact_resources(p, imp, model).into_iter().next() {
+                return Err(problem);
+            }
+        }
         Ok(external_files(&spec, &p.model))
     }
 

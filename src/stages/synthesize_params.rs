@@ -239,6 +239,42 @@ impl From<Quantity> for FrfQuantity {
     }
 }
 
+/// The memory and work an impact test asks for, against the bounds of
+/// [`crate::resources`]: the modal responses at the oversampled rate
+/// (modes × block_size × oversampling), the response records and their
+/// spectra, and averages × block_size × channels samples drawn and
+/// transformed. `model`: the model's (DOF, sensors) once its file is read;
+/// before that, modes and channels are lower bounds (a mode count given in
+/// `modes`, else 1; the sensors named, else 1).
+pub fn impact_resources(
+    p: &Params,
+    imp: &ImpactSpec,
+    model: Option<(usize, usize)>,
+) -> Vec<ParamProblem> {
+    let d = ImpactTestParams::default();
+    let n = imp.block_size.unwrap_or(d.block_size) as f64;
+    let r = imp.oversampling.unwrap_or(d.oversampling) as f64;
+    let averages = imp.averages.unwrap_or(d.averages) as f64;
+    let (dofs, all_sensors) = model.unwrap_or((usize::MAX, 1));
+    let modes = match p.modes {
+        Some(Modes::Count(k)) => k.min(dofs),
+        _ if model.is_some() => dofs,
+        _ => 1,
+    } as f64;
+    let sensors = p.sensors.as_ref().map_or(all_sensors, Vec::len).max(1);
+    let channels = sensors as f64 + 1.0;
+    let bytes = 8.0 * n * r * (modes + 3.0) + 48.0 * n * channels;
+    let samples = averages * n * channels + modes * n * r;
+    let what = format!("block_size × oversampling × {modes} modes, per excitation");
+    let memory = crate::resources::memory_problem(&["impact_test", "block_size"], &what, bytes);
+    let work = crate::resources::work_problem(
+        &["impact_test", "averages"],
+        &format!("averages × block_size × {channels} channels, per excitation"),
+        samples,
+    );
+    memory.into_iter().chain(work).collect()
+}
+
 /// Checks across params, every problem at once; the model file is checked
 /// by the kind when the files are looked at.
 pub fn check(p: &Params) -> Vec<ParamProblem> {
@@ -280,6 +316,10 @@ pub fn check(p: &Params) -> Vec<ParamProblem> {
         );
     }
     if let Some(imp) = &p.impact_test {
+        for extra in impact_resources(p, imp, None) {
+            let path: Vec<&str> = extra.path.iter().map(String::as_str).collect();
+            problem(&path, extra.message, extra.help.as_deref().unwrap_or(""));
+        }
         if let Err(e) = imp.resolve(&g, p.quantity.into()).validate() {
             problem(
                 &["impact_test"],

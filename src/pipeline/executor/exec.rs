@@ -5,12 +5,36 @@
 //! calls it on a cluster node through [`exec`], from a [`Job`] description.
 
 use super::job::{self, Job, ShardRecord};
-use crate::pipeline::store::{self, ArtifactKind, OutputRecord, RunRecord, Store};
+use crate::pipeline::store::{self, err, ArtifactKind, OutputRecord, RunRecord, Store, StoreError};
 use crate::stages::shard::{Batch, Role as BatchRole};
 use crate::stages::{self, InputSource, NoProgress, Progress, Stage, StageContext, StageError};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// Why a stage job did not commit a result.
+#[derive(Debug, thiserror::Error)]
+pub enum JobError {
+    /// The stage failed: bad input, a failing command, a kind's error.
+    #[error("{0}")]
+    Stage(String),
+    /// The cache or the file system failed while preparing or committing
+    /// the stage (full disk, read-only storage): the whole run stops with
+    /// exit code 3.
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// The stage's own writes failed for lack of storage (full disk, quota,
+    /// read-only file system): a file-system failure like `Store`, not the
+    /// stage's fault.
+    #[error("{0}")]
+    Storage(String),
+}
+
+impl From<String> for JobError {
+    fn from(message: String) -> JobError {
+        JobError::Stage(message)
+    }
+}
 
 /// Which part of the stage this run does.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,7 +64,7 @@ pub struct Run<'a> {
 
 /// Run (the `role` part of) the stage in a scratch directory and commit the
 /// result: the outputs and run record, or a shard's partial and its record.
-pub fn run(store: &Store, run: &Run, progress: &dyn Progress) -> Result<Finished, String> {
+pub fn run(store: &Store, run: &Run, progress: &dyn Progress) -> Result<Finished, JobError> {
     let inputs_dir = store.temp_path("in");
     let scratch = store.temp_path("stage");
     let result = run_in(store, run, progress, &inputs_dir, &scratch);
@@ -55,7 +79,7 @@ fn run_in(
     progress: &dyn Progress,
     inputs_dir: &Path,
     scratch: &Path,
-) -> Result<Finished, String> {
+) -> Result<Finished, JobError> {
     let Run {
         job,
         role,
@@ -63,8 +87,7 @@ fn run_in(
     } = *run;
     let typed = job.typed()?;
     let kind = typed.kind;
-    std::fs::create_dir_all(scratch)
-        .map_err(|e| format!("cannot create scratch directory: {e}"))?;
+    std::fs::create_dir_all(scratch).map_err(err("create directory", scratch))?;
     let mut inputs: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
     let mut sources: BTreeMap<String, Vec<InputSource>> = BTreeMap::new();
     for (name, list) in &job.inputs {
@@ -72,22 +95,20 @@ fn run_in(
         for (k, input) in list.iter().enumerate() {
             let object = store.object_path(&input.artifact.hash);
             if !object.exists() {
-                return Err(format!(
+                return Err(JobError::Stage(format!(
                     "input `{name}` ({}.{}): object {} is not in the cache at {}; \
                      the cache must be on a file system this host shares",
                     input.stage,
                     input.output,
                     input.artifact.hash,
                     store.root().display()
-                ));
+                )));
             }
             let path = match input.artifact.kind {
                 ArtifactKind::File => object,
                 ArtifactKind::Dir => {
                     let p = inputs_dir.join(name).join(k.to_string()).join(&input.file);
-                    store
-                        .checkout(&input.artifact, &p)
-                        .map_err(|e| e.to_string())?;
+                    store.checkout(&input.artifact, &p)?;
                     p
                 }
             };
@@ -141,16 +162,17 @@ fn run_in(
     }
     let produced = match outcome {
         Ok(Ok(p)) => p,
-        Ok(Err(e)) => return Err(stage_error_text(&e)),
-        Err(panic) => return Err(panic_text(kind, panic)),
+        Ok(Err(e)) if out_of_storage(&e) => return Err(JobError::Storage(stage_error_text(&e))),
+        Ok(Err(e)) => return Err(stage_error_text(&e).into()),
+        Err(panic) => return Err(panic_text(kind, panic).into()),
     };
     let mut outputs = BTreeMap::new();
     for name in &job.outputs {
         let Some((_, path)) = produced.files.iter().find(|(n, _)| n == name) else {
-            return Err(format!(
+            return Err(JobError::Stage(format!(
                 "kind `{}` did not produce its output `{name}`",
                 kind.kind()
-            ));
+            )));
         };
         let full = if path.is_absolute() {
             path.clone()
@@ -164,9 +186,7 @@ fn run_in(
                 .map(|f| f.to_string_lossy().into_owned())
                 .unwrap_or_else(|| name.clone())
         };
-        let artifact = store
-            .put(&full)
-            .map_err(|e| format!("output `{name}`: {e}"))?;
+        let artifact = store.put(&full)?;
         outputs.insert(name.clone(), OutputRecord { file, artifact });
     }
     let record = RunRecord {
@@ -178,8 +198,9 @@ fn run_in(
         seconds: seconds + job.partial_seconds,
         counters: produced.counters,
         modalflow_version: env!("CARGO_PKG_VERSION").to_string(),
+        checksum: String::new(),
     };
-    store.write_record(&record).map_err(|e| e.to_string())?;
+    store.write_record(&record)?;
     Ok(Finished::Record(record))
 }
 
@@ -195,9 +216,9 @@ fn commit_shard(
     run: RunResult,
     index: usize,
     seconds: f64,
-) -> Result<Finished, String> {
+) -> Result<Finished, JobError> {
     let Some(partial) = batch.written() else {
-        return Err(match run {
+        return Err(JobError::Stage(match run {
             Ok(Err(e)) => stage_error_text(&e),
             Err(panic) => panic_text(kind, panic),
             Ok(Ok(_)) => format!(
@@ -205,9 +226,9 @@ fn commit_shard(
                  with these params (set `shards: 1`)",
                 kind.kind()
             ),
-        });
+        }));
     };
-    let artifact = store.put(&partial).map_err(|e| e.to_string())?;
+    let artifact = store.put(&partial)?;
     let rec = ShardRecord {
         index,
         count: job.shards,
@@ -216,24 +237,20 @@ fn commit_shard(
     };
     let path = job::shard_record_path(store, &job.key, index, job.shards);
     if let Some(dir) = path.parent() {
-        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(err("create directory", dir))?;
     }
     let json = serde_json::to_vec_pretty(&rec).map_err(|e| e.to_string())?;
-    store
-        .write_atomic(&path, &json)
-        .map_err(|e| e.to_string())?;
+    store.write_atomic(&path, &json)?;
     Ok(Finished::Shard(rec))
 }
 
 /// DVC semantics: a dep that another stage writes into the workspace is put
 /// back from the cache when it is missing or differs.
-fn restore_workspace(store: &Store, job: &Job) -> Result<(), String> {
+fn restore_workspace(store: &Store, job: &Job) -> Result<(), StoreError> {
     for r in &job.restore {
         let dest = job.pipeline_dir.join(&r.path);
         if store::hash_path(&dest).ok().as_deref() != Some(r.artifact.hash.as_str()) {
-            store
-                .checkout(&r.artifact, &dest)
-                .map_err(|e| e.to_string())?;
+            store.checkout(&r.artifact, &dest)?;
         }
     }
     Ok(())
@@ -305,7 +322,9 @@ pub fn exec(store: &Store, path: &Path, shard: Option<usize>) -> Result<ExecOutc
         role,
         verify_files: true,
     };
-    run(store, &call, &NoProgress).map(ExecOutcome::Ran)
+    run(store, &call, &NoProgress)
+        .map(ExecOutcome::Ran)
+        .map_err(|e| e.to_string())
 }
 
 fn panic_text(kind: &dyn Stage, panic: Box<dyn std::any::Any + Send>) -> String {
@@ -318,6 +337,13 @@ fn panic_text(kind: &dyn Stage, panic: Box<dyn std::any::Any + Send>) -> String 
         "internal error in kind `{}` (a bug, please report): {what}",
         kind.kind()
     )
+}
+
+/// Whether a stage failed because the storage refused its writes.
+fn out_of_storage(e: &StageError) -> bool {
+    use std::io::ErrorKind as K;
+    matches!(e, StageError::Io { source, .. }
+        if matches!(source.kind(), K::StorageFull | K::QuotaExceeded | K::ReadOnlyFilesystem))
 }
 
 /// A stage error with its sources, each once.

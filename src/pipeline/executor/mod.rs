@@ -22,7 +22,7 @@ pub use config::{ExecutorKind, ExecutorSpec};
 
 use super::store::{RunRecord, Store};
 use crate::stages::Progress;
-use exec::{Finished, Role, Run};
+use exec::{Finished, JobError, Role, Run};
 use job::Job;
 
 /// The executor of one `modalflow run`.
@@ -46,7 +46,7 @@ impl Executor {
         store: &Store,
         job: Job,
         progress: &dyn Progress,
-    ) -> Result<RunRecord, String> {
+    ) -> Result<RunRecord, JobError> {
         match self {
             Executor::Slurm(s) => {
                 let resources = s.spec().resources(&job.material.kind);
@@ -54,6 +54,7 @@ impl Executor {
                     local(store, &job, progress)
                 } else {
                     s.compute(store, job, &resources, progress)
+                        .map_err(JobError::Stage)
                 }
             }
             Executor::Local => local(store, &job, progress),
@@ -62,7 +63,7 @@ impl Executor {
 }
 
 /// Run the whole stage in this process.
-pub fn local(store: &Store, job: &Job, progress: &dyn Progress) -> Result<RunRecord, String> {
+pub fn local(store: &Store, job: &Job, progress: &dyn Progress) -> Result<RunRecord, JobError> {
     let call = Run {
         job,
         role: Role::Whole,
@@ -70,6 +71,8 @@ pub fn local(store: &Store, job: &Job, progress: &dyn Progress) -> Result<RunRec
     };
     match exec::run(store, &call, progress)? {
         Finished::Record(r) => Ok(r),
-        Finished::Shard(_) => Err("a whole run ended as a shard (a bug, please report)".into()),
+        Finished::Shard(_) => Err(JobError::Stage(
+            "a whole run ended as a shard (a bug, please report)".into(),
+        )),
     }
 }

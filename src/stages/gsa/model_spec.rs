@@ -229,8 +229,28 @@ fn bands(p: &Params) -> Result<Vec<(f64, f64)>, ParamProblem> {
             ));
         }
     }
+    // Each evaluation synthesizes the model's FRFs on the lines spanning
+    // the bands: bound them like synthesize's frequency grid.
+    let step = p.band_step.unwrap_or(0.5);
+    let span = bands.iter().map(|b| b.1).fold(0.0, f64::max)
+        - bands.iter().map(|b| b.0).fold(f64::INFINITY, f64::min);
+    let lines = span / step + 1.0;
+    if lines > MAX_BAND_LINES {
+        return Err(problem(
+            &["bands"],
+            format!(
+                "`bands` spans {lines:.3e} frequency lines at band_step {step} Hz, more than the \
+                 limit of {MAX_BAND_LINES:.0e} (each model evaluation computes FRFs on all of them)"
+            ),
+            "narrow the bands or use a coarser band_step",
+        ));
+    }
     Ok(bands)
 }
+
+/// Most frequency lines the bands of one model may span (as synthesize's
+/// grid): 2·10⁶ lines of complex FRFs per sensor and excitation.
+pub const MAX_BAND_LINES: f64 = 2.0e6;
 
 /// The model `model:` names, checked; file-model settings come from the
 /// other params.

@@ -249,6 +249,9 @@ fn sobol(p: &Params) -> Result<SobolSpec, ParamProblem> {
             "analyze a subset with `parameters`",
         ));
     }
+    if let Some(problem) = sobol_memory(p, d.max(1), 1) {
+        return Err(problem);
+    }
     if !p.samples.is_power_of_two() {
         return Err(problem(
             &["samples"],
@@ -276,6 +279,38 @@ fn sobol(p: &Params) -> Result<SobolSpec, ParamProblem> {
         },
         validation: p.validation,
     })
+}
+
+/// The memory of a Sobol analysis against [`crate::resources`]: every
+/// evaluation's outputs are kept for the estimators, N(d+2) evaluations
+/// (N(2d+2) with second order, plus the validation samples) of 8 bytes per
+/// output. Outputs per position: 3 per mode (frequency, damping, MAC) and 2
+/// per band (FRAC, CSF); `d` and `positions` are lower bounds until the
+/// model file is read.
+pub fn sobol_memory(p: &Params, d: usize, positions: usize) -> Option<ParamProblem> {
+    let n = p.samples as f64;
+    let d = d as f64;
+    let evaluations = n * if p.second_order {
+        2.0 * d + 2.0
+    } else {
+        d + 2.0
+    } + p.validation as f64;
+    let bands = match &p.bands {
+        Some(Bands::List(l)) => l.len(),
+        Some(Bands::Even { count, .. }) => *count,
+        None => 0,
+    } as f64;
+    let per_position = (3 * p.modes.unwrap_or(1)) as f64 + 2.0 * bands;
+    let outputs = if p.outputs.is_empty() {
+        per_position.max(1.0) * positions as f64
+    } else {
+        p.outputs.len() as f64
+    };
+    crate::resources::memory_problem(
+        &["samples"],
+        "samples × (parameters + 2) evaluations × outputs (modes, bands)",
+        8.0 * evaluations * outputs,
+    )
 }
 
 /// Check output, parameter and weight names against the model's; `Err` names

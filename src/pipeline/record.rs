@@ -1,0 +1,106 @@
+//! Run records: `runs/<key>.json` maps a stage key to its output hashes,
+//! seconds and counters. Written last, after every object, and sealed: the
+//! record names its key and ends with a checksum of its own text, so a
+//! record edited after it was written, or written for another key, is
+//! corrupt (and the stage recomputed) rather than trusted.
+
+use super::store::{OutputRecord, Result, Store};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::fs;
+use std::io;
+use std::path::PathBuf;
+
+/// The cache entry for one stage key. Written last, after every object.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct RunRecord {
+    pub key: String,
+    pub kind: String,
+    pub version: u32,
+    /// Stage that first produced it (informational; keys do not depend on names).
+    pub stage: String,
+    pub outputs: BTreeMap<String, OutputRecord>,
+    pub seconds: f64,
+    pub counters: BTreeMap<String, u64>,
+    pub modalflow_version: String,
+    /// blake3 of the record file's text without this field (the last one):
+    /// a record edited after it was written (a swapped output hash that
+    /// still parses) is told apart from a genuine one and recomputed. Set by
+    /// [`Store::write_record`]; over the text, not re-serialized values, so
+    /// float parsing cannot make a genuine record look edited.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub checksum: String,
+}
+
+impl RunRecord {
+    /// The record file's text: the record's pretty JSON with the checksum
+    /// of that text appended as the last field.
+    fn sealed_text(&self) -> String {
+        let mut bare = self.clone();
+        bare.checksum.clear();
+        let text = serde_json::to_string_pretty(&bare).unwrap_or_default();
+        let sum = blake3::hash(text.as_bytes()).to_hex();
+        let body = text.strip_suffix("\n}").unwrap_or(&text);
+        format!("{body},\n  \"checksum\": \"{sum}\"\n}}")
+    }
+}
+
+/// Whether a record file's text carries the checksum of the rest of it
+/// (the inverse of [`RunRecord::sealed_text`]).
+fn seal_matches(text: &[u8], checksum: &str) -> bool {
+    let tail = format!(",\n  \"checksum\": \"{checksum}\"\n}}");
+    let Some(body) = text.strip_suffix(tail.as_bytes()) else {
+        return false;
+    };
+    let mut bare = body.to_vec();
+    bare.extend_from_slice(b"\n}");
+    blake3::hash(&bare).to_hex().as_str() == checksum
+}
+
+impl Store {
+    pub(crate) fn record_path(&self, key: &str) -> PathBuf {
+        self.root().join("runs").join(format!("{key}.json"))
+    }
+
+    /// The run record for `key`, if one was committed and is intact.
+    pub fn record(&self, key: &str) -> Option<RunRecord> {
+        self.read_record(key).ok().flatten()
+    }
+
+    /// The run record for `key`: `Ok(None)` when there is none, `Err` with
+    /// what is wrong when one is there but cannot be trusted (unreadable,
+    /// not a record, written for another key, checksum missing or not
+    /// matching its content).
+    pub fn read_record(&self, key: &str) -> std::result::Result<Option<RunRecord>, String> {
+        let path = self.record_path(key);
+        let bytes = match fs::read(&path) {
+            Ok(b) => b,
+            Err(e) if e.kind() == io::ErrorKind::NotFound => return Ok(None),
+            Err(e) => return Err(format!("run record {} is unreadable: {e}", path.display())),
+        };
+        let rec: RunRecord = serde_json::from_slice(&bytes)
+            .map_err(|e| format!("run record is not a valid record: {e}"))?;
+        if rec.key != key {
+            return Err(format!("run record belongs to key {}", rec.key));
+        }
+        if rec.checksum.is_empty() {
+            return Err("run record has no checksum".into());
+        }
+        if !seal_matches(&bytes, &rec.checksum) {
+            return Err(
+                "run record does not match its checksum (edited after it was written)".into(),
+            );
+        }
+        Ok(Some(rec))
+    }
+
+    /// Commit a run record (the last write of a stage run), sealed with
+    /// its checksum.
+    pub fn write_record(&self, rec: &RunRecord) -> Result<()> {
+        self.write_atomic(&self.record_path(&rec.key), rec.sealed_text().as_bytes())
+    }
+
+    pub fn remove_record(&self, key: &str) {
+        let _ = fs::remove_file(self.record_path(key));
+    }
+}
