@@ -165,7 +165,12 @@ fn failed_verdicts_are_prominent_in_report_and_compare() {
         .split("## Mode correlation")
         .nth(1)
         .expect("correlation section");
-    assert_eq!(corr.matches("| yes | p0.mode").count(), 3, "{corr}");
+    // … and the σ its residuals were scaled by (between used and partner).
+    let used = corr
+        .lines()
+        .filter(|l| l.contains("| yes | ") && l.contains(" % / ") && l.contains("| p0.mode"))
+        .count();
+    assert_eq!(used, 3, "{corr}");
 
     // compare: the verdict's text and boolean leaves are columns.
     let out = ws.cmd(&["compare", "p.yaml", "--json"]);

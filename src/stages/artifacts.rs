@@ -125,7 +125,10 @@ pub fn read_mode_spread(dir: &Path, input: &str) -> Result<Option<Vec<ModeSpread
         };
         let (position, mode) = (number(0)?, number(1)?);
         if position.fract() != 0.0 || mode.fract() != 0.0 || mode < 1.0 {
-            return Err(bad(i + 2, "position and mode must be whole numbers, mode ≥ 1".into()));
+            return Err(bad(
+                i + 2,
+                "position and mode must be whole numbers, mode ≥ 1".into(),
+            ));
         }
         out.push(ModeSpread {
             position: position as u32,
@@ -146,8 +149,18 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         assert_eq!(read_mode_spread(dir.path(), "reference").unwrap(), None);
         let spread = [
-            ModeSpread { position: 0, mode: 1, frequency: 2e-4, damping: 0.01 },
-            ModeSpread { position: 3, mode: 2, frequency: 0.041, damping: 0.3 },
+            ModeSpread {
+                position: 0,
+                mode: 1,
+                frequency: 2e-4,
+                damping: 0.01,
+            },
+            ModeSpread {
+                position: 3,
+                mode: 2,
+                frequency: 0.041,
+                damping: 0.3,
+            },
         ];
         write_mode_spread(dir.path(), &spread).unwrap();
         let back = read_mode_spread(dir.path(), "reference").unwrap().unwrap();
@@ -158,13 +171,24 @@ mod tests {
     fn malformed_mode_spread_names_the_line() {
         let dir = tempfile::tempdir().unwrap();
         for (body, needle) in [
-            ("position,mode,frequency_spread,damping_spread\n0,1,NaN,0\n", "line 2"),
-            ("position,mode,frequency_spread,damping_spread\n0,1,0.1\n", "3 fields"),
-            ("position,mode,frequency_spread,damping_spread\n0,0,0.1,0\n", "mode ≥ 1"),
+            (
+                "position,mode,frequency_spread,damping_spread\n0,1,NaN,0\n",
+                "line 2",
+            ),
+            (
+                "position,mode,frequency_spread,damping_spread\n0,1,0.1\n",
+                "3 fields",
+            ),
+            (
+                "position,mode,frequency_spread,damping_spread\n0,0,0.1,0\n",
+                "mode ≥ 1",
+            ),
             ("pos,mode\n", "header"),
         ] {
             std::fs::write(dir.path().join(SPREAD_FILE), body).unwrap();
-            let e = read_mode_spread(dir.path(), "reference").unwrap_err().to_string();
+            let e = read_mode_spread(dir.path(), "reference")
+                .unwrap_err()
+                .to_string();
             assert!(e.contains(needle) && e.contains("reference"), "{e}");
         }
     }
