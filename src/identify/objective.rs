@@ -210,62 +210,6 @@ impl ModalObjective {
         })
     }
 
-    /// Give every reference mode the uncertainty `u`, raised per mode by its
-    /// shape's complexity when `u.from_complexity` (see [`Uncertainty`]).
-    pub fn set_uncertainty(&mut self, u: Uncertainty) {
-        for r in &mut self.references {
-            for k in 0..r.frequencies.len() {
-                let c = if u.from_complexity {
-                    uncertainty::complexity(&r.shapes[k])
-                } else {
-                    0.0
-                };
-                r.sigma_s[k] = u.shape.max(c);
-                r.sigma_f[k] = u.frequency * (c / u.shape).max(1.0);
-                r.sigma_z[k] = u.damping;
-            }
-        }
-    }
-
-    /// Raise the uncertainty of mode `mode` (0-based) of reference position
-    /// `position` to what the estimate states about itself: the relative
-    /// spreads `frequency` and `damping` of an AutoEMA column, taken as
-    /// standard deviations through [`uncertainty::SPREAD_TO_SIGMA`]. A mode whose frequency is k = σ_f,r/σ_f times less certain
-    /// than the default is taken to be k times less certain in its shape
-    /// too (see [`Uncertainty`]); the defaults `u` stay the floor. Unknown
-    /// positions and modes are ignored (the reference may have been cut to
-    /// `positions`).
-    pub fn raise_uncertainty(
-        &mut self,
-        u: &Uncertainty,
-        position: u32,
-        mode: usize,
-        frequency: f64,
-        damping: f64,
-    ) {
-        let Some(r) = self
-            .references
-            .iter_mut()
-            .find(|r| r.position.index == position)
-        else {
-            return;
-        };
-        if mode >= r.frequencies.len() {
-            return;
-        }
-        let to_sigma = uncertainty::SPREAD_TO_SIGMA;
-        r.sigma_f[mode] = r.sigma_f[mode].max(to_sigma * frequency);
-        let k = r.sigma_f[mode] / u.frequency;
-        r.sigma_s[mode] = r.sigma_s[mode].max(u.shape * k);
-        r.sigma_z[mode] = r.sigma_z[mode].max(to_sigma * damping);
-    }
-
-    /// The standard deviations (relative frequency, shape component) of
-    /// reference mode `r` at slot `p`.
-    pub fn uncertainty_of(&self, p: usize, r: usize) -> (f64, f64) {
-        (self.references[p].sigma_f[r], self.references[p].sigma_s[r])
-    }
-
     /// Leave reference mode `r` of slot `p` out, saying why.
     pub fn exclude(&mut self, p: usize, r: usize, reason: impl Into<String>) {
         if self.references[p].excluded[r].is_none() {
