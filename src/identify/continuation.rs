@@ -191,10 +191,10 @@ pub fn schedule(o: &ModalObjective, settings: &ContinuationParams) -> Vec<(usize
         .map(|(p, u)| {
             let idx: Vec<usize> = (0..u.len()).filter(|&k| u[k]).collect();
             let f: Vec<f64> = idx.iter().map(|&k| o.reference_frequency(p, k)).collect();
-            let key = sort_keys(&f, settings.order);
-            let mut order: Vec<usize> = (0..idx.len()).collect();
-            order.sort_by(|&a, &b| key[a].total_cmp(&key[b]).then(f[a].total_cmp(&f[b])));
-            order.into_iter().map(|j| idx[j]).collect()
+            mode_order(&f, settings.order)
+                .into_iter()
+                .map(|j| idx[j])
+                .collect()
         })
         .collect();
     let most = order.iter().map(Vec::len).max().unwrap_or(0);
@@ -218,6 +218,15 @@ pub fn schedule(o: &ModalObjective, settings: &ContinuationParams) -> Vec<(usize
         }
         count += settings.step;
     }
+}
+
+/// The order (indices into `f`, the frequencies of one position) in which
+/// the schedule brings modes in: by [`sort_keys`], ties by frequency.
+fn mode_order(f: &[f64], by: ModeOrder) -> Vec<usize> {
+    let key = sort_keys(f, by);
+    let mut order: Vec<usize> = (0..f.len()).collect();
+    order.sort_by(|&a, &b| key[a].total_cmp(&key[b]).then(f[a].total_cmp(&f[b])));
+    order
 }
 
 /// Per mode (frequencies `f` of one position) the key the schedule sorts
@@ -566,15 +575,7 @@ pub fn termination_text(t: &Termination) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::{sort_keys, ModeOrder};
-
-    /// The schedule's order for `f` (indices).
-    fn order(f: &[f64], by: ModeOrder) -> Vec<usize> {
-        let key = sort_keys(f, by);
-        let mut o: Vec<usize> = (0..f.len()).collect();
-        o.sort_by(|&a, &b| key[a].total_cmp(&key[b]).then(f[a].total_cmp(&f[b])));
-        o
-    }
+    use super::{mode_order as order, ModeOrder};
 
     #[test]
     fn isolation_brings_the_isolated_top_mode_in_before_the_crowded_band() {

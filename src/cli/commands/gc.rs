@@ -28,27 +28,12 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
         print_text(&format!(
             "{verb} {} objects ({}), {} run records, {} temp files; kept {} objects ({})\n",
             r.removed_objects,
-            human_bytes(r.removed_bytes),
+            modalflow::resources::human(r.removed_bytes as f64),
             r.removed_records,
             r.removed_temp,
             r.kept_objects,
-            human_bytes(r.kept_bytes)
+            modalflow::resources::human(r.kept_bytes as f64)
         ))?;
     }
     Ok(crate::cli::exit::SUCCESS)
-}
-
-fn human_bytes(b: u64) -> String {
-    const UNITS: [&str; 4] = ["B", "KiB", "MiB", "GiB"];
-    let mut v = b as f64;
-    let mut u = 0;
-    while v >= 1024.0 && u + 1 < UNITS.len() {
-        v /= 1024.0;
-        u += 1;
-    }
-    if u == 0 {
-        format!("{b} B")
-    } else {
-        format!("{v:.1} {}", UNITS[u])
-    }
 }

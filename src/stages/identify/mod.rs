@@ -162,7 +162,8 @@ impl Kind for Identify {
                 .join("; "),
         })?;
         let model = load_model(ctx, p.model.as_deref())?;
-        let reference = artifacts::read_modes(ctx.input("reference")?, "reference")?;
+        let reference_dir = ctx.input("reference")?;
+        let reference = artifacts::read_modes(reference_dir, "reference")?;
         let invalid_reference = |e: crate::identify::IdentifyError| StageError::InvalidInput {
             input: "reference".into(),
             message: e.to_string(),
@@ -177,8 +178,8 @@ impl Kind for Identify {
         .map_err(invalid_reference)?;
         objective.set_uncertainty(spec.uncertainty);
         if spec.uncertainty.from_estimate {
-            let dir = ctx.input("reference")?;
-            for m in artifacts::read_mode_spread(dir, "reference")?.unwrap_or_default() {
+            let spread = artifacts::read_mode_spread(reference_dir, "reference")?;
+            for m in spread.unwrap_or_default() {
                 objective.raise_uncertainty(
                     &spec.uncertainty,
                     m.position,
