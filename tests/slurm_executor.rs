@@ -7,11 +7,11 @@
 
 mod util;
 
-use serde_json::Value;
 use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
-use util::{text, Report, Workspace};
+use util::slurm::{command, outputs, run, submissions, tasks};
+use util::{text, Workspace};
 
 const STUDY: &str = r#"name: cluster
 seed: 11
@@ -32,89 +32,6 @@ stages:
     inputs: {indices: sens.indices}
     params: {cmd: "wc -l < $MODALFLOW_INPUT_INDICES > lines.txt; cat n.txt >> lines.txt", deps: [n.txt], outs: [lines.txt]}
 "#;
-
-/// `modalflow run p.yaml` with the stand-ins first on PATH.
-fn command(ws: &Workspace, extra: &[&str], env: &[(&str, &str)]) -> Command {
-    let fake = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/slurm/fake");
-    let path = format!(
-        "{}:{}",
-        fake.display(),
-        std::env::var("PATH").unwrap_or_default()
-    );
-    let mut args = vec!["run", "p.yaml", "--json", "--progress", "none"];
-    args.extend_from_slice(extra);
-    let mut c = ws.command(&args);
-    c.env("PATH", path)
-        .env("FAKE_SLURM_DIR", ws.path().join("fake"))
-        .env_remove("FAKE_SLURM_TIMEOUT")
-        .env_remove("FAKE_SLURM_FAIL_TASK")
-        .env_remove("FAKE_SLURM_NO_SACCT");
-    for (k, v) in env {
-        c.env(k, v);
-    }
-    c
-}
-
-fn run(ws: &Workspace, extra: &[&str], env: &[(&str, &str)], code: i32) -> Report {
-    let out = command(ws, extra, env).output().expect("run modalflow");
-    assert_eq!(
-        out.status.code(),
-        Some(code),
-        "stdout: {}\nstderr: {}",
-        text(&out.stdout),
-        text(&out.stderr)
-    );
-    Report(serde_json::from_slice(&out.stdout).expect("json report"))
-}
-
-/// Output name → content hash, from a stage's results manifest.
-fn outputs(ws: &Workspace, stage: &str) -> Vec<(String, String)> {
-    let m: Value =
-        serde_json::from_str(&ws.read(&format!("results/cluster/{stage}/manifest.json")))
-            .expect("manifest");
-    let mut out: Vec<(String, String)> = m["outputs"]
-        .as_object()
-        .expect("outputs")
-        .iter()
-        .map(|(k, v)| {
-            (
-                k.clone(),
-                v["hash"].as_str().unwrap_or_default().to_string(),
-            )
-        })
-        .collect();
-    out.sort();
-    out
-}
-
-/// Job ids the sbatch stand-in handed out, in order.
-fn submissions(ws: &Workspace) -> Vec<(String, String)> {
-    std::fs::read_to_string(ws.path().join("fake/submitted.log"))
-        .unwrap_or_default()
-        .lines()
-        .filter_map(|l| l.split_once(' '))
-        .map(|(id, script)| (id.to_string(), script.to_string()))
-        .collect()
-}
-
-/// Array tasks the stand-in ran for job `id`.
-fn tasks(ws: &Workspace, id: &str) -> Vec<usize> {
-    let mut t: Vec<usize> = std::fs::read_dir(ws.path().join("fake"))
-        .map(|d| {
-            d.flatten()
-                .filter_map(|e| {
-                    let name = e.file_name().to_string_lossy().into_owned();
-                    let task = name
-                        .strip_prefix(&format!("{id}_"))?
-                        .strip_suffix(".state")?;
-                    task.parse().ok()
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    t.sort();
-    t
-}
 
 fn local_reference() -> Workspace {
     let ws = Workspace::new();

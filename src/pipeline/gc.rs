@@ -5,6 +5,7 @@ use super::provenance;
 use super::store::{self, Store, StoreError};
 use std::collections::HashSet;
 use std::fs;
+use std::path::Path;
 
 /// What `gc` removed (or would remove with `dry_run`).
 #[derive(Debug, Default, serde::Serialize)]
@@ -50,7 +51,9 @@ pub fn collect(store: &Store, dry_run: bool) -> Result<GcReport, StoreError> {
         }
     }
     // `jobs/` holds the descriptions, logs and shard records of cluster jobs
-    // of runs that failed or were interrupted; no run is in flight now.
+    // of runs that failed or were interrupted; no run holds the cache now,
+    // but jobs a killed or detached run submitted may still be queued: their
+    // directories (and shared batch directories) stay for the next run.
     for sub in ["runs", "tmp", "locks", "jobs"] {
         let Ok(dir) = fs::read_dir(store.root().join(sub)) else {
             continue;
@@ -59,6 +62,7 @@ pub fn collect(store: &Store, dry_run: bool) -> Result<GcReport, StoreError> {
             let name = entry.file_name().to_string_lossy().into_owned();
             let remove = match sub {
                 "runs" => !live_keys.contains(name.trim_end_matches(".json")),
+                "jobs" => !in_flight(store, &entry.path()),
                 _ => true,
             };
             if !remove {
@@ -80,4 +84,17 @@ pub fn collect(store: &Store, dry_run: bool) -> Result<GcReport, StoreError> {
         }
     }
     Ok(report)
+}
+
+/// A job directory with a submission in flight, or a shared batch
+/// directory one of whose members has one.
+fn in_flight(store: &Store, dir: &Path) -> bool {
+    use super::executor::inflight;
+    if inflight::any(dir) {
+        return true;
+    }
+    fs::read_to_string(dir.join("members")).is_ok_and(|keys| {
+        keys.lines()
+            .any(|k| inflight::any(&store.job_dir(k.trim())))
+    })
 }

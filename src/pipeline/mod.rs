@@ -20,4 +20,5 @@ pub mod run;
 pub mod span;
 pub mod spec;
 pub mod store;
+pub mod trace;
 pub mod verify;

@@ -39,6 +39,9 @@ pub struct RunOptions {
 pub struct RunReport {
     pub pipeline: String,
     pub stages: Vec<StageReport>,
+    /// The run's trace (`results/<name>/trace.csv`), after a run.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trace: Option<PathBuf>,
 }
 
 impl RunReport {
@@ -165,6 +168,8 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     if !engine.store.read_only() {
         super::leftovers::clean(&engine.store.root().join("tmp"), &engine.results, &plan.dir);
     }
+    let started = super::executor::inflight::now();
+    let mut reporter_lines: Vec<String> = Vec::new();
     let n = plan.nodes.len();
     let to_run = wanted.iter().filter(|w| **w).count();
     let mut reporter = Reporter::new(to_run, opts.progress, opts.heartbeat);
@@ -287,14 +292,55 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
             saved?;
         }
     }
+    let mut report = in_plan_order(plan, reports);
+    report.trace = write_trace(&engine, &report, started, &mut reporter_lines);
+    for l in reporter_lines {
+        eprintln!("{l}");
+    }
     match fatal {
         Some(e) => Err(e),
-        None => Ok(in_plan_order(plan, reports)),
+        None => Ok(report),
+    }
+}
+
+/// Write the run's trace; a failure to write it is a warning, not an error.
+fn write_trace(
+    engine: &Engine,
+    report: &RunReport,
+    started: u64,
+    warnings: &mut Vec<String>,
+) -> Option<PathBuf> {
+    let jobs = engine.executor.jobs();
+    let mut ids: Vec<String> = jobs.iter().map(|j| j.id.clone()).collect();
+    ids.sort();
+    ids.dedup();
+    let acct = super::trace::accounting(&ids);
+    let kind_of = |name: &str| {
+        engine
+            .plan
+            .nodes
+            .iter()
+            .find(|n| n.name == name)
+            .map(|n| n.kind.kind())
+            .unwrap_or_default()
+    };
+    let local = |name: &str| engine.executor.is_local(kind_of(name), name);
+    let rows = super::trace::rows(&report.stages, &jobs, &acct, &local);
+    match super::trace::write(&engine.results, &rows, started) {
+        Ok(p) => Some(p),
+        Err(e) => {
+            warnings.push(format!(
+                "warning: cannot write the trace in {}: {e}",
+                engine.results.display()
+            ));
+            None
+        }
     }
 }
 
 fn in_plan_order(plan: &Plan, mut reports: Vec<Option<StageReport>>) -> RunReport {
     RunReport {
+        trace: None,
         pipeline: plan.name.clone(),
         stages: plan
             .order
@@ -334,6 +380,7 @@ pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     let engine = engine(plan, opts, Executor::Local)?;
     let mut done: Vec<Option<Done>> = vec![None; plan.nodes.len()];
     let mut reports: Vec<Option<StageReport>> = vec![None; plan.nodes.len()];
+    let mut in_flight = Vec::new();
     for &i in plan.order.iter().filter(|&&i| wanted[i]) {
         let node = &plan.nodes[i];
         let mut report = skipped(plan, i, String::new());
@@ -369,7 +416,7 @@ pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
                             report.seconds = rec.seconds;
                             report.counters = rec.counters.clone();
                             done[i] = Some(Done {
-                                key,
+                                key: key.clone(),
                                 outputs: rec.outputs,
                             });
                         }
@@ -381,12 +428,71 @@ pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
                             report.reason = provenance::explain(previous, &m, &[], &refs)
                         }
                     }
+                    if report.status == Status::WillRun {
+                        let subs = super::executor::inflight::of_key(&engine.store, &key);
+                        if !subs.is_empty() {
+                            in_flight.push((i, subs));
+                        }
+                    }
                 }
             }
         }
         reports[i] = Some(report);
     }
+    annotate_in_flight(&mut reports, in_flight);
     Ok(in_plan_order(plan, reports))
+}
+
+/// Stages whose jobs an earlier (killed, disconnected or detached) run
+/// submitted: the reason names the jobs and their states, from one
+/// scheduler query for all of them.
+fn annotate_in_flight(
+    reports: &mut [Option<StageReport>],
+    in_flight: Vec<(usize, Vec<super::executor::inflight::Submission>)>,
+) {
+    if in_flight.is_empty() {
+        return;
+    }
+    let mut ids: Vec<String> = in_flight
+        .iter()
+        .flat_map(|(_, subs)| subs.iter().map(|s| s.id.clone()))
+        .collect();
+    ids.sort();
+    ids.dedup();
+    let states = super::executor::queue::Queries::default()
+        .query(&ids)
+        .unwrap_or_default();
+    for (i, subs) in in_flight {
+        let Some(report) = reports[i].as_mut() else {
+            continue;
+        };
+        let parts: Vec<String> = subs
+            .iter()
+            .map(|s| {
+                let mine: Vec<_> = states
+                    .iter()
+                    .filter(|t| t.job() == s.id)
+                    .filter(|t| match &s.tasks {
+                        Some(tasks) => tasks.iter().any(|&k| t.covers(k)),
+                        None => true,
+                    })
+                    .cloned()
+                    .collect();
+                let what = if mine.is_empty() {
+                    format!("slurm job {}: not in the queue", s.id)
+                } else {
+                    super::executor::queue::summary(&s.id, &mine)
+                };
+                format!(
+                    "{what} (attempt {}, submitted {} by {})",
+                    s.attempt,
+                    super::trace::utc(s.submitted),
+                    s.by
+                )
+            })
+            .collect();
+        report.reason = format!("in flight: {}", parts.join("; "));
+    }
 }
 
 const PENDING: &str = "pending";

@@ -9,7 +9,13 @@
 #      two separate caches, and checks that every result file is identical;
 #   2. measures what a job costs: a no-op stage run locally, through the
 #      stand-in scheduler of tests/slurm/fake (modalflow's own overhead) and
-#      through Slurm (submission to completion), and a batch of 8 such stages.
+#      through Slurm (submission to completion), and a batch of 8 such stages;
+#   3. a retry: a stage that needs 110 s under `time: "1 * attempt"` times
+#      out at attempt 1 and succeeds at attempt 2 (about 4 minutes);
+#   4. a submitter killed with -9 while its job runs: the next run adopts
+#      the job instead of submitting it again;
+#   5. counts every scheduler call (sbatch, sacct, squeue, scancel) of each
+#      step through logging wrappers, and prints the traces.
 # With --accounting it also installs MariaDB and slurmdbd, so job states come
 # from sacct (as on production clusters); without, from squeue.
 # Stops the daemons it started at the end (keep them with --keep).
@@ -69,7 +75,11 @@ cpus=$(nproc)
 memory=$(slurmd -C | sed -n 's/.*RealMemory=\([0-9]*\).*/\1/p')
 export SLURM_CONF="$work/etc/slurm.conf"
 storage=none
-[ -z "$accounting" ] || storage=slurmdbd
+gather=jobacct_gather/none
+if [ -n "$accounting" ]; then
+    storage=slurmdbd
+    gather=jobacct_gather/linux # MaxRSS and CPU time per job step
+fi
 cat > "$SLURM_CONF" <<EOF
 ClusterName=modalflow
 SlurmctldHost=$host(127.0.0.1)
@@ -91,7 +101,7 @@ MpiDefault=none
 ReturnToService=2
 AccountingStorageType=accounting_storage/$storage
 AccountingStorageHost=localhost
-JobAcctGatherType=jobacct_gather/none
+JobAcctGatherType=$gather
 JobCompType=jobcomp/none
 NodeName=$host NodeAddr=127.0.0.1 CPUs=$cpus RealMemory=$memory State=UNKNOWN
 PartitionName=debug Nodes=ALL Default=YES MaxTime=INFINITE State=UP
@@ -162,6 +172,23 @@ say "build modalflow"
 (cd "$repo" && cargo build --release -q)
 mf="$repo/target/release/modalflow"
 
+# Logging wrappers in front of the scheduler's commands: calls.log gets one
+# line per call, so each step's calls are counted.
+mkdir -p "$work/bin"
+for c in sbatch sacct squeue scancel; do
+    real=$(command -v "$c")
+    printf '#!/bin/sh\necho "%s $*" >> "%s/calls.log"\nexec "%s" "$@"\n' "$c" "$work" "$real" > "$work/bin/$c"
+    chmod +x "$work/bin/$c"
+done
+export PATH="$work/bin:$PATH"
+calls() { # label: count and reset the calls since the last count
+    local f="$work/calls.log"
+    touch "$f"
+    printf 'scheduler calls, %s: sbatch %s, sacct %s, squeue %s, scancel %s\n' "$1" \
+        "$(grep -c '^sbatch ' "$f")" "$(grep -c '^sacct ' "$f")" "$(grep -c '^squeue ' "$f")" "$(grep -c '^scancel ' "$f")"
+    : > "$f"
+}
+
 ms() { # command... -> wall milliseconds
     local t0
     t0=$(date +%s%N)
@@ -174,7 +201,10 @@ study="$repo/tests/slurm/gsa_study.yaml"
 local_ms=$(ms "$mf" run "$study" --executor local --cache "$work/local/cache" --results "$work/local/results" --progress lines)
 
 say "CI-sized GSA study, --executor slurm (GSA in 4 array tasks)"
+: > "$work/calls.log"
 slurm_ms=$(ms "$mf" run "$study" --executor slurm --cache "$work/slurm/cache" --results "$work/slurm/results" --progress lines)
+calls "GSA study"
+cat "$work/slurm/results/slurm_gsa/trace.csv"
 if [ -n "$accounting" ]; then
     sleep 2
     sacct -X -o JobID,JobName%28,State,Elapsed,ExitCode
@@ -183,7 +213,7 @@ else
 fi
 
 say "compare results (every file but the manifests, which hold run times)"
-diff -r -x manifest.json "$work/local/results" "$work/slurm/results"
+diff -r -x manifest.json -x 'trace*' -x run.log "$work/local/results" "$work/slurm/results"
 for stage in truth gsa report; do
     a=$(grep -o '"hash": "[0-9a-f]*"' "$work/local/results/slurm_gsa/$stage/manifest.json" | sort)
     b=$(grep -o '"hash": "[0-9a-f]*"' "$work/slurm/results/slurm_gsa/$stage/manifest.json" | sort)
@@ -235,6 +265,50 @@ for executor in local slurm; do
     t=$(ms "$mf" run "$noop/batch.yaml" --executor "$executor" --cache "$noop/c-batch-$executor" --progress none)
     echo "run of 8 independent no-op stages, executor $executor: $t"
 done
+
+say "16 independent stages of 5 s (poll: 30): scheduler calls"
+many="$work/many"
+mkdir -p "$many"
+{
+    echo "name: many"
+    echo "executor: {kind: slurm, poll: 30}"
+    echo "stages:"
+    for i in $(seq 16); do
+        echo "  s$i: {kind: command, params: {cmd: \"sleep 5; echo $i > o$i.txt\", outs: [o$i.txt]}}"
+    done
+} > "$many/p.yaml"
+: > "$work/calls.log"
+many_ms=$(ms "$mf" run "$many/p.yaml" --cache "$many/cache" --results "$many/results" --progress none)
+calls "16 stages in $many_ms ms"
+
+say "retry: attempt 1 times out (1 min), attempt 2 (2 min) succeeds"
+retry="$work/retry"
+mkdir -p "$retry"
+printf 'name: retry\nexecutor: {kind: slurm, poll: 10, retries: 1, time: "1 * attempt"}\nstages:\n  slow: {kind: command, params: {cmd: "sleep 110; echo ok > r.txt", outs: [r.txt]}}\n' > "$retry/p.yaml"
+: > "$work/calls.log"
+retry_ms=$(ms "$mf" run "$retry/p.yaml" --cache "$retry/cache" --results "$retry/results" --progress lines)
+calls "retry in $retry_ms ms"
+cat "$retry/results/retry/trace.csv"
+grep -q '^ok$' "$retry/r.txt" && echo "retry: attempt 2 committed the result"
+
+say "submitter killed with -9 while its job runs; the next run adopts it"
+kill9="$work/kill9"
+mkdir -p "$kill9"
+printf 'name: adopt\nexecutor: {kind: slurm, poll: 5}\nstages:\n  long: {kind: command, params: {cmd: "sleep 20; echo done > a.txt", outs: [a.txt]}}\n' > "$kill9/p.yaml"
+: > "$work/calls.log"
+"$mf" run "$kill9/p.yaml" --cache "$kill9/cache" --results "$kill9/results" --progress none &
+submitter=$!
+for _ in $(seq 60); do
+    squeue -h -t running -o %j | grep -q 'modalflow:long' && break
+    sleep 1
+done
+kill -9 "$submitter"
+wait "$submitter" 2> /dev/null || true
+squeue -h -o '%.10i %.20j %.8T'
+"$mf" status "$kill9/p.yaml" --cache "$kill9/cache" --results "$kill9/results"
+"$mf" run "$kill9/p.yaml" --cache "$kill9/cache" --results "$kill9/results" --progress lines
+calls "kill -9 and adoption (both runs)"
+cat "$kill9/results/adopt/trace.csv"
 
 say "summary"
 echo "GSA study wall time: local $local_ms ms, slurm $slurm_ms ms"

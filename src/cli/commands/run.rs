@@ -33,6 +33,11 @@ pub struct Args {
     /// Print one JSON object on stdout instead of a summary.
     #[arg(long)]
     pub json: bool,
+    /// Go on in the background (new process group, output in
+    /// `results/<name>/run.log`) and return at once; `modalflow status`
+    /// shows what is in flight.
+    #[arg(long, conflicts_with = "dry_run")]
+    detach: bool,
     /// Progress display on stderr.
     #[arg(long, value_enum, default_value_t = Progress::Auto)]
     progress: Progress,
@@ -98,6 +103,9 @@ fn heartbeat() -> std::time::Duration {
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
     let plan = plan::load(&args.file)?;
+    if args.detach {
+        return detach(&args, &plan.name);
+    }
     let progress = match args.progress {
         Progress::Auto => ProgressMode::Auto,
         Progress::Bars => ProgressMode::Bars,
@@ -131,6 +139,44 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
     } else {
         exit::SUCCESS
     })
+}
+
+/// Start this same command without `--detach` in its own process group
+/// (no terminal hang-up reaches it), its output in `results/<name>/run.log`.
+fn detach(args: &Args, pipeline: &str) -> anyhow::Result<u8> {
+    use std::os::unix::process::CommandExt;
+    let dir = args.locations.results.join(pipeline);
+    std::fs::create_dir_all(&dir)
+        .map_err(|e| anyhow::anyhow!("cannot create directory {}: {e}", dir.display()))?;
+    let log = dir.join("run.log");
+    let out = std::fs::File::create(&log)
+        .map_err(|e| anyhow::anyhow!("cannot write {}: {e}", log.display()))?;
+    let err = out.try_clone()?;
+    let exe = std::env::current_exe()?;
+    let rest: Vec<std::ffi::OsString> = std::env::args_os()
+        .skip(1)
+        .filter(|a| a != "--detach")
+        .collect();
+    let child = std::process::Command::new(exe)
+        .args(rest)
+        .stdin(std::process::Stdio::null())
+        .stdout(out)
+        .stderr(err)
+        .process_group(0)
+        .spawn()
+        .map_err(|e| anyhow::anyhow!("cannot start the background run: {e}"))?;
+    let pid = child.id();
+    if args.json {
+        print_json(&serde_json::json!({"pipeline": pipeline, "detached": pid, "log": log}))?;
+    } else {
+        print_text(&format!(
+            "{pipeline}: running in the background as pid {pid}; output in {}\n  \
+             `modalflow status {}` shows what is cached and what is in flight\n",
+            log.display(),
+            args.file.display()
+        ))?;
+    }
+    Ok(exit::SUCCESS)
 }
 
 /// The human summary printed after a run.

@@ -78,6 +78,10 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
     for (c, v) in &manifest.counters {
         out.push_str(&format!("counter  {c} = {v}\n"));
     }
+    out.push_str(&trace_lines(
+        &args.locations.results.join(&plan.name),
+        &node.name,
+    ));
     print_text(&out)?;
     Ok(crate::cli::exit::SUCCESS)
 }
@@ -96,4 +100,42 @@ fn from_cache(loc: &Locations, pipeline: &str, stage: &str) -> Option<Manifest> 
         rec.seconds,
         rec.counters,
     ))
+}
+
+/// The stage's rows of the last run's trace, and where the trace is.
+fn trace_lines(results: &std::path::Path, stage: &str) -> String {
+    let Some(rows) = modalflow::pipeline::trace::read(results) else {
+        return String::new();
+    };
+    let mut out = String::new();
+    for r in rows.iter().filter(|r| r.stage == stage) {
+        let mut line = format!("trace    {}", r.status);
+        if !r.job_id.is_empty() {
+            line.push_str(&format!(
+                ": slurm job {} attempt {} {}",
+                r.job_id,
+                r.attempt.unwrap_or(1),
+                r.state
+            ));
+        } else if !r.executor.is_empty() {
+            line.push_str(&format!(" ({})", r.executor));
+        }
+        for (label, v) in [
+            ("node", &r.node),
+            ("elapsed", &r.elapsed),
+            ("cpu", &r.cpu_time),
+            ("MaxRSS", &r.max_rss),
+        ] {
+            if !v.is_empty() {
+                line.push_str(&format!(", {label} {v}"));
+            }
+        }
+        out.push_str(&line);
+        out.push('\n');
+    }
+    out.push_str(&format!(
+        "trace    {} (last run)\n",
+        results.join("trace.csv").display()
+    ));
+    out
 }

@@ -11,14 +11,20 @@
 //!   time: "01:00:00"         # default: the partition's default limit
 //!   cpus: 2                  # --cpus-per-task, default 1
 //!   memory: 4G               # --mem, default: the cluster's default
+//!   retries: 1               # resubmit after TIMEOUT / OUT_OF_MEMORY / NODE_FAIL
 //!   kinds:                   # per stage kind, on top of the values above
-//!     gsa: {cpus: 8, shards: 16}   # 16 array tasks evaluate the design
+//!     gsa: {cpus: 8, shards: 16, array_parallelism: 4}
 //!     report: {local: true}        # runs on the submitting machine
+//!     evaluate: {group: 8}         # up to 8 ready evaluate stages per job
+//!   stages:                  # per stage (base name or one expansion)
+//!     big_gsa: {memory: 8G * attempt, time: "02:00:00"}
 //! ```
 
+use super::resources::{self, Resolved, Resources};
 use indexmap::IndexMap;
-use serde::{Deserialize, Deserializer};
+use serde::Deserialize;
 use std::path::PathBuf;
+use std::time::Duration;
 
 /// Where stages run.
 #[derive(Clone, Copy, Debug, Default, Deserialize, PartialEq, Eq)]
@@ -31,7 +37,8 @@ pub enum ExecutorKind {
     Slurm,
 }
 
-/// The `executor:` block as written.
+/// The `executor:` block as written: the kind, the block's own resources
+/// (flattened), per-kind and per-stage overrides, and the block-only keys.
 #[derive(Clone, Debug, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ExecutorSpec {
@@ -50,52 +57,30 @@ pub struct ExecutorSpec {
     pub local: Option<bool>,
     /// Further `sbatch` options, e.g. `["--qos=short"]`.
     pub sbatch: Option<Vec<String>>,
+    pub retries: Option<u32>,
+    pub array_parallelism: Option<usize>,
+    pub group: Option<usize>,
+    #[serde(default, deserialize_with = "text")]
+    pub scratch: Option<String>,
     /// Stage kind → resources overriding the ones above.
     #[serde(default)]
     pub kinds: IndexMap<String, Resources>,
+    /// Stage (base name for every expansion, or one expansion) → resources
+    /// overriding the kind's.
+    #[serde(default)]
+    pub stages: IndexMap<String, Resources>,
     /// The `modalflow` the jobs run (default: the running binary's path,
-    /// which the compute nodes must see).
+    /// which the compute nodes must see); relative to the pipeline file.
     pub binary: Option<PathBuf>,
     /// Longest wait between two job-status queries, seconds (default 30).
     pub poll: Option<f64>,
 }
 
-/// Resources of one stage kind's jobs; unset fields fall back to the block's.
-#[derive(Clone, Debug, Default, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Resources {
-    #[serde(default, deserialize_with = "text")]
-    pub partition: Option<String>,
-    #[serde(default, deserialize_with = "text")]
-    pub account: Option<String>,
-    #[serde(default, deserialize_with = "text")]
-    pub time: Option<String>,
-    pub cpus: Option<u32>,
-    #[serde(default, deserialize_with = "text")]
-    pub memory: Option<String>,
-    /// Array tasks a shardable stage's batch is split over (default 1).
-    pub shards: Option<usize>,
-    /// Run on the submitting machine instead of as a job (default false).
-    pub local: Option<bool>,
-    pub sbatch: Option<Vec<String>>,
-}
-
-/// Resources of one stage with every default applied.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Resolved {
-    pub partition: Option<String>,
-    pub account: Option<String>,
-    pub time: Option<String>,
-    pub cpus: u32,
-    pub memory: Option<String>,
-    pub shards: usize,
-    pub local: bool,
-    pub sbatch: Vec<String>,
-}
-
-/// Largest `shards` accepted: Slurm's default `MaxArraySize` allows task
-/// indices 0..1000.
-pub const MAX_SHARDS: usize = 1000;
+/// Shortest `poll` accepted, seconds.
+pub const MIN_POLL: f64 = 0.2;
+/// The first status queries of a run come this often (or every `poll` if
+/// that is shorter); the interval then grows by half each time to `poll`.
+pub const FIRST_POLL: Duration = Duration::from_secs(2);
 
 /// A problem in the block: where (path below `executor`) and what to do.
 #[derive(Debug)]
@@ -106,7 +91,7 @@ pub struct Problem {
 }
 
 /// A string, or a number taken as its text (`time: 30`, `memory: 4000`).
-fn text<'de, D: Deserializer<'de>>(d: D) -> Result<Option<String>, D::Error> {
+fn text<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<String>, D::Error> {
     #[derive(Deserialize)]
     #[serde(untagged)]
     enum Text {
@@ -130,122 +115,74 @@ impl ExecutorSpec {
             shards: self.shards,
             local: self.local,
             sbatch: self.sbatch.clone(),
+            retries: self.retries,
+            array_parallelism: self.array_parallelism,
+            group: self.group,
+            scratch: self.scratch.clone(),
         }
     }
 
-    /// The resources of a stage of kind `kind`.
-    pub fn resources(&self, kind: &str) -> Resolved {
-        let base = self.own();
-        let over = self.kinds.get(kind).cloned().unwrap_or_default();
-        Resolved {
-            partition: over.partition.or(base.partition),
-            account: over.account.or(base.account),
-            time: over.time.or(base.time),
-            cpus: over.cpus.or(base.cpus).unwrap_or(1),
-            memory: over.memory.or(base.memory),
-            shards: over.shards.or(base.shards).unwrap_or(1),
-            local: over.local.or(base.local).unwrap_or(false),
-            sbatch: over.sbatch.or(base.sbatch).unwrap_or_default(),
+    /// The resources of stage `stage` (expanded name) of kind `kind`: its
+    /// expansion's entry over its base name's over its kind's over the block's.
+    pub fn resources(&self, kind: &str, stage: &str) -> Resolved {
+        let base = stage.split('[').next().unwrap_or(stage);
+        let none = Resources::default();
+        let of =
+            |map: &IndexMap<String, Resources>, k: &str| map.get(k).cloned().unwrap_or_default();
+        let mut r = self.own();
+        r = of(&self.kinds, kind).over(&r);
+        r = of(&self.stages, base).over(&r);
+        if base != stage {
+            r = of(&self.stages, stage).over(&r);
         }
+        r.over(&none).resolve()
     }
 
-    /// Longest wait between status queries.
-    pub fn poll_max(&self) -> std::time::Duration {
-        std::time::Duration::from_secs_f64(self.poll.unwrap_or(30.0))
+    /// The first and the longest wait between status queries.
+    pub fn poll_range(&self) -> (Duration, Duration) {
+        let max = Duration::from_secs_f64(self.poll.unwrap_or(30.0).max(MIN_POLL));
+        (FIRST_POLL.min(max), max)
     }
 
-    /// Every value problem (kinds are checked by the caller, which knows them).
+    /// Every value problem (kind and stage names are checked by the
+    /// caller, which knows them).
     pub fn problems(&self) -> Vec<Problem> {
         let mut out = Vec::new();
         if let Some(p) = self.poll {
-            if !(p.is_finite() && p > 0.0) {
+            if !(p.is_finite() && p >= MIN_POLL) {
                 out.push(Problem {
                     path: vec!["poll".into()],
-                    message: format!("`poll` must be a positive number of seconds, not {p}"),
-                    help: "the longest wait between two job-status queries; default 30".into(),
+                    message: format!("`poll` must be at least {MIN_POLL} s, not {p}"),
+                    help: "the longest wait between two job-status queries; default 30 \
+                           (every poll is one `sacct` call for all of the run's jobs)"
+                        .into(),
                 });
             }
         }
-        check_resources(&self.own(), &[], &mut out);
-        for (kind, r) in &self.kinds {
-            check_resources(r, &["kinds", kind], &mut out);
+        let levels = std::iter::once((Vec::new(), self.own()))
+            .chain(
+                self.kinds
+                    .iter()
+                    .map(|(k, r)| (vec!["kinds".to_string(), k.clone()], r.clone())),
+            )
+            .chain(
+                self.stages
+                    .iter()
+                    .map(|(k, r)| (vec!["stages".to_string(), k.clone()], r.clone())),
+            );
+        for (at, r) in levels {
+            for p in resources::problems(&r) {
+                let mut path = at.clone();
+                path.push(p.field.to_string());
+                out.push(Problem {
+                    path,
+                    message: p.message,
+                    help: p.help,
+                });
+            }
         }
         out
     }
-}
-
-fn check_resources(r: &Resources, at: &[&str], out: &mut Vec<Problem>) {
-    let path = |field: &str| -> Vec<String> {
-        at.iter()
-            .map(|s| s.to_string())
-            .chain([field.to_string()])
-            .collect()
-    };
-    if let Some(t) = &r.time {
-        if !valid_time(t) {
-            out.push(Problem {
-                path: path("time"),
-                message: format!("`time: {t}` is not a Slurm time limit"),
-                help: "write minutes (`30`), `HH:MM:SS` (`\"01:30:00\"`) or `D-HH:MM:SS`".into(),
-            });
-        }
-    }
-    if let Some(m) = &r.memory {
-        if !valid_memory(m) {
-            out.push(Problem {
-                path: path("memory"),
-                message: format!("`memory: {m}` is not a Slurm memory size"),
-                help: "write megabytes (`4000`) or a size with a unit: `512M`, `4G`, `1T`".into(),
-            });
-        }
-    }
-    if r.cpus == Some(0) {
-        out.push(Problem {
-            path: path("cpus"),
-            message: "`cpus` must be at least 1".into(),
-            help: "CPUs per task (`--cpus-per-task`); the stage's threads use them".into(),
-        });
-    }
-    if let Some(s) = r.shards {
-        if s == 0 || s > MAX_SHARDS {
-            out.push(Problem {
-                path: path("shards"),
-                message: format!("`shards: {s}` is out of range"),
-                help: format!("give 1 (no sharding) to {MAX_SHARDS} array tasks"),
-            });
-        }
-    }
-    for (field, value) in [("partition", &r.partition), ("account", &r.account)] {
-        if value
-            .as_deref()
-            .is_some_and(|v| v.is_empty() || v.chars().any(char::is_whitespace))
-        {
-            out.push(Problem {
-                path: path(field),
-                message: format!("`{field}` must be one word"),
-                help: "the name as `sinfo` / `sacctmgr show assoc` list it".into(),
-            });
-        }
-    }
-}
-
-/// Slurm's time formats: `M`, `M:S`, `H:M:S`, `D-H`, `D-H:M`, `D-H:M:S`.
-fn valid_time(t: &str) -> bool {
-    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
-    let (days, rest) = match t.split_once('-') {
-        Some((d, r)) => (Some(d), r),
-        None => (None, t),
-    };
-    if days.is_some_and(|d| !digits(d)) {
-        return false;
-    }
-    let parts: Vec<&str> = rest.split(':').collect();
-    parts.len() <= 3 && parts.iter().all(|p| digits(p))
-}
-
-fn valid_memory(m: &str) -> bool {
-    let number = m.trim_end_matches(['K', 'M', 'G', 'T', 'k', 'm', 'g', 't']);
-    m.len() - number.len() <= 1 && !number.is_empty() && number.bytes().all(|b| b.is_ascii_digit())
 }
 
 #[cfg(test)]
@@ -253,13 +190,13 @@ mod tests {
     use super::*;
 
     #[test]
-    fn kind_overrides_fall_back_to_the_block_and_defaults() {
+    fn stage_over_kind_over_block_over_defaults() {
         let spec: ExecutorSpec = serde_yaml_ng::from_str(
-            "kind: slurm\npartition: p\ntime: 30\ncpus: 2\nkinds:\n  gsa: {cpus: 8, shards: 4}\n  report: {local: true}\n",
+            "kind: slurm\npartition: p\ntime: 30\ncpus: 2\nretries: 1\nkinds:\n  gsa: {cpus: 8, shards: 4}\n  report: {local: true}\nstages:\n  sens: {memory: 8G * attempt}\n  \"sens[n=2]\": {cpus: 16}\n",
         )
         .expect("valid block");
         assert_eq!(spec.kind, ExecutorKind::Slurm);
-        let gsa = spec.resources("gsa");
+        let gsa = spec.resources("gsa", "other");
         assert_eq!(
             (
                 gsa.partition.as_deref(),
@@ -270,16 +207,20 @@ mod tests {
             ),
             (Some("p"), Some("30"), 8, 4, false)
         );
-        let report = spec.resources("report");
+        assert_eq!((gsa.memory.as_str(), gsa.retries), ("2G", 1));
+        let report = spec.resources("report", "r");
         assert!(report.local && report.cpus == 2 && report.shards == 1);
+        let sens = spec.resources("gsa", "sens[n=1]");
+        assert_eq!((sens.cpus, sens.memory_at(2).as_str()), (8, "16G"));
+        assert_eq!(spec.resources("gsa", "sens[n=2]").cpus, 16);
         assert!(spec.problems().is_empty());
-        assert_eq!(ExecutorSpec::default().resources("gsa").cpus, 1);
+        assert_eq!(ExecutorSpec::default().resources("gsa", "g").cpus, 1);
     }
 
     #[test]
     fn bad_values_are_named_with_their_path() {
         let spec: ExecutorSpec = serde_yaml_ng::from_str(
-            "time: one hour\nmemory: 4GB\nkinds:\n  gsa: {shards: 0, cpus: 0}\npoll: -1\n",
+            "time: one hour\nmemory: 4GB\nkinds:\n  gsa: {shards: 0, cpus: 0}\nstages:\n  a: {array_parallelism: 0, retries: 99}\npoll: 0.01\n",
         )
         .expect("types are fine");
         let paths: Vec<String> = spec.problems().iter().map(|p| p.path.join(".")).collect();
@@ -290,16 +231,11 @@ mod tests {
                 "time",
                 "memory",
                 "kinds.gsa.cpus",
-                "kinds.gsa.shards"
+                "kinds.gsa.shards",
+                "stages.a.retries",
+                "stages.a.array_parallelism"
             ]
         );
         assert!(serde_yaml_ng::from_str::<ExecutorSpec>("cpu: 2\n").is_err());
-        for ok in ["30", "10:00", "01:30:00", "2-00", "2-12:00:00"] {
-            assert!(valid_time(ok), "{ok}");
-        }
-        for bad in ["", "1:2:3:4", "a-10", "1h"] {
-            assert!(!valid_time(bad), "{bad}");
-        }
-        assert!(valid_memory("4000") && valid_memory("4G") && !valid_memory("G"));
     }
 }

@@ -60,16 +60,29 @@ pub struct Run<'a> {
     /// Check the files the key hashed before running (a job on another host
     /// must see the same pipeline directory).
     pub verify_files: bool,
+    /// Node-local directory for the stage's scratch and input checkouts
+    /// (`scratch:` of the executor block); `None`: the cache's `tmp/`.
+    pub scratch: Option<PathBuf>,
 }
 
 /// Run (the `role` part of) the stage in a scratch directory and commit the
 /// result: the outputs and run record, or a shard's partial and its record.
 pub fn run(store: &Store, run: &Run, progress: &dyn Progress) -> Result<Finished, JobError> {
-    let inputs_dir = store.temp_path("in");
-    let scratch = store.temp_path("stage");
+    let (inputs_dir, scratch, own) = match &run.scratch {
+        Some(root) => {
+            // Named like the cache's temp paths, unique across processes.
+            let name = store.temp_path("node");
+            let own = root.join(name.file_name().unwrap_or_default());
+            (own.join("in"), own.join("stage"), Some(own))
+        }
+        None => (store.temp_path("in"), store.temp_path("stage"), None),
+    };
     let result = run_in(store, run, progress, &inputs_dir, &scratch);
     let _ = std::fs::remove_dir_all(&scratch);
     let _ = std::fs::remove_dir_all(&inputs_dir);
+    if let Some(own) = own {
+        let _ = std::fs::remove_dir_all(own);
+    }
     result
 }
 
@@ -84,6 +97,7 @@ fn run_in(
         job,
         role,
         verify_files,
+        ..
     } = *run;
     let typed = job.typed()?;
     let kind = typed.kind;
@@ -284,7 +298,12 @@ pub enum ExecOutcome {
 /// `modalflow exec`: read the job description at `path` and run it (or
 /// shard `shard` of it) against `store`. The submitting process holds the
 /// key's lock; the job takes the cache's shared lock against `gc`.
-pub fn exec(store: &Store, path: &Path, shard: Option<usize>) -> Result<ExecOutcome, String> {
+pub fn exec(
+    store: &Store,
+    path: &Path,
+    shard: Option<usize>,
+    scratch: Option<&Path>,
+) -> Result<ExecOutcome, String> {
     let _guard = store.lock_cache(false).map_err(|e| e.to_string())?;
     let mut job = Job::read(path)?;
     job.check()?;
@@ -321,6 +340,7 @@ pub fn exec(store: &Store, path: &Path, shard: Option<usize>) -> Result<ExecOutc
         job: &job,
         role,
         verify_files: true,
+        scratch: scratch.map(Path::to_path_buf),
     };
     run(store, &call, &NoProgress)
         .map(ExecOutcome::Ran)

@@ -11,11 +11,16 @@
 //! executor enters a key, so a stage computed on a cluster is a cache hit
 //! locally and the other way round.
 
+pub mod batch;
 pub mod config;
 pub mod exec;
+pub mod inflight;
 pub mod interrupt;
 pub mod job;
+pub mod monitor;
 pub mod queue;
+pub mod resources;
+pub mod script;
 pub mod slurm;
 
 pub use config::{ExecutorKind, ExecutorSpec};
@@ -49,7 +54,7 @@ impl Executor {
     ) -> Result<RunRecord, JobError> {
         match self {
             Executor::Slurm(s) => {
-                let resources = s.spec().resources(&job.material.kind);
+                let resources = s.spec().resources(&job.material.kind, &job.stage);
                 if resources.local {
                     local(store, &job, progress)
                 } else {
@@ -60,6 +65,22 @@ impl Executor {
             Executor::Local => local(store, &job, progress),
         }
     }
+
+    /// The jobs the Slurm executor waited on (empty for local runs).
+    pub fn jobs(&self) -> Vec<crate::pipeline::trace::JobRow> {
+        match self {
+            Executor::Slurm(s) => s.jobs(),
+            Executor::Local => Vec::new(),
+        }
+    }
+
+    /// Whether stage `stage` of kind `kind` runs in this process.
+    pub fn is_local(&self, kind: &str, stage: &str) -> bool {
+        match self {
+            Executor::Slurm(s) => s.spec().resources(kind, stage).local,
+            Executor::Local => true,
+        }
+    }
 }
 
 /// Run the whole stage in this process.
@@ -68,6 +89,7 @@ pub fn local(store: &Store, job: &Job, progress: &dyn Progress) -> Result<RunRec
         job,
         role: Role::Whole,
         verify_files: false,
+        scratch: None,
     };
     match exec::run(store, &call, progress)? {
         Finished::Record(r) => Ok(r),

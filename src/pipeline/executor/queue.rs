@@ -1,17 +1,14 @@
 //! Talking to Slurm: submission with `sbatch --parsable`, job states from
 //! `sacct` (falling back to `squeue --states=all` where accounting is off),
-//! and waiting with back-off until the job's result is in the cache or the
-//! scheduler says the job ended without it.
+//! one call for any number of jobs; [`super::monitor`] waits on them.
 //!
 //! The cache, not the scheduler, says whether a job succeeded: a job is done
 //! when its run record (or shard record) is there, which `exec` writes last.
 //! The scheduler is asked only whether the job is still pending or running,
 //! and why it ended when it left no result.
 
-use crate::stages::Progress;
 use std::path::Path;
 use std::process::{Command, Stdio};
-use std::time::{Duration, Instant};
 
 /// One job or array task as the scheduler reports it.
 #[derive(Clone, Debug, PartialEq)]
@@ -126,103 +123,89 @@ impl Default for Queries {
 }
 
 impl Queries {
-    /// The states of job `id`'s tasks, or `None` when no command knows it.
-    pub fn query(&mut self, id: &str) -> Option<Vec<TaskState>> {
+    /// Whether job states come from `sacct` (accounting is on).
+    pub fn accounting(&self) -> bool {
+        self.sacct
+    }
+
+    /// The states of the tasks of every job in `ids`, in one scheduler
+    /// call (`sacct -j a,b,…`, or `squeue --jobs=a,b,…`); `None` when no
+    /// command answered.
+    pub fn query(&mut self, ids: &[String]) -> Option<Vec<TaskState>> {
+        if ids.is_empty() {
+            return Some(Vec::new());
+        }
+        let list = ids.join(",");
         if self.sacct {
             let out = Command::new("sacct")
-                .args(["-X", "-n", "-P", "-o", "JobID,State,ExitCode", "-j", id])
+                .args(["-X", "-n", "-P", "-o", "JobID,State,ExitCode", "-j", &list])
                 .stdin(Stdio::null())
                 .output();
             match out {
                 Ok(o) if o.status.success() => {
                     let states = parse(&String::from_utf8_lossy(&o.stdout));
-                    if !states.is_empty() {
+                    // Accounting lags behind submission: ask squeue for the rest.
+                    if ids.iter().all(|id| states.iter().any(|s| s.job() == id)) {
                         return Some(states);
                     }
+                    let mut rest = self.squeue(&list).unwrap_or_default();
+                    rest.retain(|r| !states.iter().any(|s| s.job() == r.job()));
+                    return Some(states.into_iter().chain(rest).collect());
                 }
                 _ => self.sacct = false,
             }
         }
+        self.squeue(&list)
+    }
+
+    fn squeue(&self, list: &str) -> Option<Vec<TaskState>> {
         let out = Command::new("squeue")
-            .args(["-h", "-t", "all", "-o", "%i|%T", "-j", id])
+            .args(["-h", "-t", "all", "-o", "%i|%T", "--jobs", list])
             .stdin(Stdio::null())
             .output()
             .ok()?;
-        let states = parse(&String::from_utf8_lossy(&out.stdout));
-        (out.status.success() && !states.is_empty()).then_some(states)
+        // squeue fails when no listed job is known any more.
+        Some(if out.status.success() {
+            parse(&String::from_utf8_lossy(&out.stdout))
+        } else {
+            Vec::new()
+        })
     }
 }
 
-/// Back-off between status queries: from 0.2 s up by half each time to `max`.
-pub fn delays(max: Duration) -> impl Iterator<Item = Duration> {
-    std::iter::successors(Some(Duration::from_millis(200)), move |d| {
-        Some(d.mul_f64(1.5).min(max))
-    })
-    .map(move |d| d.min(max))
-}
-
-/// How long a job the scheduler has never shown may stay unknown (sacct
-/// lags behind submission on busy clusters) before it counts as vanished.
-const UNSEEN_GRACE: Duration = Duration::from_secs(120);
-/// How long a completed job's result may take to become visible here
-/// (attribute caching of a network file system).
-const VISIBLE_GRACE: Duration = Duration::from_secs(30);
-
-/// Wait until `ready()` (the job's result is in the cache) or the scheduler
-/// reports every task of job `id` ended without it.
-pub fn wait(
-    id: &str,
-    ready: &dyn Fn() -> bool,
-    poll_max: Duration,
-    progress: &dyn Progress,
-) -> Result<(), Ended> {
-    let start = Instant::now();
-    let mut queries = Queries::default();
-    let mut seen = false;
-    let mut delays = delays(poll_max);
-    loop {
-        if ready() {
-            return Ok(());
-        }
-        match queries.query(id) {
-            Some(states) => {
-                seen = true;
-                if states.iter().all(TaskState::terminal) {
-                    let completed = states.iter().all(|s| s.state == "COMPLETED");
-                    let grace = if completed {
-                        VISIBLE_GRACE
-                    } else {
-                        Duration::ZERO
-                    };
-                    return settle(ready, grace).ok_or(Ended::Terminal(states));
-                }
-                progress.set_message(summary(id, &states));
-            }
-            None if seen || start.elapsed() > UNSEEN_GRACE => {
-                return settle(ready, VISIBLE_GRACE).ok_or(Ended::Vanished);
-            }
-            None => progress.set_message(format!("slurm job {id}: submitted")),
-        }
-        std::thread::sleep(delays.next().unwrap_or(poll_max));
+impl TaskState {
+    /// The job id the line belongs to (`123` of `123_4` or `123_[5-7]`).
+    pub fn job(&self) -> &str {
+        self.id.split('_').next().unwrap_or(&self.id)
     }
-}
 
-/// `Some(())` once `ready()` holds within `grace`.
-fn settle(ready: &dyn Fn() -> bool, grace: Duration) -> Option<()> {
-    let start = Instant::now();
-    loop {
-        if ready() {
-            return Some(());
+    /// Whether the line stands for array task `task`: the task itself, or a
+    /// pending range `123_[0-3,7%2]` holding it.
+    pub fn covers(&self, task: usize) -> bool {
+        if let Some(t) = self.task {
+            return t == task;
         }
-        if start.elapsed() >= grace {
-            return None;
-        }
-        std::thread::sleep(Duration::from_millis(500));
+        let Some(range) = self
+            .id
+            .split_once("_[")
+            .and_then(|(_, r)| r.strip_suffix(']'))
+        else {
+            return false;
+        };
+        let range = range.split('%').next().unwrap_or(range);
+        range.split(',').any(|part| {
+            let mut ends = part.splitn(2, '-').map(|x| x.trim().parse::<usize>());
+            match (ends.next(), ends.next()) {
+                (Some(Ok(a)), None) => a == task,
+                (Some(Ok(a)), Some(Ok(b))) => a <= task && task <= b,
+                _ => false,
+            }
+        })
     }
 }
 
 /// `slurm job 123: 2 RUNNING, 1 PENDING` for the progress line.
-fn summary(id: &str, states: &[TaskState]) -> String {
+pub fn summary(id: &str, states: &[TaskState]) -> String {
     let mut counts: Vec<(String, usize)> = Vec::new();
     for s in states {
         match counts.iter_mut().find(|(k, _)| *k == s.state) {
@@ -259,11 +242,11 @@ mod tests {
     }
 
     #[test]
-    fn back_off_grows_to_its_cap() {
-        let d: Vec<u128> = delays(Duration::from_secs(1))
-            .take(8)
-            .map(|d| d.as_millis())
-            .collect();
-        assert_eq!(d, [200, 300, 450, 675, 1000, 1000, 1000, 1000]);
+    fn lines_belong_to_jobs_and_tasks() {
+        let s = parse("123_4|RUNNING|0:0\n123_[5-7,9%2]|PENDING|0:0\n88|PENDING|0:0\n");
+        assert_eq!((s[0].job(), s[1].job(), s[2].job()), ("123", "123", "88"));
+        assert!(s[0].covers(4) && !s[0].covers(5));
+        assert!(s[1].covers(5) && s[1].covers(7) && s[1].covers(9) && !s[1].covers(8));
+        assert!(!s[2].covers(0));
     }
 }

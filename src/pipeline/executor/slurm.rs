@@ -2,43 +2,68 @@
 //! on the job description in the shared cache (`cache/jobs/<key>/`), as
 //! Snakemake's and Nextflow's Slurm executors do with their job scripts.
 //!
-//! A shardable stage with `shards: m > 1` runs in two steps: a job array of
-//! m tasks, each evaluating one slice of the stage's batch and recording its
-//! partial result (`shards/<m>-<i>.json`), then one merge job that runs the
-//! stage with the partials in place of the evaluations. Shards recorded by
-//! an earlier, interrupted or failed attempt are reused.
+//! - A shardable stage with `shards: m > 1` runs in two steps: a job array
+//!   of m tasks, each evaluating one slice of the stage's batch and
+//!   recording its partial result (`shards/<m>-<i>.json`), then one merge
+//!   job. Shards recorded by an earlier attempt are reused, so a retry or a
+//!   new run resubmits only the missing tasks.
+//! - Matrix expansions of one stage that become ready together with the
+//!   same resources are one job array; stages of a kind with `group: n`
+//!   share jobs of up to n stages ([`batch`](super::batch)).
+//! - Every submission is recorded in the stage's job directory while in
+//!   flight ([`inflight`]); a later run adopts it instead of submitting again.
+//! - A job that ends in TIMEOUT, OUT_OF_MEMORY or a node failure is
+//!   resubmitted up to `retries` times, with `* attempt` resources scaled.
+//! - One status query per poll interval serves every job ([`Monitor`]).
 //!
 //! A job that ends without its result fails the stage with the job id, the
 //! scheduler's state and the tail of its log; the job directory (description,
 //! script, logs) is kept for inspection and removed after a success.
 
-use super::config::{ExecutorSpec, Resolved};
+use super::batch::{Batcher, Member};
+use super::config::ExecutorSpec;
+use super::inflight::{self, Submission};
 use super::interrupt::{self, Live};
 use super::job::{self, Job};
+use super::monitor::{Monitor, Watch};
 use super::queue::{self, Ended, TaskState};
+use super::resources::{Resolved, MAX_SHARDS};
+use super::script::{Body, Script};
 use crate::pipeline::store::{RunRecord, Store};
+use crate::pipeline::trace::JobRow;
 use crate::stages::Progress;
+use std::collections::HashMap;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::time::Instant;
 
 /// Lines of a failed job's log quoted in the error.
 const LOG_TAIL: usize = 15;
+
+/// Scheduler states after which a resubmission may succeed.
+const RETRYABLE: [&str; 5] = [
+    "TIMEOUT",
+    "OUT_OF_MEMORY",
+    "NODE_FAIL",
+    "BOOT_FAIL",
+    "PREEMPTED",
+];
 
 /// The Slurm executor of one run.
 pub struct Slurm {
     spec: ExecutorSpec,
     binary: PathBuf,
-}
-
-/// One submission: its script and how its logs are named.
-struct Submission<'a> {
-    description: &'a Path,
-    script: PathBuf,
-    /// Array task indices, or `None` for a single job.
-    tasks: Option<Vec<usize>>,
+    monitor: Monitor,
+    batcher: Batcher<Submission>,
+    /// Every job a stage waited on, for the trace.
+    jobs: Mutex<Vec<JobRow>>,
+    /// Shared submission directory → its members not yet committed.
+    batches: Mutex<HashMap<PathBuf, usize>>,
 }
 
 impl Slurm {
+    /// `spec.binary` is absolute here (the plan resolved it).
     pub fn new(spec: &ExecutorSpec) -> Result<Slurm, String> {
         let binary = match &spec.binary {
             Some(b) => b.clone(),
@@ -47,9 +72,14 @@ impl Slurm {
             })?,
         };
         interrupt::install();
+        let (first, max) = spec.poll_range();
         Ok(Slurm {
             spec: spec.clone(),
             binary,
+            monitor: Monitor::new(first, max),
+            batcher: Batcher::default(),
+            jobs: Mutex::new(Vec::new()),
+            batches: Mutex::new(HashMap::new()),
         })
     }
 
@@ -57,7 +87,13 @@ impl Slurm {
         &self.spec
     }
 
-    /// Compute the stage as one job, or as a job array plus a merge job.
+    /// The jobs waited on so far (for the trace).
+    pub fn jobs(&self) -> Vec<JobRow> {
+        self.jobs.lock().map(|j| j.clone()).unwrap_or_default()
+    }
+
+    /// Compute the stage as one job (alone, in an array or in a group), or
+    /// as a job array plus a merge job.
     pub fn compute(
         &self,
         store: &Store,
@@ -79,23 +115,9 @@ impl Slurm {
         let sharded = resources.shards > 1 && typed.kind.shardable(&typed.params);
         if sharded {
             job.shards = resources.shards;
-            let description = dir.join("job.json");
-            job.write(store, &description)?;
+            job.write(store, &dir.join("job.json"))?;
+            self.attempts(store, &job, resources, "shards", progress)?;
             let count = job.shards;
-            let missing: Vec<usize> = (0..count)
-                .filter(|&i| job::shard_record(store, &job.key, i, count).is_none())
-                .collect();
-            if !missing.is_empty() {
-                let submission = Submission {
-                    description: &description,
-                    script: dir.join("shards.sh"),
-                    tasks: Some(missing),
-                };
-                let key = job.key.clone();
-                let ready =
-                    || (0..count).all(|i| job::shard_record(store, &key, i, count).is_some());
-                self.run_job(store, &job, resources, &submission, &ready, progress)?;
-            }
             for i in 0..count {
                 let rec = job::shard_record(store, &job.key, i, count)
                     .ok_or_else(|| format!("shard {i} of {count} left no partial result"))?;
@@ -104,22 +126,9 @@ impl Slurm {
             }
         }
         // One job runs the stage: the whole of it, or the merge of the shards.
-        let name = if sharded { "merge" } else { "job" };
-        let description = dir.join(format!("{name}.json"));
-        job.write(store, &description)?;
-        let submission = Submission {
-            description: &description,
-            script: dir.join(format!("{name}.sh")),
-            tasks: None,
-        };
-        self.run_job(
-            store,
-            &job,
-            resources,
-            &submission,
-            &|| finished(store, &job.key),
-            progress,
-        )?;
+        let unit = if sharded { "merge" } else { "job" };
+        job.write(store, &dir.join(format!("{unit}.json")))?;
+        self.attempts(store, &job, resources, unit, progress)?;
         let record = store
             .record(&job.key)
             .ok_or_else(|| format!("the run record of {} vanished from the cache", job.key))?;
@@ -127,86 +136,300 @@ impl Slurm {
         Ok(record)
     }
 
-    /// Write the script, submit it, wait; a failure names the job and quotes its log.
-    fn run_job(
+    /// Submit (or adopt) `unit` of the stage and wait, resubmitting after a
+    /// retryable end while `retries` allow.
+    fn attempts(
         &self,
         store: &Store,
         job: &Job,
-        resources: &Resolved,
-        submission: &Submission,
-        ready: &dyn Fn() -> bool,
+        r: &Resolved,
+        unit: &str,
         progress: &dyn Progress,
     ) -> Result<(), String> {
-        let text = self.script(store, job, resources, submission);
-        std::fs::write(&submission.script, text)
-            .map_err(|e| format!("cannot write {}: {e}", submission.script.display()))?;
-        let id = queue::submit(&submission.script)?;
-        let _live = Live::register(&id);
-        progress.set_message(format!("slurm job {id}: submitted"));
-        match queue::wait(&id, ready, self.spec.poll_max(), progress) {
-            Ok(()) => Ok(()),
-            Err(ended) => Err(failure(&id, submission, &ended, store, job)),
+        let dir = store.job_dir(&job.key);
+        let count = job.shards;
+        let ready = || match unit {
+            "shards" => (0..count).all(|i| job::shard_record(store, &job.key, i, count).is_some()),
+            _ => finished(store, &job.key),
+        };
+        let mut adopt = inflight::read(&dir, unit);
+        let mut attempt = 1;
+        loop {
+            if ready() {
+                inflight::remove(&dir, unit);
+                return Ok(());
+            }
+            let (sub, adopted) = match adopt.take() {
+                Some(s) => {
+                    progress.set_message(format!(
+                        "slurm job {}: adopted (submitted by {})",
+                        s.id, s.by
+                    ));
+                    attempt = s.attempt;
+                    (s, true)
+                }
+                None => {
+                    let s = self.submit(store, job, r, unit, attempt)?;
+                    inflight::write(store, &dir, unit, &s)?;
+                    progress.set_message(format!("slurm job {}: submitted", s.id));
+                    (s, false)
+                }
+            };
+            let start = Instant::now();
+            let live = Live::register(&sub.id);
+            let watch = Watch {
+                id: sub.id.clone(),
+                tasks: sub.tasks.clone(),
+                submitted: sub.submitted_at(),
+            };
+            let result = self.monitor.wait(&watch, &ready, progress);
+            drop(live);
+            inflight::remove(&dir, unit);
+            let (state, exit) = match &result {
+                Ok(()) => ("COMPLETED".to_string(), String::new()),
+                Err(Ended::Vanished) => ("VANISHED".to_string(), String::new()),
+                Err(Ended::Terminal(states)) => {
+                    let bad = states.iter().find(|t| t.state != "COMPLETED");
+                    bad.map_or(("COMPLETED".into(), String::new()), |t| {
+                        (t.state.clone(), t.exit.clone().unwrap_or_default())
+                    })
+                }
+            };
+            self.note(job, unit, &sub, &state, exit, start, adopted);
+            self.batch_done(&sub, result.is_ok());
+            let Err(ended) = result else {
+                return Ok(());
+            };
+            let retry = RETRYABLE.contains(&state.as_str()) && attempt <= r.retries;
+            if retry {
+                attempt += 1;
+                progress.set_message(format!(
+                    "slurm job {} {state}: attempt {attempt} of {}",
+                    sub.id,
+                    r.retries + 1
+                ));
+            } else if !adopted {
+                return Err(failure(&sub, &ended, store, job, attempt));
+            }
+            // An adopted job of an earlier run that ended without its
+            // result is submitted again, as that run would have.
         }
     }
 
-    /// The batch script: resources as `#SBATCH` lines, then `modalflow exec`.
-    fn script(&self, store: &Store, job: &Job, r: &Resolved, s: &Submission) -> String {
+    /// A new submission of `unit` at `attempt`.
+    fn submit(
+        &self,
+        store: &Store,
+        job: &Job,
+        r: &Resolved,
+        unit: &str,
+        attempt: u32,
+    ) -> Result<Submission, String> {
         let dir = store.job_dir(&job.key);
-        let mut t = String::from("#!/bin/sh\n");
-        let name: String = job
-            .stage
-            .chars()
-            .map(|c| {
-                if c.is_ascii_alphanumeric() || "_-.,=[]".contains(c) {
-                    c
-                } else {
-                    '_'
-                }
-            })
-            .collect();
-        let log = match s.tasks {
-            Some(_) => "%A_%a.out",
-            None => "%j.out",
-        };
-        let mut line = |opt: String| {
-            let _ = writeln!(t, "#SBATCH {opt}");
-        };
-        line(format!("--job-name=modalflow:{name}"));
-        line(format!("--chdir={}", dir.display()));
-        line(format!("--output={}", dir.join("log").join(log).display()));
-        line(format!("--cpus-per-task={}", r.cpus));
-        if let Some(tasks) = &s.tasks {
-            line(format!("--array={}", array_spec(tasks)));
+        if unit == "shards" {
+            let count = job.shards;
+            let missing: Vec<usize> = (0..count)
+                .filter(|&i| job::shard_record(store, &job.key, i, count).is_none())
+                .collect();
+            let script = Script {
+                name: &job.stage,
+                dir: &dir,
+                resources: r,
+                attempt,
+                tasks: Some(&missing),
+                binary: &self.binary,
+                cache: store.root(),
+                body: Body::One {
+                    description: &dir.join("job.json"),
+                    shards: true,
+                },
+            };
+            let id = send(&dir.join("shards.sh"), &script.text())?;
+            return Ok(placed(id, Some(missing), attempt, &dir, None));
         }
-        for (opt, value) in [
-            ("partition", &r.partition),
-            ("account", &r.account),
-            ("time", &r.time),
-            ("mem", &r.memory),
-        ] {
-            if let Some(v) = value {
-                line(format!("--{opt}={v}"));
+        let member = Member {
+            stage: job.stage.clone(),
+            key: job.key.clone(),
+            description: dir.join(format!("{unit}.json")),
+        };
+        let base = job.stage.split('[').next().unwrap_or(&job.stage);
+        let batch = if attempt > 1 || unit != "job" {
+            None
+        } else if r.group > 1 {
+            Some(format!(
+                "group|{}|{}",
+                job.material.kind,
+                r.submission_key()
+            ))
+        } else if base != job.stage {
+            Some(format!("array|{base}|{}", r.submission_key()))
+        } else {
+            None
+        };
+        match batch {
+            Some(key) => self.batcher.join(&key, member, &|all| {
+                self.submit_batch(store, all, r, key.starts_with("group"))
+            }),
+            None => self.submit_alone(store, &member, r, attempt),
+        }
+    }
+
+    fn submit_alone(
+        &self,
+        store: &Store,
+        m: &Member,
+        r: &Resolved,
+        attempt: u32,
+    ) -> Result<Submission, String> {
+        let dir = store.job_dir(&m.key);
+        let script = Script {
+            name: &m.stage,
+            dir: &dir,
+            resources: r,
+            attempt,
+            tasks: None,
+            binary: &self.binary,
+            cache: store.root(),
+            body: Body::One {
+                description: &m.description,
+                shards: false,
+            },
+        };
+        let name = m
+            .description
+            .file_stem()
+            .map_or("job".into(), |s| s.to_string_lossy().into_owned());
+        let id = send(&dir.join(format!("{name}.sh")), &script.text())?;
+        Ok(placed(id, None, attempt, &dir, None))
+    }
+
+    /// One array (a task per member) or group jobs (up to `group` members
+    /// each) in a directory of their own.
+    fn submit_batch(
+        &self,
+        store: &Store,
+        members: &[Member],
+        r: &Resolved,
+        group: bool,
+    ) -> Result<Vec<Submission>, String> {
+        if let [one] = members {
+            return Ok(vec![self.submit_alone(store, one, r, 1)?]);
+        }
+        let dir = store.root().join("jobs").join(
+            store
+                .temp_path("batch")
+                .file_name()
+                .map_or_else(|| "batch".into(), |n| n.to_os_string()),
+        );
+        std::fs::create_dir_all(dir.join("log"))
+            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        let keys: Vec<&str> = members.iter().map(|m| m.key.as_str()).collect();
+        std::fs::write(dir.join("members"), keys.join("\n"))
+            .map_err(|e| format!("cannot write {}: {e}", dir.display()))?;
+        let size = if group { r.group } else { MAX_SHARDS };
+        let mut out = Vec::new();
+        for (n, chunk) in members.chunks(size).enumerate() {
+            let descriptions: Vec<PathBuf> = chunk.iter().map(|m| m.description.clone()).collect();
+            let tasks: Vec<usize> = (0..chunk.len()).collect();
+            let names: Vec<&str> = chunk.iter().map(|m| m.stage.as_str()).collect();
+            let name = format!("{} (+{})", names[0], names.len() - 1);
+            let script = Script {
+                name: &name,
+                dir: &dir,
+                resources: r,
+                attempt: 1,
+                tasks: (!group).then_some(tasks.as_slice()),
+                binary: &self.binary,
+                cache: store.root(),
+                body: if group {
+                    Body::Group(&descriptions)
+                } else {
+                    Body::PerTask(&descriptions)
+                },
+            };
+            let id = send(&dir.join(format!("batch-{n}.sh")), &script.text())?;
+            for i in 0..chunk.len() {
+                let tasks = (!group).then(|| vec![i]);
+                out.push(placed(id.clone(), tasks, 1, &dir, Some(dir.clone())));
             }
         }
-        for extra in &r.sbatch {
-            line(extra.clone());
+        if let Ok(mut b) = self.batches.lock() {
+            b.insert(dir, members.len());
         }
-        let _ = writeln!(t, "# modalflow stage {} (key {})", job.stage, job.key);
-        let _ = writeln!(
-            t,
-            "export RAYON_NUM_THREADS=\"${{SLURM_CPUS_PER_TASK:-1}}\""
-        );
-        let mut exec = format!(
-            "exec {} exec --cache {} {}",
-            quote(&self.binary),
-            quote(store.root()),
-            quote(s.description)
-        );
-        if s.tasks.is_some() {
-            exec.push_str(" --shard \"$SLURM_ARRAY_TASK_ID\"");
+        Ok(out)
+    }
+
+    /// A member of a shared submission is done: the directory goes once
+    /// every member committed, and stays (logs) after a failure.
+    fn batch_done(&self, sub: &Submission, ok: bool) {
+        let Some(dir) = &sub.batch else {
+            return;
+        };
+        let Ok(mut batches) = self.batches.lock() else {
+            return;
+        };
+        if !ok {
+            batches.remove(dir);
+        } else if let Some(n) = batches.get_mut(dir) {
+            *n -= 1;
+            if *n == 0 {
+                batches.remove(dir);
+                let _ = std::fs::remove_dir_all(dir);
+            }
         }
-        let _ = writeln!(t, "{exec}");
-        t
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn note(
+        &self,
+        job: &Job,
+        unit: &str,
+        sub: &Submission,
+        state: &str,
+        exit: String,
+        start: Instant,
+        adopted: bool,
+    ) {
+        let row = JobRow {
+            stage: job.stage.clone(),
+            key: job.key.clone(),
+            unit: unit.to_string(),
+            id: sub.id.clone(),
+            tasks: sub.tasks.clone(),
+            attempt: sub.attempt,
+            state: state.to_string(),
+            exit,
+            submitted: sub.submitted,
+            waited: start.elapsed().as_secs_f64(),
+            adopted,
+        };
+        if let Ok(mut jobs) = self.jobs.lock() {
+            jobs.push(row);
+        }
+    }
+}
+
+/// Write `text` to `script` and submit it.
+fn send(script: &Path, text: &str) -> Result<String, String> {
+    std::fs::write(script, text).map_err(|e| format!("cannot write {}: {e}", script.display()))?;
+    queue::submit(script)
+}
+
+fn placed(
+    id: String,
+    tasks: Option<Vec<usize>>,
+    attempt: u32,
+    dir: &Path,
+    batch: Option<PathBuf>,
+) -> Submission {
+    Submission {
+        id,
+        tasks,
+        attempt,
+        log_dir: dir.join("log"),
+        batch,
+        submitted: inflight::now(),
+        by: inflight::by(),
     }
 }
 
@@ -219,44 +442,16 @@ fn finished(store: &Store, key: &str) -> bool {
     })
 }
 
-/// `0-3,5,7-8` from sorted task indices.
-pub fn array_spec(tasks: &[usize]) -> String {
-    let mut parts: Vec<String> = Vec::new();
-    let mut i = 0;
-    while i < tasks.len() {
-        let mut j = i;
-        while j + 1 < tasks.len() && tasks[j + 1] == tasks[j] + 1 {
-            j += 1;
-        }
-        parts.push(if i == j {
-            tasks[i].to_string()
-        } else {
-            format!("{}-{}", tasks[i], tasks[j])
-        });
-        i = j + 1;
-    }
-    parts.join(",")
-}
-
-/// A path as one single-quoted shell word.
-fn quote(p: &Path) -> String {
-    format!("'{}'", p.display().to_string().replace('\'', "'\\''"))
-}
-
 /// The stage's error: which job or task ended how, what to do, its log's tail.
-fn failure(id: &str, s: &Submission, ended: &Ended, store: &Store, job: &Job) -> String {
-    let log_dir = store.job_dir(&job.key).join("log");
+fn failure(s: &Submission, ended: &Ended, store: &Store, job: &Job, attempt: u32) -> String {
+    let id = &s.id;
     let (mut text, log) = match ended {
         Ended::Vanished => (
             format!(
                 "slurm job {id} left the queue without a result in the cache ({})",
                 store.root().display()
             ),
-            log_of(
-                &log_dir,
-                id,
-                s.tasks.as_ref().and_then(|t| t.first().copied()),
-            ),
+            s.log(None),
         ),
         Ended::Terminal(states) => {
             let bad: Vec<&TaskState> = states.iter().filter(|t| t.state != "COMPLETED").collect();
@@ -269,8 +464,11 @@ fn failure(id: &str, s: &Submission, ended: &Ended, store: &Store, job: &Job) ->
                     if bad.len() > 1 {
                         let _ = write!(t, "; {} of {} tasks failed", bad.len(), states.len());
                     }
+                    if attempt > 1 {
+                        let _ = write!(t, " at attempt {attempt}");
+                    }
                     t.push_str(&advice(&first.state, &job.material.kind));
-                    (t, log_of(&log_dir, id, first.task))
+                    (t, s.log(first.task))
                 }
                 None => (
                     format!(
@@ -278,7 +476,7 @@ fn failure(id: &str, s: &Submission, ended: &Ended, store: &Store, job: &Job) ->
                          the cache must be on a file system shared by this machine and the compute nodes",
                         store.root().display()
                     ),
-                    log_of(&log_dir, id, s.tasks.as_ref().and_then(|t| t.first().copied())),
+                    s.log(None),
                 ),
             }
         }
@@ -299,37 +497,18 @@ fn failure(id: &str, s: &Submission, ended: &Ended, store: &Store, job: &Job) ->
     text
 }
 
-fn log_of(dir: &Path, id: &str, task: Option<usize>) -> PathBuf {
-    let base = id.split('_').next().unwrap_or(id);
-    match task {
-        Some(t) => dir.join(format!("{base}_{t}.out")),
-        None => dir.join(format!("{base}.out")),
-    }
-}
-
 fn advice(state: &str, kind: &str) -> String {
     match state {
         "TIMEOUT" => format!(
-            "; raise `time` in the pipeline's executor block (for this kind: `kinds: {{{kind}: {{time: ...}}}}`)"
+            "; raise `time` in the pipeline's executor block (for this kind: `kinds: {{{kind}: {{time: ...}}}}`), \
+             or let it grow with `retries: 1` and `time: \"... * attempt\"`"
         ),
         "OUT_OF_MEMORY" => format!(
-            "; raise `memory` in the pipeline's executor block (for this kind: `kinds: {{{kind}: {{memory: ...}}}}`)"
+            "; raise `memory` in the pipeline's executor block (for this kind: `kinds: {{{kind}: {{memory: ...}}}}`), \
+             or let it grow with `retries: 1` and `memory: 4G * attempt`"
         ),
         "CANCELLED" => "; the job was cancelled (scancel, or by the administrator)".into(),
-        "NODE_FAIL" | "BOOT_FAIL" => "; a node failed: run again to resubmit".into(),
+        "NODE_FAIL" | "BOOT_FAIL" => "; a node failed: run again to resubmit, or set `retries`".into(),
         _ => String::new(),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn array_specs_compress_runs() {
-        assert_eq!(array_spec(&[0, 1, 2, 3]), "0-3");
-        assert_eq!(array_spec(&[1, 3, 4, 5, 9]), "1,3-5,9");
-        assert_eq!(array_spec(&[7]), "7");
-        assert_eq!(quote(Path::new("/a b/it's")), "'/a b/it'\\''s'");
     }
 }

@@ -154,7 +154,7 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
         diags: Vec::new(),
         invalid: BTreeSet::new(),
     };
-    let spec: PipelineSpec = match serde_yaml_ng::from_str(source) {
+    let mut spec: PipelineSpec = match serde_yaml_ng::from_str(source) {
         Ok(s) => s,
         Err(e) => {
             let loc = e.location().map(|l| Location {
@@ -182,6 +182,8 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
     check_executor(&mut cx, &spec.executor);
     let mut nodes = expand(&mut cx, &spec, dir);
     check_shards(&mut cx, &spec.executor, &nodes);
+    check_executor_stages(&mut cx, &spec.executor, &nodes);
+    spec.executor.binary = check_binary(&mut cx, &spec.executor, dir);
     resolve_inputs(&mut cx, &spec, &mut nodes);
     resolve_files(&mut cx, dir, &mut nodes);
     let upstream: Vec<Vec<usize>> = nodes
@@ -287,6 +289,54 @@ fn check_executor(cx: &mut Ctx, spec: &ExecutorSpec) {
     }
 }
 
+/// `executor.stages` names stages of the file (a base name or an expansion).
+fn check_executor_stages(cx: &mut Ctx, spec: &ExecutorSpec, nodes: &[Node]) {
+    for name in spec.stages.keys() {
+        if nodes.iter().any(|n| &n.name == name || &n.base == name) {
+            continue;
+        }
+        let mut bases: Vec<&str> = nodes.iter().map(|n| n.base.as_str()).collect();
+        bases.dedup();
+        let mut help = format!(
+            "`stages` under `executor` are stage names: {}",
+            bases.join(", ")
+        );
+        if let Some(c) = closest(name, bases.iter().copied()) {
+            help = format!("did you mean `{c}`? {help}");
+        }
+        let loc = cx.spans.key(&["executor", "stages", name]);
+        cx.at(loc, format!("executor: no stage `{name}`"), Some(help));
+    }
+}
+
+/// `executor.binary`, resolved against the pipeline file's directory, must
+/// be an executable file (a job would fail with exit 127 otherwise).
+fn check_binary(cx: &mut Ctx, spec: &ExecutorSpec, dir: &Path) -> Option<PathBuf> {
+    let given = spec.binary.as_ref()?;
+    let path = dir.join(given);
+    let executable = std::fs::metadata(&path).is_ok_and(|m| {
+        use std::os::unix::fs::PermissionsExt;
+        m.is_file() && m.permissions().mode() & 0o111 != 0
+    });
+    if !executable {
+        let loc = cx.spans.value(&["executor", "binary"]);
+        cx.at(
+            loc,
+            format!(
+                "executor: `binary: {}` is not an executable file ({})",
+                given.display(),
+                path.display()
+            ),
+            Some(
+                "a relative path starts at the pipeline file's directory; leave `binary` out \
+                 to run this modalflow (its path must be visible on the compute nodes)"
+                    .into(),
+            ),
+        );
+    }
+    Some(path)
+}
+
 fn valid_stage_name(name: &str) -> bool {
     !name.is_empty()
         && name
@@ -386,6 +436,7 @@ fn expand_one(
     kind: &'static dyn Stage,
     combo: Combination,
 ) -> Option<Node> {
+    let name = matrix::expanded_name(base, &combo);
     let params = match matrix::substitute_map(&st.params, &combo, &mut Vec::new()) {
         Ok(p) => p,
         Err(e) => {
@@ -426,7 +477,7 @@ fn expand_one(
         .map(|p| normalize(p))
         .collect();
     Some(Node {
-        name: matrix::expanded_name(base, &combo),
+        name,
         base: base.to_string(),
         kind,
         params,

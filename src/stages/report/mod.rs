@@ -122,9 +122,9 @@ impl Kind for Report {
     const NAME: &'static str = "report";
 
     /// 3: verdicts, unpaired and ambiguous modes, identifiability and
-    /// correlation sections.
+    /// correlation sections. 4: the run trace's path.
     fn version(&self) -> u32 {
-        3
+        4
     }
     fn summary(&self) -> &'static str {
         "an HTML report (self-contained) and a Markdown twin from verdicts, metrics, costs, identifiability, histories and figures"
@@ -178,6 +178,12 @@ impl Kind for Report {
         screening::validations(&mut doc, &bound("validations", false))?;
         tables::tables(&mut doc, &bound("csv", true))?;
         tables::figures(&mut doc, &bound("figures", true))?;
+        // Relative to `results/<name>/<stage>/report/`; the trace itself
+        // changes every run, so only its place enters the cached report.
+        doc.paragraph(
+            "Run trace (stage, job id and array index, node, state, attempts, elapsed and CPU \
+             time, MaxRSS of the last run): ../../trace.csv, or `modalflow show FILE STAGE`.",
+        );
         let dir = ctx.scratch.join("report");
         let fig_dir = dir.join("figures");
         std::fs::create_dir_all(&fig_dir)
