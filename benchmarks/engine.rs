@@ -1,18 +1,23 @@
-//! Engine overhead on a generated 200-stage pipeline (chains and fan-outs of
-//! trivial `command` stages): wall time of a fully cached `run` and of
-//! `status`, end to end through the CLI, next to the floor of starting the
+//! Engine overhead on generated pipelines of 200, 1,000 and 5,000 stages
+//! (groups of 10 trivial `command` stages: a source, a chain of 4, a fan-out
+//! of 4, a join): wall time of `validate`, `status`, a fully cached `run` and
+//! `dag`, end to end through the CLI, next to the floor of starting the
 //! binary at all (`modalflow --version`) measured in the same run.
 //!
-//! Run with `cargo bench --bench engine`. Target: < 100 ms each on 2 cores.
+//! Run with `cargo bench --bench engine [-- SIZES]` (default `200,1000,5000`).
+//! With `MODALFLOW_BEFORE=/path/to/old/modalflow`, the old binary runs the
+//! same commands interleaved with this one (best of n each, the machine is
+//! shared) and each line gets the ratio after/before.
+//! Target: < 100 ms each at 200 stages on 2 cores.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
-/// 200 stages: 20 groups of (1 source, a chain of 4, a fan-out of 4, a join).
-fn pipeline() -> String {
-    let mut y = String::from("name: bench200\nstages:\n");
-    for g in 0..20 {
+/// `groups` × 10 stages: (1 source, a chain of 4, a fan-out of 4, a join).
+fn pipeline(groups: usize) -> String {
+    let mut y = format!("name: bench{}\nstages:\n", groups * 10);
+    for g in 0..groups {
         let stage = |name: &str, deps: &[String], out: &str| -> String {
             let deps_yaml = if deps.is_empty() {
                 String::new()
@@ -45,53 +50,77 @@ fn pipeline() -> String {
     y
 }
 
-fn time(dir: &Path, args: &[&str], reps: usize) -> Duration {
-    let mut best = Duration::MAX;
-    for _ in 0..reps {
-        let t = Instant::now();
-        let out = Command::new(env!("CARGO_BIN_EXE_modalflow"))
-            .args(args)
-            .current_dir(dir)
-            .output()
-            .expect("run modalflow");
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        best = best.min(t.elapsed());
-    }
-    best
+fn time(bin: &Path, dir: &Path, args: &[&str]) -> Duration {
+    let t = Instant::now();
+    let out = Command::new(bin)
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run modalflow");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    t.elapsed()
 }
 
 fn main() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    std::fs::write(dir.path().join("p.yaml"), pipeline()).expect("write pipeline");
-    let t = Instant::now();
-    let cold = time(dir.path(), &["run", "p.yaml", "--progress", "none"], 1);
-    eprintln!(
-        "cold run (200 sh processes): {:.0} ms",
-        cold.as_secs_f64() * 1e3
-    );
-    let _ = t;
-    let reps = 15;
-    let floor = time(dir.path(), &["--version"], reps);
-    let cached = time(dir.path(), &["run", "p.yaml", "--progress", "none"], reps);
-    let status = time(dir.path(), &["status", "p.yaml"], reps);
-    let validate = time(dir.path(), &["validate", "p.yaml"], reps);
+    let sizes: Vec<usize> = std::env::args()
+        .skip(1)
+        .find(|a| !a.starts_with('-'))
+        .map(|a| a.split(',').filter_map(|n| n.parse().ok()).collect())
+        .unwrap_or_else(|| vec![200, 1000, 5000]);
+    let now = PathBuf::from(env!("CARGO_BIN_EXE_modalflow"));
+    let before = std::env::var_os("MODALFLOW_BEFORE").map(PathBuf::from);
+    let bins: Vec<&Path> = std::iter::once(now.as_path())
+        .chain(before.as_deref())
+        .collect();
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
-    println!("engine overhead, 200-stage pipeline (best of {reps}):");
-    println!("  {:<28} {:>8.1} ms", "startup (--version)", ms(floor));
-    for (name, d) in [
-        ("validate", validate),
-        ("status", status),
-        ("run (fully cached)", cached),
-    ] {
-        println!(
-            "  {:<28} {:>8.1} ms  ({:.1}x startup)",
-            name,
-            ms(d),
-            ms(d) / ms(floor)
-        );
+    for stages in sizes {
+        let reps = if stages >= 5000 { 5 } else { 11 };
+        let dirs: Vec<tempfile::TempDir> = bins
+            .iter()
+            .map(|bin| {
+                let dir = tempfile::tempdir().expect("temp dir");
+                std::fs::write(dir.path().join("p.yaml"), pipeline(stages / 10))
+                    .expect("write pipeline");
+                let cold = time(bin, dir.path(), &["run", "p.yaml", "--progress", "none"]);
+                eprintln!(
+                    "{stages} stages, cold run ({}): {:.0} ms",
+                    bin.display(),
+                    ms(cold)
+                );
+                dir
+            })
+            .collect();
+        let commands: [(&str, &[&str]); 5] = [
+            ("startup (--version)", &["--version"]),
+            ("validate", &["validate", "p.yaml"]),
+            ("status", &["status", "p.yaml"]),
+            (
+                "run (fully cached)",
+                &["run", "p.yaml", "--progress", "none"],
+            ),
+            ("dag", &["dag", "p.yaml"]),
+        ];
+        println!("engine overhead, {stages}-stage pipeline (best of {reps}):");
+        for (name, args) in commands {
+            let mut best = vec![Duration::MAX; bins.len()];
+            for _ in 0..reps {
+                for (k, (bin, dir)) in bins.iter().zip(&dirs).enumerate() {
+                    best[k] = best[k].min(time(bin, dir.path(), args));
+                }
+            }
+            let mut line = format!("  {name:<24} {:>9.1} ms", ms(best[0]));
+            if let Some(old) = best.get(1) {
+                line.push_str(&format!(
+                    "   before {:>9.1} ms   after/before {:.2}",
+                    ms(*old),
+                    ms(best[0]) / ms(*old)
+                ));
+            }
+            println!("{line}");
+        }
     }
 }

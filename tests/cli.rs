@@ -168,3 +168,134 @@ mod run_targets {
         assert_eq!(ws.executions("gen"), 0);
     }
 }
+
+mod overrides_identity_completions {
+    use super::*;
+    use util::text;
+
+    const PIPE: &str = "name: same\nstages:\n  a: {kind: command, params: {cmd: \"echo $MODALFLOW_STAGE > a.txt\", outs: [a.txt]}}\n  b: {kind: command, params: {cmd: \"cat a.txt > b.txt\", deps: [a.txt], outs: [b.txt]}}\n";
+
+    #[test]
+    fn set_enters_the_key_the_manifest_and_status() {
+        let ws = Workspace::new();
+        ws.write("p.yaml", PIPE);
+        assert!(ws.run(&[], 0).all("ran"));
+        let edit = "a.cmd=echo edited > a.txt";
+        let out = ws.cmd(&["status", "p.yaml", "--json", "--set", edit]);
+        let s: Value = serde_json::from_slice(&out.stdout).expect("json");
+        let a = &s["stages"][0];
+        assert_eq!(a["status"], "will-run");
+        let reason = a["reason"].as_str().unwrap_or("");
+        assert!(reason.starts_with("param cmd changed"), "{reason}");
+        assert_eq!(s["stages"][1]["reason"], "upstream a will run");
+        let r = ws.run(&["--set", edit], 0);
+        assert_eq!(r.status_of("a"), "ran");
+        assert_eq!(ws.read("a.txt"), "edited\n");
+        let manifest = ws.read("results/same/a/manifest.json");
+        assert!(manifest.contains("echo edited > a.txt"), "{manifest}");
+        // Without the override the file's value is back, and cached; so is
+        // the override's result.
+        assert_eq!(ws.run(&[], 0).status_of("a"), "cached");
+        assert_eq!(ws.read("a.txt"), "a\n");
+        assert_eq!(ws.run(&["--set", edit], 0).status_of("a"), "cached");
+        // A value is YAML; an unknown stage or a bad value is exit 2.
+        let bad = ws.cmd(&["validate", "p.yaml", "--set", "c.cmd=x"]);
+        assert_eq!(bad.status.code(), Some(2));
+        assert!(
+            text(&bad.stderr).contains("--set c.cmd=x: no stage `c`"),
+            "{}",
+            text(&bad.stderr)
+        );
+        let bad = ws.cmd(&["validate", "p.yaml", "--set", "a.outs=7"]);
+        assert_eq!(bad.status.code(), Some(2), "{}", text(&bad.stderr));
+        let ok = ws.cmd(&["validate", "p.yaml", "--set", "b.deps=[a.txt]"]);
+        assert_eq!(ok.status.code(), Some(0), "{}", text(&ok.stderr));
+    }
+
+    #[test]
+    fn two_files_with_one_name_are_refused_and_stale_stages_leave_results() {
+        let ws = Workspace::new();
+        ws.write("p.yaml", PIPE);
+        ws.write("q.yaml", PIPE);
+        assert!(ws.run(&[], 0).all("ran"));
+        let out = ws.cmd(&["run", "q.yaml"]);
+        assert_eq!(out.status.code(), Some(2));
+        let err = text(&out.stderr);
+        assert!(
+            err.contains("pipeline name `same` belongs to") && err.contains("p.yaml"),
+            "{err}"
+        );
+        assert_eq!(ws.cmd(&["status", "q.yaml"]).status.code(), Some(2));
+        // The owner moved away: the other file takes the name over.
+        std::fs::remove_file(ws.path().join("p.yaml")).expect("remove");
+        assert_eq!(ws.cmd(&["run", "q.yaml"]).status.code(), Some(0));
+        // A stage removed from the file leaves results/<name>/ too.
+        ws.write("q.yaml", &PIPE.replace("  b: {kind: command, params: {cmd: \"cat a.txt > b.txt\", deps: [a.txt], outs: [b.txt]}}\n", ""));
+        assert!(ws.path().join("results/same/b/manifest.json").exists());
+        assert_eq!(ws.cmd(&["run", "q.yaml"]).status.code(), Some(0));
+        assert!(!ws.path().join("results/same/b").exists());
+        assert!(ws.path().join("results/same/a/manifest.json").exists());
+        assert!(ws.path().join("results/same/trace.csv").exists());
+    }
+
+    #[test]
+    fn completions_for_three_shells() {
+        let ws = Workspace::new();
+        for (shell, marker) in [
+            ("bash", "complete -F"),
+            ("zsh", "#compdef modalflow"),
+            ("fish", "complete -c modalflow"),
+        ] {
+            let out = ws.cmd(&["completions", shell]);
+            assert_eq!(out.status.code(), Some(0));
+            let script = text(&out.stdout);
+            assert!(script.contains(marker), "{shell}: {script}");
+            assert!(
+                script.contains("set") && script.contains("detach"),
+                "{shell}"
+            );
+        }
+        assert_eq!(ws.cmd(&["completions", "tcsh"]).status.code(), Some(2));
+    }
+
+    #[test]
+    fn progress_lines_beat_for_every_running_stage_with_its_counters() {
+        let ws = Workspace::new();
+        ws.write(
+            "p.yaml",
+            "name: beat\nstages:\n  slow: {kind: command, params: {cmd: \"sleep 2; echo > s.txt\", outs: [s.txt]}}\n  sens: {kind: gsa, params: {model: {builtin: ishigami}, samples: 16384, bootstrap: 1500}}\n",
+        );
+        let out = ws
+            .command(&["run", "p.yaml", "--progress", "lines"])
+            .env("MODALFLOW_HEARTBEAT", "0.3")
+            .output()
+            .expect("run");
+        assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+        let err = text(&out.stderr);
+        let beats = err
+            .lines()
+            .filter(|l| l.starts_with("  running slow ("))
+            .count();
+        assert!(beats >= 3, "{err}");
+        assert!(
+            err.lines()
+                .any(|l| l.starts_with("  running sens (") && l.contains('/')),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn dag_takes_json_like_every_other_command() {
+        let ws = diamond();
+        let out = ws.cmd(&["dag", "p.yaml", "--json"]);
+        assert_eq!(out.status.code(), Some(0));
+        let d: Value = serde_json::from_slice(&out.stdout).expect("json");
+        let names: Vec<&str> = d["stages"]
+            .as_array()
+            .map(|s| s.iter().filter_map(|x| x["name"].as_str()).collect())
+            .unwrap_or_default();
+        assert!(names.contains(&"gen") && names.contains(&"up"), "{d}");
+        let edges = d["edges"].as_array().cloned().unwrap_or_default();
+        assert!(edges.iter().any(|e| e[0] == "gen" && e[1] == "up"), "{d}");
+    }
+}

@@ -176,3 +176,35 @@ fn all_problems_are_reported_at_once() {
     let stderr = util::text(&out.stderr);
     assert!(stderr.contains("2 problems"), "{stderr}");
 }
+
+/// The fenced block of `readme` that starts with `first` (after the fence).
+fn readme_block<'a>(readme: &'a str, first: &str) -> &'a str {
+    let start = readme
+        .find(&format!("\n{first}"))
+        .map(|i| i + 1)
+        .unwrap_or_else(|| panic!("README has no block starting with {first:?}"));
+    let end = readme[start..]
+        .find("\n```")
+        .map_or(readme.len(), |e| start + e);
+    &readme[start..end]
+}
+
+#[test]
+fn the_readme_sample_error_is_what_validate_prints() {
+    let readme = include_str!("../README.md");
+    let file = readme_block(
+        readme,
+        "name: quickstart\nseed: 7\nstages:\n  truth:\n    kind: synthesise",
+    );
+    let expected = readme_block(readme, "modalflow: 4 problems in pipeline file");
+    let ws = Workspace::new();
+    ws.write("pipelines/quickstart.yaml", &format!("{file}\n"));
+    ws.write(
+        "pipelines/models/three_mass.yaml",
+        include_str!("../pipelines/models/three_mass.yaml"),
+    );
+    let out = ws.cmd(&["validate", "pipelines/quickstart.yaml"]);
+    assert_eq!(out.status.code(), Some(2));
+    let printed = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(printed.trim_end(), expected.trim_end());
+}

@@ -37,6 +37,7 @@ enum Command {
     Gc(commands::gc::Args),
     Kinds(commands::kinds::Args),
     Exec(commands::exec::Args),
+    Completions(commands::completions::Args),
 }
 
 impl Command {
@@ -52,7 +53,8 @@ impl Command {
             Command::Verify(a) => a.json,
             Command::Gc(a) => a.json,
             Command::Kinds(a) => a.json,
-            Command::Dag(_) | Command::Exec(_) => false,
+            Command::Dag(a) => a.json,
+            Command::Exec(_) | Command::Completions(_) => false,
         }
     }
 }
@@ -74,6 +76,9 @@ pub fn main() -> ExitCode {
         Command::Gc(a) => commands::gc::exec(a),
         Command::Kinds(a) => commands::kinds::exec(a),
         Command::Exec(a) => commands::exec::exec(a),
+        Command::Completions(a) => {
+            commands::completions::exec(a, &mut <Cli as clap::CommandFactory>::command())
+        }
     };
     modalflow::pipeline::leftovers::retire();
     match result {

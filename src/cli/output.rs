@@ -16,6 +16,17 @@ pub struct Locations {
     pub results: PathBuf,
 }
 
+/// `--set STAGE.PARAM=VALUE`, on every command that plans the file for
+/// running (`run`, `status`, `validate`).
+#[derive(clap::Args, Clone, Debug, Default)]
+pub struct Overrides {
+    /// Override a param for this invocation (repeatable; the value is YAML,
+    /// the param may be a dotted path, the stage a base name or one
+    /// expansion); it enters the key like an edit of the file.
+    #[arg(long = "set", value_name = "STAGE.PARAM=VALUE")]
+    pub set: Vec<String>,
+}
+
 /// Print one JSON object on stdout.
 pub fn print_json<T: serde::Serialize>(value: &T) -> anyhow::Result<()> {
     let mut out = std::io::stdout().lock();

@@ -6,7 +6,7 @@ use super::key::{param_changes, KeyMaterial};
 use super::store::{Store, StoreError};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// One stage's entry in the last-run record.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -22,7 +22,20 @@ pub struct StageProvenance {
 #[derive(Clone, Debug, Default, Serialize, Deserialize)]
 pub struct LastRun {
     pub pipeline: String,
+    /// The pipeline file (absolute) whose runs this records: a pipeline is
+    /// its `name:` in one cache, so a second file with that name is refused.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub file: Option<PathBuf>,
     pub stages: BTreeMap<String, StageProvenance>,
+}
+
+impl LastRun {
+    /// The other pipeline file that owns this name, if `file` is not the
+    /// owner and the owner still exists (a moved or renamed file takes over).
+    pub fn owned_by_another(&self, file: &Path) -> Option<&Path> {
+        let owner = self.file.as_deref()?;
+        (owner != file && owner.exists()).then_some(owner)
+    }
 }
 
 fn path(store: &Store, pipeline: &str) -> PathBuf {
@@ -39,6 +52,7 @@ pub fn load(store: &Store, pipeline: &str) -> LastRun {
         .and_then(|b| serde_json::from_slice(&b).ok())
         .unwrap_or_else(|| LastRun {
             pipeline: pipeline.to_string(),
+            file: None,
             stages: BTreeMap::new(),
         })
 }
@@ -61,11 +75,13 @@ pub fn load_all(store: &Store) -> Vec<LastRun> {
 pub fn update(
     store: &Store,
     pipeline: &str,
+    file: &Path,
     updates: Vec<(String, StageProvenance)>,
     keep: &[&str],
 ) -> Result<(), StoreError> {
     let _guard = store.lock_key(&format!("pipeline-{pipeline}"))?;
     let mut last = load(store, pipeline);
+    last.file = Some(file.to_path_buf());
     last.stages.retain(|name, _| keep.contains(&name.as_str()));
     last.stages.extend(updates);
     let json = serde_json::to_vec_pretty(&last).unwrap_or_default();

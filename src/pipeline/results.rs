@@ -173,3 +173,19 @@ pub fn drift(dir: &Path, manifest: &Manifest) -> Vec<Drift> {
 pub fn read_manifest(dir: &Path) -> Option<Manifest> {
     serde_json::from_slice(&fs::read(dir.join("manifest.json")).ok()?).ok()
 }
+
+/// Remove the folders of stages no longer in the file from the pipeline's
+/// results directory `results`: directories holding a `manifest.json`
+/// whose name is not in `stages` (nothing else there is touched).
+pub fn remove_stale(results: &Path, stages: &[&str]) {
+    let Ok(dir) = std::fs::read_dir(results) else {
+        return;
+    };
+    for entry in dir.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let path = entry.path();
+        if !stages.contains(&name.as_str()) && path.join("manifest.json").is_file() {
+            let _ = std::fs::remove_dir_all(&path);
+        }
+    }
+}

@@ -61,6 +61,19 @@ pub enum RunError {
     UnknownTarget { name: String, known: String },
     #[error("executor: {0}")]
     Executor(String),
+    /// Another pipeline file of this cache has the same `name:`.
+    #[error(
+        "pipeline name `{name}` belongs to {} in this cache, not to {}: their results \
+         (results/{name}/) and last-run records would overwrite each other and `gc` would drop \
+         the other's objects\n  = help: give this file another `name:`, or run it with its own \
+         --cache and --results",
+        owner.display(), file.display()
+    )]
+    NameTaken {
+        name: String,
+        owner: PathBuf,
+        file: PathBuf,
+    },
     /// A stage's own writes failed for lack of storage.
     #[error("stage {stage}: {message}")]
     Storage { stage: String, message: String },
@@ -83,7 +96,9 @@ impl RunError {
     pub fn is_usage(&self) -> bool {
         matches!(
             self,
-            RunError::UnknownForce { .. } | RunError::UnknownTarget { .. }
+            RunError::UnknownForce { .. }
+                | RunError::UnknownTarget { .. }
+                | RunError::NameTaken { .. }
         )
     }
 }
@@ -95,6 +110,13 @@ fn engine<'a>(
 ) -> Result<Engine<'a>, RunError> {
     let store = Store::open(&opts.cache)?;
     let last = provenance::load(&store, &plan.name);
+    if let Some(owner) = last.owned_by_another(&plan.path()) {
+        return Err(RunError::NameTaken {
+            name: plan.name.clone(),
+            owner: owner.to_path_buf(),
+            file: plan.path(),
+        });
+    }
     let mut forced = vec![false; plan.nodes.len()];
     for f in &opts.force {
         let mut hit = false;
@@ -286,7 +308,10 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     }
     let keep: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
     if !engine.store.read_only() {
-        let saved = provenance::update(&engine.store, &plan.name, updates, &keep);
+        let saved = provenance::update(&engine.store, &plan.name, &plan.path(), updates, &keep);
+        if opts.targets.is_empty() && fatal.is_none() {
+            super::results::remove_stale(&engine.results, &keep);
+        }
         // The first failure is the one to report; a full disk fails this too.
         if fatal.is_none() {
             saved?;

@@ -1,6 +1,7 @@
 //! One module per subcommand.
 
 pub mod compare;
+pub mod completions;
 pub mod dag;
 pub mod exec;
 pub mod gc;

@@ -47,6 +47,8 @@ pub struct Args {
     executor: Option<Executor>,
     #[command(flatten)]
     locations: Locations,
+    #[command(flatten)]
+    overrides: crate::cli::output::Overrides,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -102,7 +104,7 @@ fn heartbeat() -> std::time::Duration {
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
-    let plan = plan::load(&args.file)?;
+    let plan = plan::load_with(&args.file, &args.overrides.set)?;
     if args.detach {
         return detach(&args, &plan.name);
     }

@@ -18,10 +18,12 @@ pub struct Args {
     pub json: bool,
     #[command(flatten)]
     locations: Locations,
+    #[command(flatten)]
+    overrides: crate::cli::output::Overrides,
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
-    let plan = plan::load(&args.file)?;
+    let plan = plan::load_with(&args.file, &args.overrides.set)?;
     let opts = super::run::options(
         &args.locations,
         Some(1),

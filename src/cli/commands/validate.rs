@@ -16,10 +16,12 @@ pub struct Args {
     /// works for `validate`, `status` and `run`; validation reads no cache.
     #[command(flatten)]
     _locations: Locations,
+    #[command(flatten)]
+    overrides: crate::cli::output::Overrides,
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
-    let plan = plan::load(&args.file)?;
+    let plan = plan::load_with(&args.file, &args.overrides.set)?;
     let edges: usize = plan.upstream.iter().map(Vec::len).sum();
     if args.json {
         print_json(&serde_json::json!({

@@ -6,11 +6,13 @@
 mod files;
 mod inputs;
 mod params;
+mod set;
 
 pub use files::normalize;
 use files::resolve_files;
 use inputs::resolve_inputs;
 use params::parse_params;
+pub use set::Override;
 
 use super::diagnostic::{closest, Diagnostic, Diagnostics, Location};
 use super::executor::ExecutorSpec;
@@ -38,6 +40,16 @@ pub struct Plan {
     pub order: Vec<usize>,
     /// The `executor:` block (defaults when absent).
     pub executor: ExecutorSpec,
+}
+
+impl Plan {
+    /// The pipeline file's absolute path (its identity in a cache).
+    pub fn path(&self) -> PathBuf {
+        match self.file.file_name() {
+            Some(name) => self.dir.join(name),
+            None => self.file.clone(),
+        }
+    }
 }
 
 /// One expanded stage.
@@ -110,6 +122,8 @@ pub(super) struct Ctx<'a> {
     /// Stage entries that made no nodes (unknown kind, bad matrix, bad
     /// matrix reference): references to them are not reported again.
     pub(super) invalid: BTreeSet<String>,
+    /// `--set` overrides and whether each applied to a stage.
+    pub(super) sets: Vec<(Override, bool)>,
 }
 
 impl Ctx<'_> {
@@ -128,6 +142,12 @@ impl Ctx<'_> {
 
 /// Read, parse and validate a pipeline file.
 pub fn load(file: &Path) -> Result<Plan, PlanError> {
+    load_with(file, &[])
+}
+
+/// Read, parse and validate a pipeline file with `--set` overrides
+/// (`STAGE.PARAM=VALUE`, see [`Override`]).
+pub fn load_with(file: &Path, sets: &[String]) -> Result<Plan, PlanError> {
     let source = std::fs::read_to_string(file).map_err(|source| PlanError::Read {
         path: file.to_path_buf(),
         source,
@@ -142,18 +162,29 @@ pub fn load(file: &Path) -> Result<Plan, PlanError> {
         path: parent.clone(),
         source,
     })?;
-    plan_source(file, &dir, &source)
+    plan_sets(file, &dir, &source, sets)
 }
 
 /// Validate `source` as the pipeline file `file` located in `dir`.
 pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanError> {
+    plan_sets(file, dir, source, &[])
+}
+
+fn plan_sets(file: &Path, dir: &Path, source: &str, sets: &[String]) -> Result<Plan, PlanError> {
     let mut cx = Ctx {
         file,
         source,
         spans: SpanIndex::default(),
         diags: Vec::new(),
         invalid: BTreeSet::new(),
+        sets: Vec::new(),
     };
+    for text in sets {
+        match Override::parse(text) {
+            Ok(o) => cx.sets.push((o, false)),
+            Err(e) => cx.at(None, e, None),
+        }
+    }
     let mut spec: PipelineSpec = match serde_yaml_ng::from_str(source) {
         Ok(s) => s,
         Err(e) => {
@@ -181,6 +212,7 @@ pub fn plan_source(file: &Path, dir: &Path, source: &str) -> Result<Plan, PlanEr
     }
     check_executor(&mut cx, &spec.executor);
     let mut nodes = expand(&mut cx, &spec, dir);
+    check_sets(&mut cx, &nodes);
     check_shards(&mut cx, &spec.executor, &nodes);
     check_executor_stages(&mut cx, &spec.executor, &nodes);
     spec.executor.binary = check_binary(&mut cx, &spec.executor, dir);
@@ -290,6 +322,29 @@ fn check_executor(cx: &mut Ctx, spec: &ExecutorSpec) {
 }
 
 /// `executor.stages` names stages of the file (a base name or an expansion).
+/// Every `--set` must name a stage of the file.
+fn check_sets(cx: &mut Ctx, nodes: &[Node]) {
+    let unused: Vec<Override> = cx
+        .sets
+        .iter()
+        .filter(|(o, used)| !used && !cx.invalid.contains(&o.stage))
+        .map(|(o, _)| o.clone())
+        .collect();
+    for o in unused {
+        let mut bases: Vec<&str> = nodes.iter().map(|n| n.base.as_str()).collect();
+        bases.dedup();
+        let mut help = format!("stages: {}", bases.join(", "));
+        if let Some(c) = closest(&o.stage, bases.iter().copied()) {
+            help = format!("did you mean `{c}`? {help}");
+        }
+        cx.at(
+            None,
+            format!("--set {}: no stage `{}` in this file", o.text, o.stage),
+            Some(help),
+        );
+    }
+}
+
 fn check_executor_stages(cx: &mut Ctx, spec: &ExecutorSpec, nodes: &[Node]) {
     for name in spec.stages.keys() {
         if nodes.iter().any(|n| &n.name == name || &n.base == name) {
@@ -438,7 +493,15 @@ fn expand_one(
 ) -> Option<Node> {
     let name = matrix::expanded_name(base, &combo);
     let params = match matrix::substitute_map(&st.params, &combo, &mut Vec::new()) {
-        Ok(p) => p,
+        Ok(mut p) => {
+            for (o, used) in cx.sets.iter_mut() {
+                if o.applies(base, &name) {
+                    o.apply(&mut p);
+                    *used = true;
+                }
+            }
+            p
+        }
         Err(e) => {
             let mut path = vec!["stages", base, "params"];
             path.extend(e.path.iter().map(String::as_str));
