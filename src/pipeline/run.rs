@@ -318,7 +318,10 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
         }
     }
     let mut report = in_plan_order(plan, reports);
-    report.trace = write_trace(&engine, &report, started, &mut reporter_lines);
+    // After a storage failure the error says it once; no trace is tried.
+    if fatal.is_none() {
+        report.trace = write_trace(&engine, &report, started, &mut reporter_lines);
+    }
     for l in reporter_lines {
         eprintln!("{l}");
     }

@@ -89,7 +89,9 @@ pub fn check_pipeline(
                 .flatten()
                 .filter(|e| e.path().is_dir())
                 .map(|e| e.file_name().to_string_lossy().into_owned())
-                .filter(|n| !n.starts_with('.'))
+                // Stage names have no dots: `.x.staging-…` folders of a
+                // run and `trace.d/` are not stages.
+                .filter(|n| !n.contains('.'))
                 .collect();
             names.sort();
             names
