@@ -343,16 +343,7 @@ fn write_trace(
     ids.sort();
     ids.dedup();
     let acct = super::trace::accounting(&ids);
-    let kind_of = |name: &str| {
-        engine
-            .plan
-            .nodes
-            .iter()
-            .find(|n| n.name == name)
-            .map(|n| n.kind.kind())
-            .unwrap_or_default()
-    };
-    let local = |name: &str| engine.executor.is_local(kind_of(name), name);
+    let local = |kind: &str, name: &str| engine.executor.is_local(kind, name);
     let rows = super::trace::rows(&report.stages, &jobs, &acct, &local);
     match super::trace::write(&engine.results, &rows, started) {
         Ok(p) => Some(p),

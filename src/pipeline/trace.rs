@@ -167,8 +167,12 @@ pub fn rows(
     reports: &[StageReport],
     jobs: &[JobRow],
     acct: &HashMap<String, Accounting>,
-    local: &dyn Fn(&str) -> bool,
+    local: &dyn Fn(&str, &str) -> bool,
 ) -> Vec<TraceRow> {
+    let mut by_stage: HashMap<&str, Vec<&JobRow>> = HashMap::new();
+    for j in jobs {
+        by_stage.entry(j.stage.as_str()).or_default().push(j);
+    }
     let mut out = Vec::new();
     for r in reports {
         let base = TraceRow {
@@ -177,11 +181,11 @@ pub fn rows(
             status: status(r.status).into(),
             ..TraceRow::default()
         };
-        let mine: Vec<&JobRow> = jobs.iter().filter(|j| j.stage == r.name).collect();
+        let mine = by_stage.get(r.name.as_str()).cloned().unwrap_or_default();
         if mine.is_empty() {
             let computed = matches!(r.status, Status::Ran | Status::Failed) && r.key.is_some();
             out.push(TraceRow {
-                executor: if computed && local(&r.name) {
+                executor: if computed && local(&r.kind, &r.name) {
                     "local".into()
                 } else {
                     String::new()
@@ -286,13 +290,19 @@ pub fn write(results: &Path, rows: &[TraceRow], stamp: u64) -> std::io::Result<P
     let csv = csv
         .into_inner()
         .map_err(|e| std::io::Error::other(e.to_string()))?;
-    let json = serde_json::to_vec_pretty(rows).map_err(std::io::Error::other)?;
+    // Compact JSON: a 5,000-stage run's trace is written on every run.
+    let json = serde_json::to_vec(rows).map_err(std::io::Error::other)?;
     let history = results.join("trace.d");
     std::fs::create_dir_all(&history)?;
     let name = format!("{}-{}", utc(stamp).replace(':', ""), std::process::id());
-    for (dir, stem) in [(history.as_path(), name.as_str()), (results, "trace")] {
-        put(&dir.join(format!("{stem}.csv")), &csv)?;
-        put(&dir.join(format!("{stem}.json")), &json)?;
+    for (ext, data) in [("csv", &csv), ("json", &json)] {
+        let latest = results.join(format!("trace.{ext}"));
+        put(&latest, data)?;
+        // The run's own copy shares the bytes (a copy where links fail).
+        let own = history.join(format!("{name}.{ext}"));
+        if std::fs::hard_link(&latest, &own).is_err() {
+            put(&own, data)?;
+        }
     }
     prune(&history);
     Ok(results.join("trace.csv"))
