@@ -7,7 +7,10 @@
 //! with several files (a glob), one position per file in sorted order,
 //! labelled by the file name — the usual layout of one measurement run per
 //! axis position. Measured coherences (UFF function type 6) are kept with
-//! their FRFs.
+//! their FRFs. UFF units (the axes' labels, dataset 164) are converted to SI
+//! and each conversion is listed under `units` in import.json (a file in g/N
+//! becomes m/s²/N, × 9.80665); an unknown unit is an error naming the file
+//! and the record.
 
 use super::{
     Artifact, FileRef, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
@@ -127,8 +130,9 @@ impl Kind for Import {
     type Params = Params;
     const NAME: &'static str = "import";
 
+    /// 2: UFF units converted to SI, `units` and `quantity` in import.json.
     fn version(&self) -> u32 {
-        1
+        2
     }
 
     fn summary(&self) -> &'static str {
@@ -174,10 +178,11 @@ impl Kind for Import {
         ctx.progress.set_length(files.len() as u64);
         let mut sets: Vec<FrfSet> = Vec::new();
         let mut warnings = Vec::new();
+        let mut units = Vec::new();
         for (k, (rel, path)) in files.iter().enumerate() {
             let format = params.format.unwrap_or_else(|| by_extension(path));
             let split = mode != Positions::Single;
-            let mut file_sets = read_one(path, rel, format, split, &mut warnings)?;
+            let mut file_sets = read_one(path, rel, format, split, &mut warnings, &mut units)?;
             if per_file {
                 for s in &mut file_sets {
                     s.position = Position {
@@ -207,6 +212,8 @@ impl Kind for Import {
                 "band_hz": [s.frequencies_hz.first(), s.frequencies_hz.last()],
                 "coherence": s.channels.iter().any(|c| c.coherence.is_some()),
             })).collect::<Vec<_>>(),
+            "quantity": sets.first().map(|s| s.quantity.name()),
+            "units": units,
             "warnings": warnings,
         });
         let summary_path = ctx.scratch.join("import.json");
@@ -243,6 +250,7 @@ fn read_one(
     format: Format,
     split: bool,
     warnings: &mut Vec<String>,
+    units: &mut Vec<String>,
 ) -> Result<Vec<FrfSet>, StageError> {
     let bytes = std::fs::read(path).map_err(|e| StageError::io(format!("cannot read {rel}"), e))?;
     let invalid = |e: io::IoError| StageError::InvalidInput {
@@ -263,6 +271,7 @@ fn read_one(
     )
     .map_err(invalid)?;
     warnings.extend(imported.warnings.iter().map(|w| format!("{rel}: {w}")));
+    units.extend(imported.notes.iter().map(|n| format!("{rel}: {n}")));
     Ok(imported.sets)
 }
 

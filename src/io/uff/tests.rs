@@ -271,14 +271,14 @@ fn wrong_binary_length_is_reported_with_offset() {
 #[test]
 fn unknown_datasets_warn_once_per_number() {
     let text =
-        "    -1\n   164\nunits\n    -1\n    -1\n  2412\n 1\n    -1\n    -1\n   164\nmore\n    -1\n";
+        "    -1\n  1858\nunits\n    -1\n    -1\n  2412\n 1\n    -1\n    -1\n  1858\nmore\n    -1\n";
     let f = read_uff(text.as_bytes(), "mixed.uff").unwrap();
     assert!(f.blocks.is_empty());
     assert_eq!(
         f.warnings,
         vec![
             UffWarning::SkippedDatasets {
-                dataset: 164,
+                dataset: 1858,
                 count: 2,
                 first: crate::io::Place::Line(1)
             },
