@@ -18,7 +18,7 @@ impl Source {
     pub fn at(&self, position: u32) -> Option<Geometry> {
         match self {
             Source::Model(spec) => Some(Geometry::from_model_file(spec, position as usize)),
-            Source::Fixed(g) => Some(g.clone()),
+            Source::Fixed(g) => (!g.nodes.is_empty()).then(|| g.clone()),
         }
     }
 }
