@@ -226,7 +226,7 @@ mod tests {
         assert!(out.starts_with("# updated by a test\n# my bench\n"), "{out}");
         assert!(out.contains(&format!("value: {third:e}, lower: 5.0e5")), "{out}");
         assert!(out.contains("    value: 3.85e1   # N·s/m\n"), "{out}");
-        assert!(out.contains("  # k1.k_x: initial 2e6, identified 666667 (-66.67 %); standard error 1.2 %"), "{out}");
+        assert!(out.contains("  # k1.k_x: initial 2e6, identified 6.66667e5 (-66.67 %); standard error 1.2 %"), "{out}");
         assert!(out.contains("  # c1: initial 40, identified 38.5 (-3.75 %)"), "{out}");
         // The written value reads back as the same double.
         let v: serde_yaml_ng::Value = serde_yaml_ng::from_str(&out).unwrap();

@@ -185,7 +185,16 @@ impl Overlay {
         let k = self.channels;
         self.channels += 1;
         let curve = |h: &[Complex64], g: fn(&Complex64) -> f64| -> Vec<(f64, f64)> {
-            f.iter().zip(h).map(|(f, h)| (*f, g(h))).collect()
+            let mut out: Vec<(f64, f64)> = Vec::with_capacity(h.len());
+            for (f, h) in f.iter().zip(h) {
+                let v = g(h);
+                // A phase wrap (a jump over 180°) breaks the line.
+                if out.last().is_some_and(|&(_, u)| (v - u).abs() > 180.0) {
+                    out.push((*f, f64::NAN));
+                }
+                out.push((*f, v));
+            }
+            out
         };
         let mag = |h: &Complex64| h.norm();
         let deg = |h: &Complex64| h.arg().to_degrees();
