@@ -210,17 +210,25 @@ mod tests {
         let (acc, dropped) = convert_quantity(&set, FrfQuantity::Accelerance);
         assert_eq!(dropped, 0);
         let w = 2.0 * std::f64::consts::PI * 10.0;
-        assert_eq!(acc.channels[0].values[1], set.channels[0].values[1] * (-w * w));
+        assert_eq!(
+            acc.channels[0].values[1],
+            set.channels[0].values[1] * (-w * w)
+        );
         assert_eq!(acc.channels[0].values[0], Complex64::new(0.0, 0.0) * 1e-6);
         let (back, dropped) = convert_quantity(&acc, FrfQuantity::Receptance);
         assert_eq!(dropped, 1, "0 Hz cannot be divided by jω");
         assert_eq!(back.frequencies_hz, vec![10.0, 25.0]);
-        for (a, b) in back.channels[0].values.iter().zip(&set.channels[0].values[1..]) {
+        for (a, b) in back.channels[0]
+            .values
+            .iter()
+            .zip(&set.channels[0].values[1..])
+        {
             assert!((a - b).norm() <= 1e-15 * b.norm());
         }
         assert_eq!(back.channels[0].coherence, Some(vec![0.9, 0.8]));
         let (mob, _) = convert_quantity(&set, FrfQuantity::Mobility);
-        let expect = set.channels[0].values[2] * Complex64::new(0.0, 2.0 * std::f64::consts::PI * 25.0);
+        let expect =
+            set.channels[0].values[2] * Complex64::new(0.0, 2.0 * std::f64::consts::PI * 25.0);
         assert_eq!(mob.channels[0].values[2], expect);
         assert_eq!(FrfQuantity::Mobility.si_unit(), "m/s/N");
     }

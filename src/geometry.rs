@@ -70,7 +70,8 @@ impl Geometry {
         let at = |id: u32| nodes.iter().find(|n| n.id == id).map(|n| n.xyz);
         for j in &spec.joints {
             let Some(b) = &j.b else { continue };
-            let (Some(na), Some(nb)) = (by_body.get(j.a.body.as_str()), by_body.get(b.body.as_str()))
+            let (Some(na), Some(nb)) =
+                (by_body.get(j.a.body.as_str()), by_body.get(b.body.as_str()))
             else {
                 continue;
             };
@@ -100,7 +101,12 @@ impl Geometry {
         let coordinates = file.node_coordinates();
         let nodes: Vec<Node> = coordinates
             .iter()
-            .filter_map(|(&id, &xyz)| Some(Node { id: u32::try_from(id).ok()?, xyz }))
+            .filter_map(|(&id, &xyz)| {
+                Some(Node {
+                    id: u32::try_from(id).ok()?,
+                    xyz,
+                })
+            })
             .collect();
         if nodes.is_empty() {
             return None;
@@ -179,9 +185,22 @@ mod tests {
         .unwrap();
         let spec = crate::dynamics::model_file::parse(&text, "bench.yaml").unwrap();
         let ax = &spec.axes[0];
-        let (g0, g1) = (Geometry::from_model_file(&spec, 0), Geometry::from_model_file(&spec, 1));
-        let moving = spec.sensors.iter().find(|s| s.body == ax.body).unwrap().node;
-        let fixed = spec.sensors.iter().find(|s| s.body != ax.body).unwrap().node;
+        let (g0, g1) = (
+            Geometry::from_model_file(&spec, 0),
+            Geometry::from_model_file(&spec, 1),
+        );
+        let moving = spec
+            .sensors
+            .iter()
+            .find(|s| s.body == ax.body)
+            .unwrap()
+            .node;
+        let fixed = spec
+            .sensors
+            .iter()
+            .find(|s| s.body != ax.body)
+            .unwrap()
+            .node;
         let (a, b) = (g0.coordinates()[&moving], g1.coordinates()[&moving]);
         let travel = dist(a, b);
         assert!((travel - (ax.positions[1] - ax.positions[0]).abs()).abs() < 1e-12);

@@ -331,14 +331,21 @@ stages:
     }
     assert_eq!(mixed["frf"]["quantity"], "receptance");
     let note = mixed["frf"]["conversions"][0].as_str().unwrap();
-    assert!(note.contains("accelerance converted to receptance by (jω)^-2"), "{note}");
+    assert!(
+        note.contains("accelerance converted to receptance by (jω)^-2"),
+        "{note}"
+    );
     assert!(same["frf"]["conversions"].as_array().unwrap().is_empty());
     let plots = ws.path().join("results/ev/mixed/plots");
     let shapes = std::fs::read_to_string(plots.join("shapes_0.svg")).unwrap();
     assert_eq!(shapes.matches(">MAC ").count(), 3, "one row per pair");
     let frf = std::fs::read_to_string(plots.join("frf_0.svg")).unwrap();
     assert!(frf.contains("|H| [m/N]") && frf.contains("phase [°]"));
-    for svg in [&shapes, &frf, &std::fs::read_to_string(plots.join("mac_0.svg")).unwrap()] {
+    for svg in [
+        &shapes,
+        &frf,
+        &std::fs::read_to_string(plots.join("mac_0.svg")).unwrap(),
+    ] {
         let problems = modalflow::report::lint::check(svg);
         assert!(problems.is_empty(), "{problems:?}");
     }

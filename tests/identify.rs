@@ -296,9 +296,18 @@ fn the_updated_model_file_reproduces_the_updated_modes() {
     ws.run(&[], 0);
     let dir = "results/um/fit/updated_model";
     let yaml = ws.read(&format!("{dir}/model.yaml"));
-    assert!(yaml.starts_with("# Updated model: three_mass.yaml"), "{yaml}");
-    assert!(yaml.contains("# k1.k_x: initial 2e6, identified "), "{yaml}");
-    assert!(yaml.contains("lower: 5.0e5, upper: 8.0e6"), "bounds unchanged: {yaml}");
+    assert!(
+        yaml.starts_with("# Updated model: three_mass.yaml"),
+        "{yaml}"
+    );
+    assert!(
+        yaml.contains("# k1.k_x: initial 2e6, identified "),
+        "{yaml}"
+    );
+    assert!(
+        yaml.contains("lower: 5.0e5, upper: 8.0e6"),
+        "bounds unchanged: {yaml}"
+    );
     let changes = ws.read(&format!("{dir}/changes.csv"));
     assert!(changes.starts_with("parameter,kind,initial,identified,change,"));
     assert_eq!(changes.lines().count(), 1 + 8);

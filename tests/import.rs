@@ -238,7 +238,10 @@ fn uff_in_g_per_newton_imports_in_si_with_a_note() {
     let summary: serde_json::Value =
         serde_json::from_str(&ws.read("results/imp/g/import.json")).unwrap();
     let note = summary["units"][0].as_str().unwrap();
-    assert!(note.contains("g.uff") && note.contains("g/N") && note.contains("9.80665"), "{note}");
+    assert!(
+        note.contains("g.uff") && note.contains("g/N") && note.contains("9.80665"),
+        "{note}"
+    );
     assert_eq!(summary["quantity"], "accelerance");
 
     ws.write(
@@ -248,5 +251,8 @@ fn uff_in_g_per_newton_imports_in_si_with_a_note() {
     let out = ws.cmd(&["run", "p.yaml"]);
     assert_ne!(out.status.code(), Some(0));
     let err = util::text(&out.stderr);
-    assert!(err.contains("bad.uff") && err.contains("record 9") && err.contains("furlong"), "{err}");
+    assert!(
+        err.contains("bad.uff") && err.contains("record 9") && err.contains("furlong"),
+        "{err}"
+    );
 }

@@ -37,7 +37,10 @@ impl ParameterUpdate {
     pub fn comment(&self) -> String {
         let sig = |v: f64| crate::report::format::sig(v, 6);
         let change = if self.initial != 0.0 {
-            format!(" ({:+.2} %)", 100.0 * (self.identified / self.initial - 1.0))
+            format!(
+                " ({:+.2} %)",
+                100.0 * (self.identified / self.initial - 1.0)
+            )
         } else {
             String::new()
         };
@@ -223,17 +226,35 @@ mod tests {
             &["updated by a test".into()],
         )
         .unwrap();
-        assert!(out.starts_with("# updated by a test\n# my bench\n"), "{out}");
-        assert!(out.contains(&format!("value: {third:e}, lower: 5.0e5")), "{out}");
+        assert!(
+            out.starts_with("# updated by a test\n# my bench\n"),
+            "{out}"
+        );
+        assert!(
+            out.contains(&format!("value: {third:e}, lower: 5.0e5")),
+            "{out}"
+        );
         assert!(out.contains("    value: 3.85e1   # N·s/m\n"), "{out}");
-        assert!(out.contains("  # k1.k_x: initial 2e6, identified 6.66667e5 (-66.67 %); standard error 1.2 %"), "{out}");
-        assert!(out.contains("  # c1: initial 40, identified 38.5 (-3.75 %)"), "{out}");
+        assert!(
+            out.contains(
+                "  # k1.k_x: initial 2e6, identified 6.66667e5 (-66.67 %); standard error 1.2 %"
+            ),
+            "{out}"
+        );
+        assert!(
+            out.contains("  # c1: initial 40, identified 38.5 (-3.75 %)"),
+            "{out}"
+        );
         // The written value reads back as the same double.
         let v: serde_yaml_ng::Value = serde_yaml_ng::from_str(&out).unwrap();
         assert_eq!(v["parameters"][0]["value"].as_f64(), Some(third));
         assert_eq!(v["parameters"][1]["upper"].as_f64(), Some(160.0));
-        assert!(updated_model_file(text, &[update("k9", 1.0, 2.0)], &[]).unwrap_err().contains("k9"));
+        assert!(updated_model_file(text, &[update("k9", 1.0, 2.0)], &[])
+            .unwrap_err()
+            .contains("k9"));
         let quoted = "parameters:\n  - {name: k, value: \"2\"}\n";
-        assert!(updated_model_file(quoted, &[update("k", 2.0, 3.0)], &[]).unwrap_err().contains("quoted"));
+        assert!(updated_model_file(quoted, &[update("k", 2.0, 3.0)], &[])
+            .unwrap_err()
+            .contains("quoted"));
     }
 }

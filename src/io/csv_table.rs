@@ -19,7 +19,6 @@ pub(crate) fn quantity_name(q: FrfQuantity) -> &'static str {
     q.name()
 }
 
-
 pub(crate) fn csv_err(source: &str, line: usize, what: impl Into<String>) -> IoError {
     IoError::Csv {
         at: Location::new(source, Place::Line(line)),

@@ -57,10 +57,7 @@ pub fn log(lo: i32, hi: i32) -> Ticks {
         }
     }
     let first = lo.div_euclid(k) * k + if lo.rem_euclid(k) == 0 { 0 } else { k };
-    let at: Vec<f64> = (first..=hi)
-        .step_by(k as usize)
-        .map(|e| e as f64)
-        .collect();
+    let at: Vec<f64> = (first..=hi).step_by(k as usize).map(|e| e as f64).collect();
     let labels = at.iter().map(|&e| power_of_ten(e as i32)).collect();
     debug_assert!(at.len() <= MAX_TICKS);
     Ticks { at, labels }
@@ -89,7 +86,10 @@ mod tests {
     #[test]
     fn linear_ticks_are_round_numbers() {
         let t = linear(0.0, 400.0);
-        assert_eq!(t.at, vec![0.0, 50.0, 100.0, 150.0, 200.0, 250.0, 300.0, 350.0, 400.0]);
+        assert_eq!(
+            t.at,
+            vec![0.0, 50.0, 100.0, 150.0, 200.0, 250.0, 300.0, 350.0, 400.0]
+        );
         assert_eq!(t.labels[3], "150");
         assert_eq!(nice_range(0.13, 0.97), (0.1, 1.0));
         assert!(linear(-180.0, 180.0).at.len() <= MAX_TICKS);

@@ -28,7 +28,11 @@ pub fn bars(
         .iter()
         .map(|l| text_width(l, TICK_SIZE))
         .fold(0.0, f64::max);
-    let label_h = labels.iter().map(|l| text_width(l, 10.0)).fold(20.0, f64::max) * 0.87;
+    let label_h = labels
+        .iter()
+        .map(|l| text_width(l, 10.0))
+        .fold(20.0, f64::max)
+        * 0.87;
     let (l, t) = (tick_w + LABEL_SIZE + 22.0, 40.0);
     let (pw, ph) = ((group * labels.len() as f64).max(200.0), 260.0);
     let legend_w = series
@@ -132,7 +136,10 @@ mod tests {
             "errors",
             ("parameter", &labels),
             "|relative error| [%]",
-            &[("pso".into(), vec![3.0, 0.0]), ("ga".into(), vec![1.0, f64::NAN])],
+            &[
+                ("pso".into(), vec![3.0, 0.0]),
+                ("ga".into(), vec![1.0, f64::NAN]),
+            ],
             "",
         );
         assert_eq!(svg.matches("<title>").count(), 2);

@@ -318,7 +318,10 @@ mod tests {
             "no external assets"
         );
         assert!(html.contains("<a href=\"figures/mac.png\">PNG</a>"));
-        assert!(!html.contains("<script>"), "no zoom script without dense figures");
+        assert!(
+            !html.contains("<script>"),
+            "no zoom script without dense figures"
+        );
         let md = d.to_markdown("figures");
         assert!(md.contains("| pso\\|seed=1 | 0.98 |"));
         assert!(md.contains("![MAC matrix](figures/mac.svg)"));

@@ -31,9 +31,18 @@ pub fn heatmap(
         30.0
     };
     let font = (cell * 0.75).clamp(7.0, 10.0);
-    let row_w = rows.iter().map(|r| text_width(r, font)).fold(20.0, f64::max) + 8.0;
+    let row_w = rows
+        .iter()
+        .map(|r| text_width(r, font))
+        .fold(20.0, f64::max)
+        + 8.0;
     // Column labels are rotated by −60°: they rise by sin 60° of their length.
-    let col_h = cols.iter().map(|c| text_width(c, font)).fold(20.0, f64::max) * 0.87 + 8.0;
+    let col_h = cols
+        .iter()
+        .map(|c| text_width(c, font))
+        .fold(20.0, f64::max)
+        * 0.87
+        + 8.0;
     let l = LABEL_SIZE + 12.0 + row_w;
     let t = 36.0 + col_h + LABEL_SIZE + 8.0;
     let grid_w = cell * cols.len() as f64;
@@ -109,7 +118,11 @@ pub fn heatmap(
                     r#"<text x="{:.1}" y="{:.1}" font-size="9" text-anchor="middle" fill="{color}">{}</text>"#,
                     x + cell / 2.0,
                     y + cell / 2.0 + 3.0,
-                    if v.is_finite() { format!("{v:.2}") } else { "–".into() }
+                    if v.is_finite() {
+                        format!("{v:.2}")
+                    } else {
+                        "–".into()
+                    }
                 );
             }
         }

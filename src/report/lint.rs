@@ -204,7 +204,12 @@ mod tests {
         assert!(p.iter().any(|m| m.contains("no title")), "{p:?}");
         assert!(p.iter().any(|m| m.contains("outside an axis")), "{p:?}");
         let ticks: String = (0..20)
-            .map(|k| format!(r#"<text class="tick" x="{}" y="50" font-size="8">{k}</text>"#, 10 * k))
+            .map(|k| {
+                format!(
+                    r#"<text class="tick" x="{}" y="50" font-size="8">{k}</text>"#,
+                    10 * k
+                )
+            })
             .collect();
         let crowded = format!(
             r#"<svg viewBox="0 0 300 100"><g class="axis" data-axis="x">{ticks}<text class="axis-title" x="100" y="90">x</text></g></svg>"#

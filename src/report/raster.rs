@@ -24,21 +24,24 @@ fn options() -> &'static usvg::Options<'static> {
 
 /// PNG bytes of `svg` at `scale` × its size (2 for print-ready figures).
 pub fn png(svg: &str, scale: f32) -> Result<Vec<u8>, String> {
-    let tree = usvg::Tree::from_str(svg, options()).map_err(|e| format!("SVG not readable: {e}"))?;
+    let tree =
+        usvg::Tree::from_str(svg, options()).map_err(|e| format!("SVG not readable: {e}"))?;
     let size = tree
         .size()
         .to_int_size()
         .scale_by(scale)
         .ok_or("figure too small to render")?;
-    let mut pixmap = tiny_skia::Pixmap::new(size.width(), size.height())
-        .ok_or("figure too large to render")?;
+    let mut pixmap =
+        tiny_skia::Pixmap::new(size.width(), size.height()).ok_or("figure too large to render")?;
     pixmap.fill(tiny_skia::Color::WHITE);
     resvg::render(
         &tree,
         tiny_skia::Transform::from_scale(scale, scale),
         &mut pixmap.as_mut(),
     );
-    pixmap.encode_png().map_err(|e| format!("PNG encoding: {e}"))
+    pixmap
+        .encode_png()
+        .map_err(|e| format!("PNG encoding: {e}"))
 }
 
 #[cfg(test)]

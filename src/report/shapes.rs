@@ -25,7 +25,8 @@ const VIEW: f64 = 130.0;
 const PERIOD_S: f64 = 1.6;
 
 /// The three views: (name, horizontal axis, vertical axis).
-const VIEWS: [(&str, usize, usize); 3] = [("top x–y", 0, 1), ("front x–z", 0, 2), ("side y–z", 1, 2)];
+const VIEWS: [(&str, usize, usize); 3] =
+    [("top x–y", 0, 1), ("front x–z", 0, 2), ("side y–z", 1, 2)];
 
 /// One drawn mode: its displacement per node.
 struct Deflection {
@@ -69,7 +70,14 @@ fn extent(g: &Geometry) -> ([f64; 3], [f64; 3], f64) {
 }
 
 /// One view of one mode at (x0, y0).
-fn view(s: &mut String, g: &Geometry, d: &Deflection, (x0, y0): (f64, f64), v: (&str, usize, usize), colour: &str) {
+fn view(
+    s: &mut String,
+    g: &Geometry,
+    d: &Deflection,
+    (x0, y0): (f64, f64),
+    v: (&str, usize, usize),
+    colour: &str,
+) {
     let (lo, hi, size) = extent(g);
     let (h_axis, v_axis) = (v.1, v.2);
     let pad = 0.18 * size;
@@ -85,7 +93,11 @@ fn view(s: &mut String, g: &Geometry, d: &Deflection, (x0, y0): (f64, f64), v: (
         .values()
         .map(|u| (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt())
         .fold(0.0, f64::max);
-    let amp = if max_d > 0.0 { 0.12 * size / max_d } else { 0.0 };
+    let amp = if max_d > 0.0 {
+        0.12 * size / max_d
+    } else {
+        0.0
+    };
     let coords = g.coordinates();
     let moved = |id: u32, sign: f64| -> Option<[f64; 3]> {
         let p = *coords.get(&id)?;
@@ -118,7 +130,9 @@ fn view(s: &mut String, g: &Geometry, d: &Deflection, (x0, y0): (f64, f64), v: (
         );
     }
     for &(a, b) in &g.lines {
-        let (Some(p), Some(q), Some(pm), Some(qm)) = (moved(a, 1.0), moved(b, 1.0), moved(a, -1.0), moved(b, -1.0)) else {
+        let (Some(p), Some(q), Some(pm), Some(qm)) =
+            (moved(a, 1.0), moved(b, 1.0), moved(a, -1.0), moved(b, -1.0))
+        else {
             continue;
         };
         let _ = write!(
@@ -154,13 +168,22 @@ fn view(s: &mut String, g: &Geometry, d: &Deflection, (x0, y0): (f64, f64), v: (
 
 /// Rows of modes, each row its modes side by side in three views each, with
 /// a heading over each mode and a note per row (e.g. the pair's MAC).
-pub fn figure(title: &str, caption: &str, geometry: &Geometry, rows: &[(Vec<Drawn<'_>>, String)]) -> String {
+pub fn figure(
+    title: &str,
+    caption: &str,
+    geometry: &Geometry,
+    rows: &[(Vec<Drawn<'_>>, String)],
+) -> String {
     let colours = ["#0072B2", "#D55E00"];
     let gap = 10.0;
     let per_mode = 3.0 * VIEW + 2.0 * 6.0;
     let cols = rows.iter().map(|r| r.0.len()).max().unwrap_or(1) as f64;
-    let note_w = rows.iter().map(|r| text_width(&r.1, TICK_SIZE)).fold(0.0, f64::max);
-    let w = (20.0 + cols * (per_mode + gap) + note_w + 10.0).max(text_width(title, TITLE_SIZE) + 24.0);
+    let note_w = rows
+        .iter()
+        .map(|r| text_width(&r.1, TICK_SIZE))
+        .fold(0.0, f64::max);
+    let w =
+        (20.0 + cols * (per_mode + gap) + note_w + 10.0).max(text_width(title, TITLE_SIZE) + 24.0);
     let row_h = VIEW + LABEL_SIZE + 14.0;
     let h = 40.0 + rows.len() as f64 * (row_h + gap) + 4.0;
     let mut s = header(w, h, caption);
@@ -185,7 +208,14 @@ pub fn figure(title: &str, caption: &str, geometry: &Geometry, rows: &[(Vec<Draw
             };
             let d = deflection(m.model, mode);
             for (i, v) in VIEWS.iter().enumerate() {
-                view(&mut s, geometry, &d, (x + i as f64 * (VIEW + 6.0), y + LABEL_SIZE + 6.0), *v, colours[k % 2]);
+                view(
+                    &mut s,
+                    geometry,
+                    &d,
+                    (x + i as f64 * (VIEW + 6.0), y + LABEL_SIZE + 6.0),
+                    *v,
+                    colours[k % 2],
+                );
             }
             x += per_mode + gap;
         }
@@ -209,7 +239,12 @@ mod tests {
     #[test]
     fn deformed_nodes_move_by_their_shape_and_stay_in_view() {
         let g = Geometry {
-            nodes: (1..=3).map(|i| Node { id: i, xyz: [0.1 * f64::from(i), 0.0, 0.0] }).collect(),
+            nodes: (1..=3)
+                .map(|i| Node {
+                    id: i,
+                    xyz: [0.1 * f64::from(i), 0.0, 0.0],
+                })
+                .collect(),
             lines: vec![(1, 2), (2, 3)],
         };
         let model = ModalModel {
@@ -219,7 +254,10 @@ mod tests {
                 frequency_hz: 10.0,
                 damping_ratio: 0.01,
                 // A complex shape of one phase: drawn as its real form.
-                shape: [0.3, 0.6, -0.2].iter().map(|&v| Complex64::from_polar(v, 0.7)).collect(),
+                shape: [0.3, 0.6, -0.2]
+                    .iter()
+                    .map(|&v| Complex64::from_polar(v, 0.7))
+                    .collect(),
             }],
         };
         let d = deflection(&model, &model.modes[0]);
@@ -231,7 +269,11 @@ mod tests {
             "caption",
             &g,
             &[(
-                vec![Drawn { model: &model, mode: 0, heading: "reference 1 · 10.00 Hz".into() }],
+                vec![Drawn {
+                    model: &model,
+                    mode: 0,
+                    heading: "reference 1 · 10.00 Hz".into(),
+                }],
                 "MAC 1.000".into(),
             )],
         );

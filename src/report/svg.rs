@@ -174,9 +174,14 @@ pub fn stacked(title: &str, caption: &str, panels: &[Plot]) -> String {
     if !x0.is_finite() {
         (x0, x1) = (0.0, 1.0);
     }
-    let l = y_axes.iter().map(|a| left_margin(&a.2)).fold(40.0, f64::max);
+    let l = y_axes
+        .iter()
+        .map(|a| left_margin(&a.2))
+        .fold(40.0, f64::max);
     let pw = panels.iter().map(|p| p.width).fold(200.0, f64::max);
-    let legend: Vec<&Series> = panels.first().map_or(Vec::new(), |p| p.series.iter().collect());
+    let legend: Vec<&Series> = panels
+        .first()
+        .map_or(Vec::new(), |p| p.series.iter().collect());
     let legend_w = legend
         .iter()
         .map(|s| text_width(&s.name, TICK_SIZE))
@@ -308,7 +313,12 @@ fn panel(s: &mut String, p: &Plot, f: &Frame, y_ticks: &Ticks, with_x_title: boo
     }
     let ty = |y: f64| if p.y_log { y.log10() } else { y };
     for series in &p.series {
-        let visible: Vec<(f64, f64)> = series.points.iter().copied().filter(|q| p.visible(q)).collect();
+        let visible: Vec<(f64, f64)> = series
+            .points
+            .iter()
+            .copied()
+            .filter(|q| p.visible(q))
+            .collect();
         match series.marker {
             None => {
                 // A point that cannot be drawn (NaN, ≤ 0 on a log axis)
@@ -317,7 +327,11 @@ fn panel(s: &mut String, p: &Plot, f: &Frame, y_ticks: &Ticks, with_x_title: boo
                     .dash
                     .as_ref()
                     .map_or(String::new(), |d| format!(r#" stroke-dasharray="{d}""#));
-                for run in series.points.split(|q| !p.visible(q)).filter(|r| !r.is_empty()) {
+                for run in series
+                    .points
+                    .split(|q| !p.visible(q))
+                    .filter(|r| !r.is_empty())
+                {
                     let pts: Vec<String> = run
                         .iter()
                         .map(|&(x, y)| format!("{:.2},{:.2}", f.sx(x), f.sy(ty(y))))
@@ -424,7 +438,13 @@ mod tests {
         p.caption = "a caption".into();
         p.series.push(Series::reference(
             "measured",
-            vec![(0.0, 1e-6), (100.0, 1e-4), (200.0, f64::NAN), (300.0, 0.0), (400.0, 1e-7)],
+            vec![
+                (0.0, 1e-6),
+                (100.0, 1e-4),
+                (200.0, f64::NAN),
+                (300.0, 0.0),
+                (400.0, 1e-7),
+            ],
         ));
         p.vlines.push((125.7, "mode 1".into()));
         let svg = p.to_svg();
@@ -434,9 +454,19 @@ mod tests {
         assert_eq!(caption_of(&svg).as_deref(), Some("a caption"));
         // Five points, two undrawable: runs of 2 and 1 points.
         assert_eq!(svg.matches("<polyline").count(), 2);
-        let pts = svg.split("points=\"").nth(1).unwrap().split('"').next().unwrap();
+        let pts = svg
+            .split("points=\"")
+            .nth(1)
+            .unwrap()
+            .split('"')
+            .next()
+            .unwrap();
         assert_eq!(pts.split(' ').count(), 2);
-        assert!(super::super::lint::check(&svg).is_empty(), "{:?}", super::super::lint::check(&svg));
+        assert!(
+            super::super::lint::check(&svg).is_empty(),
+            "{:?}",
+            super::super::lint::check(&svg)
+        );
     }
 
     #[test]
@@ -444,8 +474,16 @@ mod tests {
         let title = "A very long title that would be cut off on both sides of a narrow chart";
         let mut p = Plot::new(title, "x [–]", "y [–]");
         p.width = 200.0;
-        p.series.push(Series::line("a series with a long legend entry", vec![(0.0, 1.0), (1.0, 2.0)], PALETTE[0]));
+        p.series.push(Series::line(
+            "a series with a long legend entry",
+            vec![(0.0, 1.0), (1.0, 2.0)],
+            PALETTE[0],
+        ));
         let svg = p.to_svg();
-        assert!(super::super::lint::check(&svg).is_empty(), "{:?}", super::super::lint::check(&svg));
+        assert!(
+            super::super::lint::check(&svg).is_empty(),
+            "{:?}",
+            super::super::lint::check(&svg)
+        );
     }
 }

@@ -41,12 +41,11 @@ fn model_source(
     }
     let path = ctx.input("model")?;
     let bytes = std::fs::read(path).map_err(|e| StageError::io("cannot read input `model`", e))?;
-    let json: serde_json::Value = serde_json::from_slice(&bytes).map_err(|e| {
-        StageError::InvalidInput {
+    let json: serde_json::Value =
+        serde_json::from_slice(&bytes).map_err(|e| StageError::InvalidInput {
             input: "model".into(),
             message: format!("not a model.json: {e}"),
-        }
-    })?;
+        })?;
     let text = json["yaml"].as_str().unwrap_or_default().to_string();
     let name = json["file"].as_str().unwrap_or("model.yaml").to_string();
     let external = json["external"]

@@ -218,9 +218,16 @@ pub fn assert_report_figures(ws: &Workspace, name: &str) -> usize {
         let png = path.with_extension("png");
         let bytes = std::fs::read(&png).unwrap_or_default();
         assert!(bytes.starts_with(b"\x89PNG"), "{} missing", png.display());
-        assert!(html.contains(&format!("figures/{file}")), "{file} not linked");
+        assert!(
+            html.contains(&format!("figures/{file}")),
+            "{file} not linked"
+        );
     }
     assert!(problems.is_empty(), "{name}: {problems:#?}");
-    assert_eq!(html.matches("<figure").count(), n, "every figure inline once");
+    assert_eq!(
+        html.matches("<figure").count(),
+        n,
+        "every figure inline once"
+    );
     n
 }

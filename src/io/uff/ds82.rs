@@ -50,7 +50,13 @@ pub(crate) fn parse(cur: &mut Cursor<'_>) -> Result<TraceLine, IoError> {
         .ok()
         .filter(|&n| n <= MAX_NODES)
         .ok_or_else(|| {
-            IoError::invalid(src, r1.place(), "dataset 82 number of nodes", f[1], "0 to 100000")
+            IoError::invalid(
+                src,
+                r1.place(),
+                "dataset 82 number of nodes",
+                f[1],
+                "0 to 100000",
+            )
         })?;
     let id = String::from_utf8_lossy(cur.expect_record("dataset 82 record 2 (ID line)")?.text)
         .trim_end()

@@ -51,7 +51,13 @@ pub(crate) fn parse164(cur: &mut Cursor<'_>) -> Result<Units164, IoError> {
     let code = t.get(..10).unwrap_or(&t).trim().parse().unwrap_or(0);
     let description = t.get(10..30).unwrap_or("").trim().to_string();
     let mut v = Vec::new();
-    text::read_numbers(cur, 4, false, "dataset 164 records 2–3 (unit factors)", &mut v)?;
+    text::read_numbers(
+        cur,
+        4,
+        false,
+        "dataset 164 records 2–3 (unit factors)",
+        &mut v,
+    )?;
     let at = cur.next_place();
     if v[..3].iter().any(|f| *f <= 0.0) {
         return Err(IoError::invalid(
@@ -144,7 +150,10 @@ pub fn ordinate_units(
         12 => Some(FrfQuantity::Accelerance),
         _ => None,
     };
-    let (num, den) = (d.ordinate_axis.units.trim(), d.denominator_axis.units.trim());
+    let (num, den) = (
+        d.ordinate_axis.units.trim(),
+        d.denominator_axis.units.trim(),
+    );
     let unknown = |record: u8, label: &str, what: &str| IoError::InvalidField {
         at: at.clone(),
         field: format!("units label of the {what} (dataset 58 record {record})"),
@@ -189,7 +198,11 @@ pub fn ordinate_units(
         _ => response.map_or(1.0, |r| r.1) / force.unwrap_or(1.0),
     };
     let from = if stated && factor != 1.0 {
-        Some(format!("{}/{}", if blank(num) { "m" } else { num }, if blank(den) { "N" } else { den }))
+        Some(format!(
+            "{}/{}",
+            if blank(num) { "m" } else { num },
+            if blank(den) { "N" } else { den }
+        ))
     } else if !stated && factor != 1.0 {
         units.map(|u| format!("dataset 164 `{}`", u.description))
     } else {
@@ -222,7 +235,6 @@ pub fn abscissa_factor(d: &Uff58, at: &Location) -> Result<f64, IoError> {
         }),
     }
 }
-
 
 #[cfg(test)]
 mod tests {
@@ -258,14 +270,24 @@ mod tests {
             ("g", "N", 12, FrfQuantity::Accelerance, STANDARD_GRAVITY),
             ("g/N", "NONE", 0, FrfQuantity::Accelerance, STANDARD_GRAVITY),
             ("(m/s^2)/N", "", 12, FrfQuantity::Accelerance, 1.0),
-            ("m/s**2", "lbf", 12, FrfQuantity::Accelerance, 1.0 / POUND_FORCE),
+            (
+                "m/s**2",
+                "lbf",
+                12,
+                FrfQuantity::Accelerance,
+                1.0 / POUND_FORCE,
+            ),
             ("mm/s", "N", 0, FrfQuantity::Mobility, 1e-3),
             ("in", "lbf", 8, FrfQuantity::Receptance, INCH / POUND_FORCE),
         ];
         for (num, den, ty, q, f) in cases {
             let u = ordinate_units(&frf(num, den, ty), None, &at()).unwrap();
             assert_eq!(u.quantity, q, "{num}/{den}");
-            assert!((u.factor - f).abs() <= 1e-15 * f, "{num}/{den}: {}", u.factor);
+            assert!(
+                (u.factor - f).abs() <= 1e-15 * f,
+                "{num}/{den}: {}",
+                u.factor
+            );
             assert!(!u.assumed_si);
         }
     }
@@ -298,7 +320,10 @@ mod tests {
     fn unknown_or_contradicting_units_are_errors_naming_the_record() {
         let e = ordinate_units(&frf("furlong", "N", 8), None, &at()).unwrap_err();
         let text = e.to_string();
-        assert!(text.contains("test.uff") && text.contains("record 9"), "{text}");
+        assert!(
+            text.contains("test.uff") && text.contains("record 9"),
+            "{text}"
+        );
         assert!(text.contains("furlong"), "{text}");
         let e = ordinate_units(&frf("g", "stone", 12), None, &at()).unwrap_err();
         assert!(e.to_string().contains("record 10"), "{e}");
@@ -306,7 +331,10 @@ mod tests {
         assert!(e.to_string().contains("record 9 field 1"), "{e}");
         let mut d = frf("m", "N", 8);
         d.abscissa_axis.units = "RPM".into();
-        assert!(abscissa_factor(&d, &at()).unwrap_err().to_string().contains("record 8"));
+        assert!(abscissa_factor(&d, &at())
+            .unwrap_err()
+            .to_string()
+            .contains("record 8"));
         d.abscissa_axis.units = "rad/s".into();
         let f = abscissa_factor(&d, &at()).unwrap();
         assert!((f * 2.0 * std::f64::consts::PI - 1.0).abs() < 1e-15);

@@ -114,7 +114,13 @@ pub fn compare_frfs(
                 init_frac.push(metrics::frac(&a, h0));
                 init_csf.push(metrics::csf(&a, h0));
             }
-            overlay.add(&format!("{}/{}", ch.response, ch.reference), &f, &a, before.as_deref(), &b);
+            overlay.add(
+                &format!("{}/{}", ch.response, ch.reference),
+                &f,
+                &a,
+                before.as_deref(),
+                &b,
+            );
             fracs.push(fr);
             csfs.push(cs);
         }
@@ -199,16 +205,27 @@ impl Overlay {
         let mag = |h: &Complex64| h.norm();
         let deg = |h: &Complex64| h.arg().to_degrees();
         let reference_colour = ["#222222", "#8c8c8c"][k];
-        for (plot, g) in [(&mut self.magnitude, mag as fn(&Complex64) -> f64), (&mut self.phase, deg)] {
+        for (plot, g) in [
+            (&mut self.magnitude, mag as fn(&Complex64) -> f64),
+            (&mut self.phase, deg),
+        ] {
             let mut r = Series::reference(format!("{name} reference"), curve(reference, g));
             r.color = reference_colour.into();
             plot.series.push(r);
             if let Some(h0) = initial {
-                let mut s = Series::line(format!("{name} initial model"), curve(h0, g), PALETTE[2 + k]);
+                let mut s = Series::line(
+                    format!("{name} initial model"),
+                    curve(h0, g),
+                    PALETTE[2 + k],
+                );
                 s.dash = Some("2 2".into());
                 plot.series.push(s);
             }
-            plot.series.push(Series::line(format!("{name} candidate"), curve(candidate, g), PALETTE[k]));
+            plot.series.push(Series::line(
+                format!("{name} candidate"),
+                curve(candidate, g),
+                PALETTE[k],
+            ));
         }
     }
 

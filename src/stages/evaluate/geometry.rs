@@ -29,7 +29,8 @@ pub fn read(path: &Path) -> Result<Source, StageError> {
         input: "geometry".into(),
         message,
     };
-    let bytes = std::fs::read(path).map_err(|e| StageError::io("cannot read input `geometry`", e))?;
+    let bytes =
+        std::fs::read(path).map_err(|e| StageError::io("cannot read input `geometry`", e))?;
     let json: serde_json::Value =
         serde_json::from_slice(&bytes).map_err(|e| bad(format!("not JSON: {e}")))?;
     if let Some(yaml) = json.get("yaml").and_then(|v| v.as_str()) {
@@ -38,7 +39,8 @@ pub fn read(path: &Path) -> Result<Source, StageError> {
         return Ok(Source::Model(Box::new(spec)));
     }
     if json.get("nodes").is_some() {
-        let g: Geometry = serde_json::from_value(json).map_err(|e| bad(format!("geometry.json: {e}")))?;
+        let g: Geometry =
+            serde_json::from_value(json).map_err(|e| bad(format!("geometry.json: {e}")))?;
         return Ok(Source::Fixed(g));
     }
     Err(bad(

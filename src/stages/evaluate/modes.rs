@@ -12,10 +12,10 @@
 
 use super::schema::{extreme, mean, AmbiguousPair, ModeMetrics, ModeRef, PositionModes};
 use super::write;
+use crate::geometry::Geometry;
 use crate::metrics;
 use crate::modal::ModalModel;
 use crate::pairing::{self, Pair, Pairing};
-use crate::geometry::Geometry;
 use crate::report::shapes::{self, Drawn};
 use crate::report::svg::heatmap;
 use crate::stages::StageError;
@@ -202,7 +202,10 @@ fn shape_figure(
         g,
         &rows,
     );
-    write(&plots.join(format!("shapes_{}.svg", r.position.index)), &svg)
+    write(
+        &plots.join(format!("shapes_{}.svg", r.position.index)),
+        &svg,
+    )
 }
 
 /// One position's pairs: its summary (without `common_dofs`), pairs.csv

@@ -102,7 +102,9 @@ fn per_position(doc: &mut Document, inputs: &[(String, Metrics)]) {
                 } else {
                     format!("{index} ({label})")
                 },
-                modes.map_or("–".into(), |p| format!("{}/{}", p.paired, p.reference_modes)),
+                modes.map_or("–".into(), |p| {
+                    format!("{}/{}", p.paired, p.reference_modes)
+                }),
                 count(modes.map(|p| p.unpaired_reference.len())),
                 count(modes.map(|p| p.unpaired_candidate.len())),
                 pct(modes.and_then(|p| p.mean_mac)),

@@ -11,11 +11,7 @@ pub fn convergence(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(
     if inputs.is_empty() {
         return Ok(());
     }
-    let mut plot = Plot::new(
-        "Convergence",
-        "model evaluations [–]",
-        "best objective [–]",
-    );
+    let mut plot = Plot::new("Convergence", "model evaluations [–]", "best objective [–]");
     plot.y_log = true;
     plot.caption = "Best objective over model evaluations per identification (J for black-box strategies, ½‖r‖² of the refinement for guided ones; not comparable between the two)".into();
     // 1 − mean MAC of the best point: one scale for criteria that differ

@@ -45,7 +45,6 @@ pub fn tables(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), St
     Ok(())
 }
 
-
 pub fn figures(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageError> {
     if inputs.is_empty() {
         return Ok(());
