@@ -153,8 +153,8 @@ fn axis_shifts(spec: &ModelFile, position: usize) -> BTreeMap<&str, [f64; 3]> {
         rest /= n;
         let norm = dist(ax.direction, [0.0; 3]).max(f64::MIN_POSITIVE);
         let e = out.entry(ax.body.as_str()).or_insert([0.0; 3]);
-        for k in 0..3 {
-            e[k] += s * ax.direction[k] / norm;
+        for (e, d) in e.iter_mut().zip(ax.direction) {
+            *e += s * d / norm;
         }
     }
     out

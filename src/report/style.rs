@@ -36,8 +36,8 @@
 //!    PNG (2× scale, fonts embedded: DejaVu Sans from the `dejavu` crate,
 //!    rendered by resvg, so the picture is the same on every machine).
 //! 10. **Dense plots** (FRF overlays, stabilization diagrams) can be zoomed
-//!    in the HTML page: wheel to zoom, drag to pan, double click to reset
-//!    (a small inline script, no network).
+//!     in the HTML page: wheel to zoom, drag to pan, double click to reset
+//!     (a small inline script, no network).
 
 /// Font stack of every text element (DejaVu Sans first: the PNG renderer
 /// embeds it, and browsers without it fall back to a similar sans).
