@@ -59,6 +59,71 @@ pub enum FrfQuantity {
     Accelerance,
 }
 
+impl FrfQuantity {
+    /// `receptance`, `mobility` or `accelerance`.
+    pub fn name(self) -> &'static str {
+        match self {
+            FrfQuantity::Receptance => "receptance",
+            FrfQuantity::Mobility => "mobility",
+            FrfQuantity::Accelerance => "accelerance",
+        }
+    }
+
+    /// n of the factor (jω)ⁿ that turns receptance into this quantity.
+    pub fn order(self) -> i32 {
+        match self {
+            FrfQuantity::Receptance => 0,
+            FrfQuantity::Mobility => 1,
+            FrfQuantity::Accelerance => 2,
+        }
+    }
+
+    /// The SI unit of an FRF of this quantity.
+    pub fn si_unit(self) -> &'static str {
+        match self {
+            FrfQuantity::Receptance => "m/N",
+            FrfQuantity::Mobility => "m/s/N",
+            FrfQuantity::Accelerance => "m/s²/N",
+        }
+    }
+}
+
+/// An FRF set converted to quantity `to` by (jω)ⁿ, n = order(to) − order(from)
+/// (eq. 2.42 and its derivatives). Dividing by jω is undefined at 0 Hz: such
+/// lines are dropped, and their count returned.
+pub fn convert_quantity(set: &FrfSet, to: FrfQuantity) -> (FrfSet, usize) {
+    let n = to.order() - set.quantity.order();
+    if n == 0 {
+        return (set.clone(), 0);
+    }
+    let keep: Vec<usize> = (0..set.frequencies_hz.len())
+        .filter(|&i| n > 0 || set.frequencies_hz[i] != 0.0)
+        .collect();
+    let factor = |f: f64| Complex64::new(0.0, 2.0 * std::f64::consts::PI * f).powi(n);
+    let out = FrfSet {
+        position: set.position.clone(),
+        quantity: to,
+        frequencies_hz: keep.iter().map(|&i| set.frequencies_hz[i]).collect(),
+        channels: set
+            .channels
+            .iter()
+            .map(|c| FrfChannel {
+                response: c.response,
+                reference: c.reference,
+                values: keep
+                    .iter()
+                    .map(|&i| c.values[i] * factor(set.frequencies_hz[i]))
+                    .collect(),
+                coherence: c
+                    .coherence
+                    .as_ref()
+                    .map(|g| keep.iter().map(|&i| g[i]).collect()),
+            })
+            .collect(),
+    };
+    (out, set.frequencies_hz.len() - keep.len())
+}
+
 /// One FRF H_jk(ω): response DOF j over reference (excitation) DOF k.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FrfChannel {
@@ -119,4 +184,52 @@ fn distinct(it: impl Iterator<Item = Dof>) -> Vec<Dof> {
         }
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn quantities_convert_by_powers_of_j_omega_and_back() {
+        let set = FrfSet {
+            quantity: FrfQuantity::Receptance,
+            frequencies_hz: vec![0.0, 10.0, 25.0],
+            channels: vec![FrfChannel {
+                response: Dof::new(1, 1),
+                reference: Dof::new(1, 1),
+                values: vec![
+                    Complex64::new(1e-6, 0.0),
+                    Complex64::new(2e-6, -1e-6),
+                    Complex64::new(-3e-7, 4e-7),
+                ],
+                coherence: Some(vec![1.0, 0.9, 0.8]),
+            }],
+            ..FrfSet::default()
+        };
+        let (acc, dropped) = convert_quantity(&set, FrfQuantity::Accelerance);
+        assert_eq!(dropped, 0);
+        let w = 2.0 * std::f64::consts::PI * 10.0;
+        assert_eq!(
+            acc.channels[0].values[1],
+            set.channels[0].values[1] * (-w * w)
+        );
+        assert_eq!(acc.channels[0].values[0], Complex64::new(0.0, 0.0) * 1e-6);
+        let (back, dropped) = convert_quantity(&acc, FrfQuantity::Receptance);
+        assert_eq!(dropped, 1, "0 Hz cannot be divided by jω");
+        assert_eq!(back.frequencies_hz, vec![10.0, 25.0]);
+        for (a, b) in back.channels[0]
+            .values
+            .iter()
+            .zip(&set.channels[0].values[1..])
+        {
+            assert!((a - b).norm() <= 1e-15 * b.norm());
+        }
+        assert_eq!(back.channels[0].coherence, Some(vec![0.9, 0.8]));
+        let (mob, _) = convert_quantity(&set, FrfQuantity::Mobility);
+        let expect =
+            set.channels[0].values[2] * Complex64::new(0.0, 2.0 * std::f64::consts::PI * 25.0);
+        assert_eq!(mob.channels[0].values[2], expect);
+        assert_eq!(FrfQuantity::Mobility.si_unit(), "m/s/N");
+    }
 }

@@ -16,6 +16,16 @@ pub struct Mode {
     pub shape: Vec<Complex64>,
 }
 
+/// How the shapes of a modal model are scaled: known mass-normalized
+/// (φᵀMφ = 1 over the whole model, so modal mass 1 kg), as computed modes
+/// are, or an arbitrary scale (identified shapes, unit-normalized).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ShapeScaling {
+    #[default]
+    Arbitrary,
+    MassNormalized,
+}
+
 /// The modes of one configuration at a common list of DOFs.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct ModalModel {

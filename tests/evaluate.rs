@@ -283,3 +283,70 @@ fn missed_spurious_and_ambiguous_modes_are_listed() {
         assert!(md.contains(expected), "missing `{expected}` in\n{md}");
     }
 }
+
+/// A receptance reference against an accelerance candidate (the normal
+/// case: a model in receptance, accelerometers measuring) is compared in
+/// receptance after converting by (jω)⁻²: its FRAC and CSF equal those of
+/// the same candidate synthesized in receptance, to 1e-12, and the
+/// conversion is stated. With the model as geometry, the paired modes are
+/// drawn on the structure.
+#[test]
+fn mixed_quantities_are_converted_and_state_it() {
+    let ws = Workspace::new();
+    std::fs::copy(
+        format!("{MODELS}/three_mass.yaml"),
+        ws.path().join("three_mass.yaml"),
+    )
+    .unwrap();
+    ws.write(
+        "p.yaml",
+        r#"name: ev
+stages:
+  truth:
+    kind: synthesize
+    params: {model: three_mass.yaml, frequency: {min: 1, max: 400, step: 0.5}}
+  rec:
+    kind: synthesize
+    params: {model: three_mass.yaml, frequency: {min: 1, max: 400, step: 0.5}, values: {k12.k_x: 1.8e6}}
+  acc:
+    kind: synthesize
+    params: {model: three_mass.yaml, frequency: {min: 1, max: 400, step: 0.5}, values: {k12.k_x: 1.8e6}, quantity: accelerance}
+  same:
+    kind: evaluate
+    inputs: {reference_frf: truth.frf, candidate_frf: rec.frf}
+  mixed:
+    kind: evaluate
+    inputs: {reference_frf: truth.frf, candidate_frf: acc.frf, reference: truth.modes, candidate: acc.modes, geometry: truth.model}
+"#,
+    );
+    ws.run(&[], 0);
+    let (same, mixed) = (metrics(&ws, "same"), metrics(&ws, "mixed"));
+    for key in ["mean_frac", "mean_csf"] {
+        let (a, b) = (
+            same["frf"][key].as_f64().unwrap(),
+            mixed["frf"][key].as_f64().unwrap(),
+        );
+        assert!((a - b).abs() <= 1e-12, "{key}: {a} vs {b}");
+        assert!(a < 0.999, "the disturbed model differs: {key} {a}");
+    }
+    assert_eq!(mixed["frf"]["quantity"], "receptance");
+    let note = mixed["frf"]["conversions"][0].as_str().unwrap();
+    assert!(
+        note.contains("accelerance converted to receptance by (jω)^-2"),
+        "{note}"
+    );
+    assert!(same["frf"]["conversions"].as_array().unwrap().is_empty());
+    let plots = ws.path().join("results/ev/mixed/plots");
+    let shapes = std::fs::read_to_string(plots.join("shapes_0.svg")).unwrap();
+    assert_eq!(shapes.matches(">MAC ").count(), 3, "one row per pair");
+    let frf = std::fs::read_to_string(plots.join("frf_0.svg")).unwrap();
+    assert!(frf.contains("|H| [m/N]") && frf.contains("phase [°]"));
+    for svg in [
+        &shapes,
+        &frf,
+        &std::fs::read_to_string(plots.join("mac_0.svg")).unwrap(),
+    ] {
+        let problems = modalflow::report::lint::check(svg);
+        assert!(problems.is_empty(), "{problems:?}");
+    }
+}

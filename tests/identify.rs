@@ -284,3 +284,52 @@ fn a_model_that_cannot_match_says_so() {
         "{v}"
     );
 }
+
+/// The updated model file: the input model with the identified values (and
+/// a comment per parameter), bounds unchanged; synthesized again it gives
+/// the identification's `updated_modes` (frequencies to 1e-12).
+#[test]
+fn the_updated_model_file_reproduces_the_updated_modes() {
+    let ws = setup(
+        "name: um\nstages:\n  truth:\n    kind: synthesize\n    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 0.5}, values: {k1.k_x: 2.4e6, k12.k_x: 1.3e6}}\n  fit:\n    kind: identify\n    inputs: {model: truth.model, reference: truth.modes}\n    params: {strategy: black_box, optimizer: slsqp, budget: 800, window: 0.3}\n",
+    );
+    ws.run(&[], 0);
+    let dir = "results/um/fit/updated_model";
+    let yaml = ws.read(&format!("{dir}/model.yaml"));
+    assert!(
+        yaml.starts_with("# Updated model: three_mass.yaml"),
+        "{yaml}"
+    );
+    assert!(
+        yaml.contains("# k1.k_x: initial 2e6, identified "),
+        "{yaml}"
+    );
+    assert!(
+        yaml.contains("lower: 5.0e5, upper: 8.0e6"),
+        "bounds unchanged: {yaml}"
+    );
+    let changes = ws.read(&format!("{dir}/changes.csv"));
+    assert!(changes.starts_with("parameter,kind,initial,identified,change,"));
+    assert_eq!(changes.lines().count(), 1 + 8);
+    ws.write(
+        "p.yaml",
+        &format!("name: um2\nstages:\n  again:\n    kind: synthesize\n    params: {{model: {dir}/model.yaml, frequency: {{min: 0, max: 400, step: 0.5}}}}\n"),
+    );
+    ws.run(&[], 0);
+    let freqs = |path: &str| -> Vec<f64> {
+        ws.read(path)
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+            .collect()
+    };
+    let (updated, again) = (
+        freqs("results/um/fit/modes/modes.csv"),
+        freqs("results/um2/again/modes/modes.csv"),
+    );
+    assert_eq!(updated.len(), 3, "{updated:?}");
+    assert_eq!(again.len(), updated.len());
+    for (a, b) in updated.iter().zip(&again) {
+        assert!((a - b).abs() <= 1e-12 * a, "{a} vs {b}");
+    }
+}

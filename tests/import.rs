@@ -187,3 +187,72 @@ fn export_writes_what_other_tools_read() {
     let from_csv = modalflow::io::read_frf_csv(&csv, "frf.csv").unwrap();
     assert_eq!(from_csv[0].channels, original[0].channels, "CSV is exact");
 }
+
+/// An accelerance FRF written in g/N (as test software in the field does)
+/// imports scaled by 9.80665 to m/s²/N, with a note in import.json; an
+/// unknown unit label is an error naming the file and the record.
+#[test]
+fn uff_in_g_per_newton_imports_in_si_with_a_note() {
+    use modalflow::frf::{Dof, FrfChannel, FrfQuantity, FrfSet};
+    use modalflow::io::{uff58_from_frf_sets, write_uff58, NumberText, Storage, Uff58Format};
+    use num_complex::Complex64;
+    let si = FrfSet {
+        quantity: FrfQuantity::Accelerance,
+        frequencies_hz: (0..40).map(|i| 10.0 + 0.5 * i as f64).collect(),
+        channels: vec![FrfChannel {
+            response: Dof::new(101, 3),
+            reference: Dof::new(1, -3),
+            values: (0..40)
+                .map(|i| Complex64::new(0.3 + 0.01 * i as f64, -0.2 + 0.003 * i as f64))
+                .collect(),
+            coherence: None,
+        }],
+        ..FrfSet::default()
+    };
+    let mut ds = uff58_from_frf_sets(std::slice::from_ref(&si));
+    for d in &mut ds {
+        d.ordinate_axis.units = "g".into();
+        if let modalflow::io::Ordinate::Complex(v) = &mut d.ordinate {
+            v.iter_mut().for_each(|x| *x /= 9.80665);
+        }
+    }
+    let format = Uff58Format {
+        storage: Storage::Ascii,
+        digits: NumberText::RoundTrip,
+    };
+    let ws = Workspace::new();
+    std::fs::write(ws.path().join("g.uff"), write_uff58(&ds, &format)).unwrap();
+    let mut bad = ds.clone();
+    bad[0].ordinate_axis.units = "furlong".into();
+    std::fs::write(ws.path().join("bad.uff"), write_uff58(&bad, &format)).unwrap();
+    ws.write(
+        "p.yaml",
+        "name: imp\nstages:\n  g:\n    kind: import\n    params: {path: g.uff}\n",
+    );
+    ws.run(&[], 0);
+    let got = artifact(&ws, "g");
+    assert_eq!(got[0].quantity, FrfQuantity::Accelerance);
+    for (a, b) in got[0].channels[0].values.iter().zip(&si.channels[0].values) {
+        assert!((a - b).norm() <= 1e-15 * b.norm(), "{a} vs {b}");
+    }
+    let summary: serde_json::Value =
+        serde_json::from_str(&ws.read("results/imp/g/import.json")).unwrap();
+    let note = summary["units"][0].as_str().unwrap();
+    assert!(
+        note.contains("g.uff") && note.contains("g/N") && note.contains("9.80665"),
+        "{note}"
+    );
+    assert_eq!(summary["quantity"], "accelerance");
+
+    ws.write(
+        "p.yaml",
+        "name: imp\nstages:\n  bad:\n    kind: import\n    params: {path: bad.uff}\n",
+    );
+    let out = ws.cmd(&["run", "p.yaml"]);
+    assert_ne!(out.status.code(), Some(0));
+    let err = util::text(&out.stderr);
+    assert!(
+        err.contains("bad.uff") && err.contains("record 9") && err.contains("furlong"),
+        "{err}"
+    );
+}

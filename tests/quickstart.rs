@@ -15,6 +15,8 @@ fn quickstart_runs_reports_and_caches() {
     assert!(html.contains("<h1>Quickstart — three-mass system</h1>"));
     assert!(html.contains("<td>score[measurement=hammer]</td>"));
     assert!(html.matches("<svg").count() >= 2, "figures inlined");
+    // Stabilization diagrams, MAC matrices, FRF overlays and mode shapes.
+    assert!(util::assert_report_figures(&ws, "quickstart") >= 8);
     assert!(
         !html.contains("src=\"") && !html.contains("<link"),
         "self-contained"

@@ -55,6 +55,7 @@ fn wear_monitoring_localizes_wear_by_mode() {
     // AutoEMA on noisy FRFs of each state sees the same.
     assert!(share("anova", "p1.mode1.frequency", "lgs") > 0.5);
     assert!(share("anova", "p1.mode2.frequency", "bsd") > 0.8);
+    assert!(util::assert_report_figures(&ws, "wear_monitoring") >= 3);
     let html = ws.read("results/wear_monitoring/report/report/index.html");
     assert!(
         html.contains("<h2>model_anova.anova</h2>"),
@@ -75,6 +76,8 @@ fn autoema_study_finds_the_modes() {
     assert!(paired >= 30, "{m}");
     assert!(m["modes"]["mean_mac"].as_f64().unwrap() > 0.9, "{m}");
     assert!(m["frf"]["mean_frac"].as_f64().unwrap() > 0.95, "{m}");
+    // The stabilization diagram; MAC, FRF overlay and mode shapes per position.
+    assert!(util::assert_report_figures(&ws, "autoema_study") >= 13);
 }
 
 #[test]
@@ -100,6 +103,7 @@ fn dimensionality_reduction_splits_and_validates() {
     assert!(min <= mean && mean > 0.8 && mean <= 1.0, "{v}");
     let md = ws.read("results/dimensionality_reduction/report/report/report.md");
     assert!(md.contains("Validation of the split"), "{md}");
+    assert!(util::assert_report_figures(&ws, "dimensionality_reduction") >= 2);
 }
 
 #[test]
@@ -149,4 +153,34 @@ fn identification_comparison_runs_end_to_end_within_budgets() {
     }
     let md = ws.read("results/identification_comparison/report/report/report.md");
     assert!(md.contains("guided[scenario=disturbed]"), "{md}");
+    assert!(util::assert_report_figures(&ws, "identification_comparison") >= 2);
+}
+
+#[test]
+fn model_updating_updates_from_measured_modes_and_reports() {
+    let ws = study(
+        "model_updating",
+        &[
+            ("samples: 64", "samples: 8"),
+            ("bootstrap: 50", "bootstrap: 5"),
+            ("budget: 8000", "budget: 1500"),
+            ("budget: 20000\n  ga", "budget: 200\n  ga"),
+            ("budget: 20000\n  updated", "budget: 200\n  updated"),
+        ],
+    );
+    let r = ws.run(&[], 0);
+    assert!(r.all("ran"), "{:?}", r.statuses());
+    // The updated model file of every identification loads as a model.
+    for run in ["guided", "pso", "ga"] {
+        let yaml = ws.read(&format!(
+            "results/model_updating/{run}/updated_model/model.yaml"
+        ));
+        modalflow::dynamics::model_file::parse(&yaml, "model.yaml").unwrap();
+    }
+    // MAC, FRF overlay and mode shapes per position and run, convergence,
+    // parameter errors, the stabilization diagrams.
+    assert!(util::assert_report_figures(&ws, "model_updating") >= 20);
+    let html = ws.read("results/model_updating/report/report/index.html");
+    assert!(html.contains("Accuracy per position"), "per-position table");
+    assert!(html.contains("<script>"), "zoom of dense figures");
 }

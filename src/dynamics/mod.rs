@@ -50,6 +50,7 @@ pub mod measurement;
 pub mod modal_damping;
 pub mod model;
 pub mod model_file;
+pub mod model_writer;
 pub mod reference;
 pub mod rigid;
 pub mod solve;

@@ -230,10 +230,13 @@ fn frame(
         RIGHT - LEFT,
         BOTTOM - TOP
     );
+    // Axes as `g.axis` groups with `tick` labels and one `axis-title`
+    // (the report's style guide, checked by `report::lint`).
+    s.push_str(r#"<g class="axis" data-axis="x">"#);
     for t in ticks(f_lo, f_hi) {
         let _ = writeln!(
             s,
-            r##"<line x1="{0:.2}" y1="{BOTTOM}" x2="{0:.2}" y2="{1}" stroke="#333"/><text x="{0:.2}" y="{2}" text-anchor="middle">{3}</text>"##,
+            r##"<line x1="{0:.2}" y1="{BOTTOM}" x2="{0:.2}" y2="{1}" stroke="#333"/><text class="tick" x="{0:.2}" y="{2}" text-anchor="middle">{3}</text>"##,
             x(t),
             BOTTOM + 5.0,
             BOTTOM + 18.0,
@@ -242,14 +245,14 @@ fn frame(
     }
     let _ = writeln!(
         s,
-        r#"<text x="{}" y="{}" text-anchor="middle">Frequency [Hz]</text>"#,
+        r#"<text class="axis-title" x="{}" y="{}" text-anchor="middle">Frequency [Hz]</text></g><g class="axis" data-axis="y">"#,
         (LEFT + RIGHT) / 2.0,
         BOTTOM + 34.0
     );
     for t in ticks(0.0, n_max) {
         let _ = writeln!(
             s,
-            r##"<line x1="{LEFT}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#333"/><text x="{2}" y="{3:.2}" text-anchor="end">{4}</text>"##,
+            r##"<line x1="{LEFT}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#333"/><text class="tick" x="{2}" y="{3:.2}" text-anchor="end">{4}</text>"##,
             y_order(t),
             LEFT - 5.0,
             LEFT - 8.0,
@@ -259,25 +262,25 @@ fn frame(
     }
     let _ = writeln!(
         s,
-        r#"<text transform="translate(22,{}) rotate(-90)" text-anchor="middle">Model order</text>"#,
+        r#"<text class="axis-title" transform="translate(22,{}) rotate(-90)" text-anchor="middle">Model order [–]</text></g><g class="axis" data-axis="y2">"#,
         (TOP + BOTTOM) / 2.0
     );
     let mut d = m_lo;
     while d <= m_hi + 1e-9 {
         let _ = writeln!(
             s,
-            r##"<line x1="{RIGHT}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#1f77b4"/><text x="{2}" y="{3:.2}" fill="#1f77b4">1e{4}</text>"##,
+            r##"<line x1="{RIGHT}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#1f77b4"/><text class="tick" x="{2}" y="{3:.2}" fill="#1f77b4">{4}</text>"##,
             y_mag(d),
             RIGHT + 5.0,
             RIGHT + 8.0,
             y_mag(d) + 4.0,
-            d
+            crate::report::format::power_of_ten(d as i32)
         );
         d += 1.0;
     }
     let _ = writeln!(
         s,
-        r##"<text transform="translate({},{}) rotate(90)" text-anchor="middle" fill="#1f77b4">CMIF singular values (log)</text>"##,
+        r##"<text class="axis-title" transform="translate({},{}) rotate(90)" text-anchor="middle" fill="#1f77b4">CMIF singular values (log) [FRF units]</text></g>"##,
         W - 12.0,
         (TOP + BOTTOM) / 2.0
     );

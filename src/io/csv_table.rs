@@ -16,11 +16,7 @@ pub(crate) fn fmt_f64(x: f64) -> String {
 }
 
 pub(crate) fn quantity_name(q: FrfQuantity) -> &'static str {
-    match q {
-        FrfQuantity::Receptance => "receptance",
-        FrfQuantity::Mobility => "mobility",
-        FrfQuantity::Accelerance => "accelerance",
-    }
+    q.name()
 }
 
 pub(crate) fn csv_err(source: &str, line: usize, what: impl Into<String>) -> IoError {

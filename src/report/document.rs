@@ -61,7 +61,8 @@ pub enum Block {
         header: Vec<String>,
         rows: Vec<Vec<String>>,
     },
-    /// An SVG figure; `file` is its name in the figures directory.
+    /// An SVG figure; `file` is its name in the figures directory (where
+    /// a PNG of the same stem sits beside it).
     Figure {
         caption: String,
         file: String,
@@ -79,7 +80,7 @@ const STYLE: &str = "body{font-family:Helvetica,Arial,sans-serif;max-width:1100p
 table{border-collapse:collapse;margin:1em 0;font-size:0.9em}th,td{border:1px solid #ccc;padding:4px 8px;text-align:right}\
 th{background:#f0f4f8}td:first-child,th:first-child{text-align:left}figure{margin:1.5em 0}figcaption{color:#555;font-size:0.9em}\
 svg{max-width:100%;height:auto}\
-td.fail{background:#fdecea;color:#b71c1c;font-weight:bold}td.pass{color:#1b5e20}\
+figcaption a{color:#555}td.fail{background:#fdecea;color:#b71c1c;font-weight:bold}td.pass{color:#1b5e20}\
 .callout{margin:1em 0;padding:0.6em 1em;border-left:6px solid}.callout p{margin:0;font-weight:bold}.callout ul{margin:0.4em 0 0}\
 .callout.failure{border-color:#c62828;background:#fdecea;color:#b71c1c}.callout.failure p{font-size:1.15em}\
 .callout.warning{border-color:#f9a825;background:#fff8e1}.callout.pass{border-color:#2e7d32;background:#edf7ed}";
@@ -135,7 +136,7 @@ impl Document {
     }
 
     pub fn to_html(&self) -> String {
-        let mut s = format!("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title><style>{STYLE}</style></head><body>\n<h1>{}</h1>\n", esc(&self.title), esc(&self.title));
+        let mut s = format!("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>{}</title><style>{STYLE}{}</style></head><body>\n<h1>{}</h1>\n", esc(&self.title), super::zoom::STYLE, esc(&self.title));
         for b in &self.blocks {
             match b {
                 Block::Heading(l, t) => {
@@ -179,15 +180,22 @@ impl Document {
                     }
                     s.push_str("</tbody></table>\n");
                 }
-                Block::Figure { caption, svg, .. } => {
+                Block::Figure { caption, svg, file } => {
+                    let stem = file.strip_suffix(".svg").unwrap_or(file);
                     let _ = writeln!(
                         s,
-                        "<figure>{}<figcaption>{}</figcaption></figure>",
+                        "<figure{}>{}<figcaption>{} (<a href=\"figures/{}\">SVG</a>, <a href=\"figures/{}.png\">PNG</a>)</figcaption></figure>",
+                        if zoomable(file) { " class=\"zoomable\"" } else { "" },
                         strip_prolog(svg),
-                        esc(caption)
+                        esc(caption),
+                        esc(file),
+                        esc(stem)
                     );
                 }
             }
+        }
+        if self.figures().any(|(f, _)| zoomable(f)) {
+            let _ = writeln!(s, "<script>{}</script>", super::zoom::SCRIPT);
         }
         s.push_str("</body></html>\n");
         s
@@ -268,6 +276,12 @@ fn html_list(s: &mut String, items: &[String]) {
     s.push_str("</ul>\n");
 }
 
+/// Dense figures the HTML page lets the reader zoom: FRF overlays and
+/// stabilization diagrams.
+fn zoomable(file: &str) -> bool {
+    file.contains("frf_") || file.contains("stabilization")
+}
+
 /// Drop an XML prolog so the SVG can sit inside HTML.
 fn strip_prolog(svg: &str) -> &str {
     match svg.find("<svg") {
@@ -300,8 +314,13 @@ mod tests {
             "prolog stripped, SVG inlined"
         );
         assert!(
-            !html.contains("src=") && !html.contains("href="),
+            !html.contains("src=") && !html.contains("href=\"http"),
             "no external assets"
+        );
+        assert!(html.contains("<a href=\"figures/mac.png\">PNG</a>"));
+        assert!(
+            !html.contains("<script>"),
+            "no zoom script without dense figures"
         );
         let md = d.to_markdown("figures");
         assert!(md.contains("| pso\\|seed=1 | 0.98 |"));

@@ -7,12 +7,15 @@
 //!   damping_ratio`) and `mode_shapes.csv` (`position,mode,node,direction,
 //!   real,imag`), and, when the estimate states it, `uncertainty.csv`
 //!   (`position,mode,frequency_spread,damping_spread`: relative standard
-//!   deviations per mode, see [`ModeSpread`]).
+//!   deviations per mode, see [`ModeSpread`]), and, when the shapes are known
+//!   to be mass-normalized (computed modes), `scaling.json`
+//!   (`{"scaling": "mass_normalized"}`, see [`ShapeScaling`]); without it
+//!   the scale is arbitrary.
 
 use super::StageError;
 use crate::frf::FrfSet;
 use crate::io;
-use crate::modal::ModalModel;
+use crate::modal::{ModalModel, ShapeScaling};
 use std::path::Path;
 
 pub const FRF_FILE: &str = "frf.uff";
@@ -45,6 +48,44 @@ pub fn write_modes(dir: &Path, models: &[ModalModel]) -> Result<(), StageError> 
     let csv = io::write_modal_csv(models).map_err(|e| StageError::Failed(e.to_string()))?;
     write(&dir.join("modes.csv"), &csv.modes)?;
     write(&dir.join("mode_shapes.csv"), &csv.mode_shapes)
+}
+
+const SCALING_FILE: &str = "scaling.json";
+
+/// Write a `modes` artifact directory of mass-normalized (computed) modes:
+/// the tables and `scaling.json`.
+pub fn write_mass_normalized_modes(dir: &Path, models: &[ModalModel]) -> Result<(), StageError> {
+    write_modes(dir, models)?;
+    write(
+        &dir.join(SCALING_FILE),
+        b"{\"scaling\": \"mass_normalized\"}\n",
+    )
+}
+
+/// How the shapes of the `modes` artifact in `dir` are scaled: stated by
+/// `scaling.json`, else arbitrary. An unreadable or unknown statement is
+/// an error naming the input.
+pub fn read_shape_scaling(dir: &Path, input: &str) -> Result<ShapeScaling, StageError> {
+    let text = match std::fs::read_to_string(dir.join(SCALING_FILE)) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(ShapeScaling::Arbitrary),
+        Err(e) => return Err(StageError::io(format!("cannot read input `{input}`"), e)),
+    };
+    let v: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| StageError::InvalidInput {
+            input: input.into(),
+            message: format!("{SCALING_FILE}: {e}"),
+        })?;
+    match v["scaling"].as_str() {
+        Some("mass_normalized") => Ok(ShapeScaling::MassNormalized),
+        Some("arbitrary") => Ok(ShapeScaling::Arbitrary),
+        other => Err(StageError::InvalidInput {
+            input: input.into(),
+            message: format!(
+                "{SCALING_FILE}: scaling {other:?} is not `mass_normalized` or `arbitrary`"
+            ),
+        }),
+    }
 }
 
 /// Read the `modes` artifact bound to input `input`.

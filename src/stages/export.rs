@@ -2,7 +2,7 @@
 //! — UFF 58 (ASCII with the standard fixed-width layout, or 58b), UFF 55,
 //! or CSV — so results open in test and FE software.
 
-use super::artifacts::{read_frf, read_modes};
+use super::artifacts::{read_frf, read_modes, read_shape_scaling};
 use super::{Artifact, InputSpec, Kind, StageContext, StageError, StageOutputs};
 use crate::io::{self, ByteOrder, NumberText, Storage, Uff58Format};
 
@@ -47,8 +47,10 @@ impl Kind for Export {
     type Params = Params;
     const NAME: &'static str = "export";
 
+    /// 2: dataset 55 per its definition (data type 2/5, shapes in E25.16,
+    /// modal mass / modal A of mass-normalized shapes, exact ID line 5).
     fn version(&self) -> u32 {
-        1
+        2
     }
 
     fn summary(&self) -> &'static str {
@@ -109,7 +111,9 @@ impl Kind for Export {
             }
         }
         if ctx.inputs.contains_key("modes") {
-            let models = read_modes(ctx.input("modes")?, "modes")?;
+            let dir = ctx.input("modes")?;
+            let models = read_modes(dir, "modes")?;
+            let scaling = read_shape_scaling(dir, "modes")?;
             match format {
                 Format::Csv => {
                     let csv = io::write_modal_csv(&models).map_err(failed)?;
@@ -117,8 +121,9 @@ impl Kind for Export {
                     write("mode_shapes.csv", &csv.mode_shapes)?;
                 }
                 _ => {
-                    let ds = io::uff55_from_modal_models(&models).map_err(failed)?;
-                    write("modes.uff", &io::write_uff55(&ds, NumberText::Standard))?;
+                    // Record 10 in E25.16: the shapes exactly (ds55 docs).
+                    let ds = io::uff55_from_modal_models(&models, scaling).map_err(failed)?;
+                    write("modes.uff", &io::write_uff55(&ds, NumberText::RoundTrip))?;
                 }
             }
         }

@@ -7,7 +7,12 @@
 //! with several files (a glob), one position per file in sorted order,
 //! labelled by the file name — the usual layout of one measurement run per
 //! axis position. Measured coherences (UFF function type 6) are kept with
-//! their FRFs.
+//! their FRFs. UFF units (the axes' labels, dataset 164) are converted to SI
+//! and each conversion is listed under `units` in import.json (a file in g/N
+//! becomes m/s²/N, × 9.80665); an unknown unit is an error naming the file
+//! and the record. The first UFF file's node coordinates (15/2411) and
+//! trace lines (82) become the `geometry` output (geometry.json, empty
+//! without nodes), which `evaluate` draws mode shapes on.
 
 use super::{
     Artifact, FileRef, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
@@ -127,8 +132,9 @@ impl Kind for Import {
     type Params = Params;
     const NAME: &'static str = "import";
 
+    /// 2: UFF units converted to SI, `units` and `quantity` in import.json.
     fn version(&self) -> u32 {
-        1
+        2
     }
 
     fn summary(&self) -> &'static str {
@@ -139,8 +145,11 @@ impl Kind for Import {
         Some(&[])
     }
 
-    const OUTPUTS: &'static [(&'static str, Artifact)] =
-        &[("frf", Artifact::Frf), ("summary", Artifact::Json)];
+    const OUTPUTS: &'static [(&'static str, Artifact)] = &[
+        ("frf", Artifact::Frf),
+        ("summary", Artifact::Json),
+        ("geometry", Artifact::Json),
+    ];
 
     fn files(&self, p: &Params) -> Vec<FileRef> {
         vec![FileRef {
@@ -174,10 +183,15 @@ impl Kind for Import {
         ctx.progress.set_length(files.len() as u64);
         let mut sets: Vec<FrfSet> = Vec::new();
         let mut warnings = Vec::new();
+        let mut units = Vec::new();
+        let mut geometry = crate::geometry::Geometry::default();
         for (k, (rel, path)) in files.iter().enumerate() {
             let format = params.format.unwrap_or_else(|| by_extension(path));
             let split = mode != Positions::Single;
-            let mut file_sets = read_one(path, rel, format, split, &mut warnings)?;
+            let mut file_sets = read_one(path, rel, format, split, &mut warnings, &mut units)?;
+            if geometry.nodes.is_empty() && format == Format::Uff {
+                geometry = read_geometry(path, rel)?;
+            }
             if per_file {
                 for s in &mut file_sets {
                     s.position = Position {
@@ -207,14 +221,24 @@ impl Kind for Import {
                 "band_hz": [s.frequencies_hz.first(), s.frequencies_hz.last()],
                 "coherence": s.channels.iter().any(|c| c.coherence.is_some()),
             })).collect::<Vec<_>>(),
+            "quantity": sets.first().map(|s| s.quantity.name()),
+            "units": units,
             "warnings": warnings,
         });
         let summary_path = ctx.scratch.join("import.json");
         let text = serde_json::to_vec_pretty(&summary).unwrap_or_default();
         std::fs::write(&summary_path, text).map_err(|e| StageError::io("write import.json", e))?;
+        let geometry_path = ctx.scratch.join("geometry.json");
+        let text = serde_json::to_vec_pretty(&geometry).unwrap_or_default();
+        std::fs::write(&geometry_path, text)
+            .map_err(|e| StageError::io("write geometry.json", e))?;
         let channels: usize = sets.iter().map(|s| s.channels.len()).sum();
         Ok(StageOutputs {
-            files: vec![("frf".into(), out), ("summary".into(), summary_path)],
+            files: vec![
+                ("frf".into(), out),
+                ("summary".into(), summary_path),
+                ("geometry".into(), geometry_path),
+            ],
             counters: [
                 ("channels".to_string(), channels as u64),
                 ("positions".to_string(), sets.len() as u64),
@@ -243,6 +267,7 @@ fn read_one(
     format: Format,
     split: bool,
     warnings: &mut Vec<String>,
+    units: &mut Vec<String>,
 ) -> Result<Vec<FrfSet>, StageError> {
     let bytes = std::fs::read(path).map_err(|e| StageError::io(format!("cannot read {rel}"), e))?;
     let invalid = |e: io::IoError| StageError::InvalidInput {
@@ -263,7 +288,19 @@ fn read_one(
     )
     .map_err(invalid)?;
     warnings.extend(imported.warnings.iter().map(|w| format!("{rel}: {w}")));
+    units.extend(imported.notes.iter().map(|n| format!("{rel}: {n}")));
     Ok(imported.sets)
+}
+
+/// The test geometry of a universal file (nodes 15/2411, trace lines 82);
+/// empty when it has none.
+fn read_geometry(path: &Path, rel: &str) -> Result<crate::geometry::Geometry, StageError> {
+    let bytes = std::fs::read(path).map_err(|e| StageError::io(format!("cannot read {rel}"), e))?;
+    let file = io::read_uff(&bytes, rel).map_err(|e| StageError::InvalidInput {
+        input: rel.to_string(),
+        message: e.to_string(),
+    })?;
+    Ok(crate::geometry::Geometry::from_uff(&file).unwrap_or_default())
 }
 
 /// One set per position, ordered by position index. Sets of one position

@@ -23,6 +23,7 @@ pub mod stage;
 pub mod synthesize;
 pub mod synthesize_params;
 pub mod synthesize_values;
+pub mod updated_model;
 
 pub use params::{Field, ParamProblem, ParamSet, Range};
 pub use stage::{

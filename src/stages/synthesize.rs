@@ -154,9 +154,10 @@ impl Kind for Synthesize {
     const NAME: &'static str = "synthesize";
 
     /// 2: true modes in the pole convention of the FRFs (hysteretic modes
-    /// at |λ|, [`crate::dynamics::solve::mode_pole`]).
+    /// at |λ|, [`crate::dynamics::solve::mode_pole`]). 3: the modes
+    /// artifact states its mass-normalized scaling (scaling.json).
     fn version(&self) -> u32 {
-        2
+        3
     }
     fn summary(&self) -> &'static str {
         "solve a model file and write reference FRFs (with noise or a simulated impact test), modes and the truth"
@@ -318,7 +319,7 @@ impl Kind for Synthesize {
         }
         let n_modes: usize = truth.iter().map(|m| m.modes.len()).sum();
         artifacts::write_frf(&ctx.scratch.join(artifacts::FRF_FILE), &sets)?;
-        artifacts::write_modes(&ctx.scratch.join(artifacts::MODES_DIR), &truth)?;
+        artifacts::write_mass_normalized_modes(&ctx.scratch.join(artifacts::MODES_DIR), &truth)?;
         write_model_json(ctx, &model, &text, &p.model, &x, &prepared)?;
         write_truth_csv(ctx, &model, &x)?;
         Ok(StageOutputs {

@@ -193,3 +193,43 @@ pub fn study(name: &str, edits: &[(&str, &str)]) -> Workspace {
     ws.write("p.yaml", &text);
     ws
 }
+
+/// Every figure of pipeline `name`'s report holds to the style guide's
+/// structural rules (axes titled, no text outside the view box, bounded
+/// ticks: `modalflow::report::lint`), has a PNG twin, and the page has
+/// the figures inline. Returns the number of figures checked.
+#[allow(dead_code)]
+pub fn assert_report_figures(ws: &Workspace, name: &str) -> usize {
+    let dir = ws.path().join(format!("results/{name}/report/report"));
+    let html = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    let mut n = 0;
+    let mut problems = Vec::new();
+    for entry in std::fs::read_dir(dir.join("figures")).unwrap().flatten() {
+        let path = entry.path();
+        if path.extension().is_none_or(|e| e != "svg") {
+            continue;
+        }
+        n += 1;
+        let svg = std::fs::read_to_string(&path).unwrap();
+        let file = path.file_name().unwrap().to_string_lossy().into_owned();
+        problems.extend(
+            modalflow::report::lint::check(&svg)
+                .into_iter()
+                .map(|p| format!("{file}: {p}")),
+        );
+        let png = path.with_extension("png");
+        let bytes = std::fs::read(&png).unwrap_or_default();
+        assert!(bytes.starts_with(b"\x89PNG"), "{} missing", png.display());
+        assert!(
+            html.contains(&format!("figures/{file}")),
+            "{file} not linked"
+        );
+    }
+    assert!(problems.is_empty(), "{name}: {problems:#?}");
+    assert_eq!(
+        html.matches("<figure").count(),
+        n,
+        "every figure inline once"
+    );
+    n
+}

@@ -4,15 +4,28 @@
 //! | record | format | contents |
 //! |---|---|---|
 //! | 1–5 | 80A1 | ID lines |
-//! | 6 | 6I10 | model type, analysis type (2 normal mode, 3 complex eigenvalue 1st order, 5 frequency response, 7 complex eigenvalue 2nd order, …), data characteristic (1 scalar, 2 3-DOF translation, 3 6-DOF translation + rotation, …), specific data type (8 displacement, …), data type (2/4 real single/double, 5/6 complex single/double), values per node |
+//! | 6 | 6I10 | model type, analysis type (2 normal mode, 3 complex eigenvalue 1st order, 5 frequency response, 7 complex eigenvalue 2nd order, …), data characteristic (1 scalar, 2 3-DOF translation, 3 6-DOF translation + rotation, …), specific data type (8 displacement, …), data type (2 real, 5 complex; 4/6 are accepted on reading, as older modalflow versions wrote them), values per node |
 //! | 7 | 8I10 | number of integers `ni`, number of reals `nr`, then `ni` type-specific integers (load case, mode number, …) |
 //! | 8 | 6E13.5 | `nr` type-specific reals: normal mode `f in Hz, modal mass, viscous damping ratio, hysteretic damping ratio`; complex mode `Re λ, Im λ in rad/s, Re A, Im A, Re B, Im B` |
 //! | 9 | I10 | node number |
 //! | 10 | 6E13.5 | the node's values (complex: `re im` pairs) |
 //!
 //! Records 9–10 repeat per node until the closing `-1`. Number records are
-//! read free-format and may wrap over lines; the writer uses 6E13.5
-//! ([`NumberText::Standard`]) or 3E25.16 ([`NumberText::RoundTrip`]).
+//! read free-format and may wrap over lines, always as `f64`.
+//!
+//! The writer follows the dataset definition, which pyuff and other
+//! fixed-column readers hold it to: record 6 field 5 is 2 or 5, record 7 is
+//! `2 4|6 load_case mode`, and records 8 and 10 are 13-column fields, at
+//! most 6 to a line, each node's values on one line (pyuff cuts record 10
+//! lines into 13-character fields and expects node and value lines to
+//! alternate). Dataset 55 has no wider double-precision layout, so
+//! [`NumberText::Standard`] writes E13.5 (6 digits) and
+//! [`NumberText::RoundTrip`] E13.6 — the 7 significant digits 13 columns
+//! hold (a negative value then fills its field; this reader splits touching
+//! fields at the sign). Exact values travel in the CSV export. ID line 5
+//! carries the exact frequency and damping ratio as `modalflow f=… zeta=…`,
+//! which this reader prefers when it agrees with record 8 to its digits (see
+//! [`Uff55::exact_mode`]); other tools read it as free text.
 
 use super::ds58::{NumberText, Ordinate, Precision};
 use super::text::{self, Cursor};
@@ -88,6 +101,29 @@ impl Uff55 {
     }
 }
 
+/// Prefix of ID line 5 with the exact frequency and damping ratio.
+pub(crate) const EXACT_KEY: &str = "modalflow f=";
+
+/// ID line 5 for a mode of frequency `f` Hz and damping ratio `zeta`.
+pub(crate) fn exact_line(f: f64, zeta: f64) -> String {
+    format!("{EXACT_KEY}{f:e} zeta={zeta:e}")
+}
+
+impl Uff55 {
+    /// Frequency in Hz and damping ratio from the exact ID line 5 that
+    /// modalflow writes, when it is present and agrees with record 8 to the
+    /// 6 significant digits E13.5 keeps (so a tool that edited record 8 but
+    /// kept the ID line is read by record 8).
+    pub fn exact_mode(&self, f_record8: f64, zeta_record8: f64) -> Option<(f64, f64)> {
+        let rest = self.id_lines[4].trim().strip_prefix(EXACT_KEY)?;
+        let (f, z) = rest.split_once(" zeta=")?;
+        let (f, z): (f64, f64) = (f.trim().parse().ok()?, z.trim().parse().ok()?);
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-5 * a.abs().max(b.abs()) + 1e-300;
+        (f.is_finite() && z.is_finite() && close(f, f_record8) && close(z, zeta_record8))
+            .then_some((f, z))
+    }
+}
+
 /// Largest values-per-node count accepted (tensors have 6 or 9).
 const MAX_VALUES_PER_NODE: i64 = 64;
 /// Largest record 7/8 count accepted (the UFF types use at most 8).
@@ -133,7 +169,6 @@ pub(crate) fn parse(cur: &mut Cursor<'_>) -> Result<Uff55, IoError> {
 
     let (precision, complex) = precision_complex;
     let per_node = values_per_node * if complex { 2 } else { 1 };
-    let single = precision == Precision::Single;
     let mut nodes = Vec::new();
     let mut flat = Vec::new();
     loop {
@@ -169,7 +204,7 @@ pub(crate) fn parse(cur: &mut Cursor<'_>) -> Result<Uff55, IoError> {
         text::read_numbers(
             cur,
             per_node,
-            single,
+            false,
             "dataset 55 record 10 (node values)",
             &mut flat,
         )?;
@@ -279,11 +314,11 @@ pub(crate) fn write(out: &mut Vec<u8>, d: &Uff55, digits: NumberText) {
     for id in &d.id_lines {
         text::push_id_line(out, id);
     }
-    let data_type = match (&d.values, d.precision) {
-        (Ordinate::Real(_), Precision::Single) => 2,
-        (Ordinate::Real(_), Precision::Double) => 4,
-        (Ordinate::Complex(_), Precision::Single) => 5,
-        (Ordinate::Complex(_), Precision::Double) => 6,
+    // Record 6 field 5 of the dataset definition: 2 real, 5 complex (the
+    // precision shows in record 10's layout, not in this code).
+    let data_type = match &d.values {
+        Ordinate::Real(_) => 2,
+        Ordinate::Complex(_) => 5,
     };
     let r6 = [
         d.model_type,
@@ -297,8 +332,7 @@ pub(crate) fn write(out: &mut Vec<u8>, d: &Uff55, digits: NumberText) {
     let mut r7 = vec![d.integers.len() as i64, d.reals.len() as i64];
     r7.extend_from_slice(&d.integers);
     push_ints(out, &r7);
-    let single = d.precision == Precision::Single;
-    push_reals(out, &d.reals, digits, false);
+    push_reals(out, &d.reals, digits);
     let flat: Vec<f64> = match &d.values {
         Ordinate::Real(v) => v.clone(),
         Ordinate::Complex(v) => v.iter().flat_map(|c| [c.re, c.im]).collect(),
@@ -310,7 +344,6 @@ pub(crate) fn write(out: &mut Vec<u8>, d: &Uff55, digits: NumberText) {
             out,
             flat.get(k * per_node..(k + 1) * per_node).unwrap_or(&[]),
             digits,
-            single,
         );
     }
     out.extend_from_slice(b"    -1\n");
@@ -325,15 +358,14 @@ fn push_ints(out: &mut Vec<u8>, v: &[i64]) {
     }
 }
 
-fn push_reals(out: &mut Vec<u8>, v: &[f64], digits: NumberText, single: bool) {
-    let (per_line, w, dec) = match digits {
-        NumberText::Standard => (6, 13, 5),
-        NumberText::RoundTrip if single => (5, 16, 8),
-        NumberText::RoundTrip => (3, 25, 16),
+fn push_reals(out: &mut Vec<u8>, v: &[f64], digits: NumberText) {
+    let decimals = match digits {
+        NumberText::Standard => 5,
+        NumberText::RoundTrip => 6,
     };
     for (i, x) in v.iter().enumerate() {
-        text::push_e(out, *x, w, dec, single);
-        if (i + 1) % per_line == 0 || i + 1 == v.len() {
+        text::push_e(out, *x, 13, decimals, false);
+        if (i + 1) % 6 == 0 || i + 1 == v.len() {
             out.push(b'\n');
         }
     }

@@ -5,17 +5,20 @@
 //! [`FrfChannel::coherence`]. Positions come from the load case id (record 6
 //! field 4) and, when ID line 4 reads `position=<label>`, the label. All FRFs
 //! of one position must share one frequency axis (equal within 1e-9 of the
-//! axis span); the FRF quantity comes from the ordinate's specific data type
-//! (record 9: 8 displacement → receptance, 11 velocity → mobility,
-//! 12 acceleration → accelerance, anything else → receptance). Values are
-//! taken as written: units are not converted.
+//! axis span). Units are converted to SI (Hz; m/N, m/s/N, m/s²/N) and the
+//! quantity found from the axes' unit labels, dataset 164 and the
+//! ordinate's specific data type (record 9: 8 displacement → receptance,
+//! 11 velocity → mobility, 12 acceleration → accelerance), as
+//! [`units`](super::units) describes; what was converted is listed in
+//! [`FrfImport::notes`], and an unknown unit label is an error.
 //! The reverse direction and the `frf` artifact are in
 //! [`artifact`](super::artifact).
 
 use super::artifact::{unescape_label, LABEL_KEY};
 use super::ds58::{Entity58, FunctionType, Ordinate, Uff58};
+use super::units::{abscissa_factor, ordinate_units, Units164};
 use super::{UffDataset, UffFile, UffWarning};
-use crate::frf::{Dof, FrfChannel, FrfQuantity, FrfSet, Position};
+use crate::frf::{Dof, FrfChannel, FrfSet, Position};
 use crate::io::error::{IoError, Location, Place};
 use std::collections::HashMap;
 
@@ -40,6 +43,8 @@ impl Default for FrfImportOptions {
 pub struct FrfImport {
     pub sets: Vec<FrfSet>,
     pub warnings: Vec<UffWarning>,
+    /// Unit conversions to SI and unit assumptions, one line per kind.
+    pub notes: Vec<String>,
 }
 
 /// Builds FRF sets from the datasets 58 of `file` (`source` names it in errors).
@@ -48,7 +53,10 @@ pub fn frf_sets_from_uff(
     source: &str,
     options: &FrfImportOptions,
 ) -> Result<FrfImport, IoError> {
-    let mut b = Builder::default();
+    let mut b = Builder {
+        units: file.units().cloned(),
+        ..Builder::default()
+    };
     let mut warnings = Vec::new();
     let mut unused: Vec<(i32, usize)> = Vec::new();
     let mut coherences = Vec::new();
@@ -95,9 +103,15 @@ pub fn frf_sets_from_uff(
             count,
         });
     }
+    let notes = b
+        .notes
+        .iter()
+        .map(|(what, n)| format!("{n} FRF(s): {what}"))
+        .collect();
     Ok(FrfImport {
         sets: b.sets.into_iter().map(|(s, _)| s).collect(),
         warnings,
+        notes,
     })
 }
 
@@ -136,14 +150,6 @@ fn position_of(d: &Uff58, at: &Location, options: &FrfImportOptions) -> Result<P
     Ok(Position { index, label })
 }
 
-fn quantity_of(d: &Uff58) -> FrfQuantity {
-    match d.ordinate_axis.data_type {
-        11 => FrfQuantity::Mobility,
-        12 => FrfQuantity::Accelerance,
-        _ => FrfQuantity::Receptance,
-    }
-}
-
 pub(crate) fn channel_name(r: Dof, f: Dof) -> String {
     format!("{r}/{f}")
 }
@@ -154,6 +160,18 @@ pub(crate) fn channel_name(r: Dof, f: Dof) -> String {
 struct Builder {
     sets: Vec<(FrfSet, Place)>,
     channels: HashMap<(usize, Dof, Dof), usize>,
+    units: Option<Units164>,
+    /// Conversion notes with their FRF counts, in first-seen order.
+    notes: Vec<(String, usize)>,
+}
+
+impl Builder {
+    fn note(&mut self, what: String) {
+        match self.notes.iter_mut().find(|(w, _)| *w == what) {
+            Some((_, n)) => *n += 1,
+            None => self.notes.push((what, 1)),
+        }
+    }
 }
 
 impl Builder {
@@ -166,11 +184,34 @@ impl Builder {
         let response = dof(&d.response, "response", &at)?;
         let reference = dof(&d.reference, "reference", &at)?;
         let position = position_of(d, &at, options)?;
+        let units = ordinate_units(d, self.units.as_ref(), &at)?;
+        let quantity = units.quantity;
         let values = match &d.ordinate {
-            Ordinate::Complex(v) => v.clone(),
-            Ordinate::Real(v) => v.iter().map(|&x| x.into()).collect(),
+            Ordinate::Complex(v) => v.iter().map(|x| x * units.factor).collect(),
+            Ordinate::Real(v) => v.iter().map(|&x| (x * units.factor).into()).collect(),
         };
-        let freqs = d.abscissa_values();
+        let hz = abscissa_factor(d, &at)?;
+        let mut freqs = d.abscissa_values();
+        if hz != 1.0 {
+            freqs.iter_mut().for_each(|f| *f *= hz);
+            self.note(format!(
+                "frequency axis in {} converted to Hz (× {hz:.6})",
+                d.abscissa_axis.units.trim()
+            ));
+        }
+        if let Some(from) = &units.from {
+            self.note(format!(
+                "{from} converted to SI {} (× {})",
+                quantity.si_unit(),
+                units.factor
+            ));
+        }
+        if units.assumed_si {
+            self.note(format!(
+                "no units label and no dataset 164: read as SI {}",
+                quantity.si_unit()
+            ));
+        }
         let name = channel_name(response, reference);
         let idx = match self.sets.iter().position(|(s, _)| s.position == position) {
             Some(i) => i,
@@ -179,7 +220,7 @@ impl Builder {
                 self.sets.push((
                     FrfSet {
                         position: position.clone(),
-                        quantity: quantity_of(d),
+                        quantity,
                         frequencies_hz: freqs.clone(),
                         channels: Vec::new(),
                     },
@@ -197,11 +238,11 @@ impl Builder {
             position.index,
             *first,
         )?;
-        if quantity_of(d) != set.quantity {
+        if quantity != set.quantity {
             return Err(IoError::InvalidField {
                 at,
-                field: format!("FRF {name} ordinate specific data type (record 9)"),
-                value: format!("{:?}", quantity_of(d)),
+                field: format!("FRF {name} ordinate quantity (record 9)"),
+                value: format!("{quantity:?}"),
                 expected: format!(
                     "{:?} like the first FRF of position {}",
                     set.quantity, position.index
@@ -253,9 +294,11 @@ impl Builder {
             });
             return Ok(());
         };
+        let hz = abscissa_factor(d, &at)?;
+        let coherence_axis: Vec<f64> = d.abscissa_values().iter().map(|f| f * hz).collect();
         same_axis(
             freqs,
-            &d.abscissa_values(),
+            &coherence_axis,
             &at,
             &format!("coherence {name}"),
             position.index,

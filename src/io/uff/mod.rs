@@ -15,9 +15,11 @@ pub mod ds55;
 pub mod ds58;
 pub mod ds58_binary;
 mod ds58_records;
+pub mod ds82;
 pub mod frf_sets;
 pub mod modal_models;
 pub(crate) mod text;
+pub mod units;
 
 use crate::io::error::{IoError, Place};
 use ds15_2411::NodeTable;
@@ -35,6 +37,10 @@ pub enum UffDataset {
     DataAtNodes(Box<Uff55>),
     /// Dataset 15 or 2411, node coordinates.
     Nodes(NodeTable),
+    /// Dataset 82, a trace line of the wire-frame.
+    TraceLine(ds82::TraceLine),
+    /// Dataset 164, the file's unit system.
+    Units(units::Units164),
 }
 
 /// A dataset and where it starts (its opening `-1` line).
@@ -130,6 +136,26 @@ impl UffFile {
         })
     }
 
+    /// The unit system of the first dataset 164, if any.
+    pub fn units(&self) -> Option<&units::Units164> {
+        self.blocks.iter().find_map(|b| match &b.dataset {
+            UffDataset::Units(u) => Some(u),
+            _ => None,
+        })
+    }
+
+    /// Segments (node pairs) of every dataset 82 trace line.
+    pub fn trace_segments(&self) -> Vec<(i64, i64)> {
+        self.blocks
+            .iter()
+            .filter_map(|b| match &b.dataset {
+                UffDataset::TraceLine(t) => Some(t.segments()),
+                _ => None,
+            })
+            .flatten()
+            .collect()
+    }
+
     /// Node id → (x, y, z) from every dataset 15/2411 (later datasets win).
     pub fn node_coordinates(&self) -> std::collections::BTreeMap<i64, [f64; 3]> {
         let mut map = std::collections::BTreeMap::new();
@@ -194,6 +220,8 @@ pub fn read_uff(bytes: &[u8], source: &str) -> Result<UffFile, IoError> {
             (55, false) => UffDataset::DataAtNodes(Box::new(ds55::parse(&mut cur)?)),
             (15, false) => UffDataset::Nodes(ds15_2411::parse15(&mut cur)?),
             (2411, false) => UffDataset::Nodes(ds15_2411::parse2411(&mut cur)?),
+            (164, false) => UffDataset::Units(units::parse164(&mut cur)?),
+            (82, false) => UffDataset::TraceLine(ds82::parse(&mut cur)?),
             _ => {
                 skip_dataset(&mut cur, binary.then_some(after_b))?;
                 note_skipped(&mut file.warnings, number, open.place());

@@ -12,11 +12,19 @@
 //! `f = |λ|/2π` and `ζ = −Re λ/|λ|`. Every mode of a model must cover the
 //! same nodes.
 //!
-//! **Export.** Each mode becomes a dataset 55: real shapes as normal modes
-//! (modal mass written as 0 = not given), complex shapes as complex modes with
-//! λ = −ζω + jω√(1−ζ²), ω = 2πf. DOFs are gathered per node into 3 (or 6 if
-//! any rotation is present) values; missing directions are 0 and a negative
-//! direction contributes its negated value.
+//! The exact frequency and damping ratio of ID line 5, when modalflow wrote
+//! it, win over record 8's 6 digits ([`Uff55::exact_mode`]).
+//!
+//! **Export.** Each mode becomes a dataset 55: real shapes as normal modes,
+//! complex shapes as complex modes with λ = −ζω + jω√(1−ζ²), ω = 2πf. DOFs
+//! are gathered per node into 3 (or 6 if any rotation is present) values;
+//! missing directions are 0 and a negative direction contributes its
+//! negated value. With [`ShapeScaling::MassNormalized`] shapes (computed
+//! modes, φᵀMφ = 1) the modal mass of a normal mode is 1 and the modal A of
+//! a complex mode is 2jω_d (ω_d = Im λ): the first-order form
+//! H = ψψᵀ/(A(jω − λ)) + c.c. of the receptance term
+//! φφᵀ/(ω_r² − ω² + 2jζω_rω) (eq. 2.42) with ψ = φ, and modal B = −λA.
+//! Shapes of arbitrary scale get 0 (not given), as the dataset defines.
 
 use super::artifact::{escape_label, unescape_label, LABEL_KEY};
 use super::ds55::{Uff55, Uff55Mode};
@@ -24,7 +32,7 @@ use super::ds58::{Ordinate, Precision};
 use super::{UffDataset, UffFile, UffWarning};
 use crate::frf::{Dof, Position};
 use crate::io::error::{IoError, Location};
-use crate::modal::{ModalModel, Mode};
+use crate::modal::{ModalModel, Mode, ShapeScaling};
 use num_complex::Complex64;
 use std::f64::consts::PI;
 
@@ -103,6 +111,9 @@ pub fn modal_models_from_uff(file: &UffFile, source: &str) -> Result<ModalImport
                 )
             }
         };
+        let (frequency_hz, damping_ratio) = d
+            .exact_mode(frequency_hz, damping_ratio)
+            .unwrap_or((frequency_hz, damping_ratio));
         let i = match models.iter().position(|m| m.position == position) {
             Some(i) => i,
             None => {
@@ -183,9 +194,13 @@ fn shape_of(d: &Uff55, dirs: &[i8], at: &Location) -> Result<(Vec<Dof>, Vec<Comp
     Ok((dofs, values))
 }
 
-/// Datasets 55 for modal models (module docs); fails for DOF lists a
-/// dataset 55 cannot hold.
-pub fn uff55_from_modal_models(models: &[ModalModel]) -> Result<Vec<Uff55>, IoError> {
+/// Datasets 55 for modal models whose shapes are scaled as `scaling` says
+/// (module docs); fails for DOF lists a dataset 55 cannot hold.
+pub fn uff55_from_modal_models(
+    models: &[ModalModel],
+    scaling: ShapeScaling,
+) -> Result<Vec<Uff55>, IoError> {
+    let known = scaling == ShapeScaling::MassNormalized;
     let mut out = Vec::new();
     for m in models {
         let scalar = m.dofs.iter().any(|d| d.direction == 0);
@@ -246,13 +261,20 @@ pub fn uff55_from_modal_models(models: &[ModalModel]) -> Result<Vec<Uff55>, IoEr
                     });
                 }
                 let lambda = Complex64::new(-z * w, w * (1.0 - z * z).sqrt());
+                let a = if known {
+                    Complex64::new(0.0, 2.0 * lambda.im)
+                } else {
+                    Complex64::new(0.0, 0.0)
+                };
+                let b = -lambda * a;
                 (
                     3,
-                    vec![lambda.re, lambda.im, 0.0, 0.0, 0.0, 0.0],
+                    vec![lambda.re, lambda.im, a.re, a.im, b.re, b.im],
                     Ordinate::Complex(block),
                 )
             } else {
-                let reals = vec![mode.frequency_hz, 0.0, mode.damping_ratio, 0.0];
+                let mass = if known { 1.0 } else { 0.0 };
+                let reals = vec![mode.frequency_hz, mass, mode.damping_ratio, 0.0];
                 (
                     2,
                     reals,
@@ -265,7 +287,7 @@ pub fn uff55_from_modal_models(models: &[ModalModel]) -> Result<Vec<Uff55>, IoEr
                     "modalflow".into(),
                     "NONE".into(),
                     format!("{LABEL_KEY}{}", escape_label(&m.position.label)),
-                    "NONE".into(),
+                    super::ds55::exact_line(mode.frequency_hz, mode.damping_ratio),
                 ],
                 model_type: 1,
                 analysis_type,

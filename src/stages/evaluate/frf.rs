@@ -2,12 +2,18 @@
 //! every channel the candidate shares with the reference, on their common
 //! frequency lines, with overlays (reference, optional initial model,
 //! candidate) per position. Writes `frac.csv` and `frf_<position>.svg`.
+//!
+//! FRFs are compared in the reference's quantity: a candidate (or initial)
+//! set of another quantity is converted by (jω)ⁿ first
+//! ([`crate::frf::convert_quantity`]; a 0 Hz line that would be divided by
+//! jω is left out), and each conversion is listed in metrics.json, so a
+//! receptance model and accelerance measurements compare as they should.
 
 use super::schema::{mean, FrfMetrics, PositionFrf};
 use super::write;
-use crate::frf::FrfSet;
+use crate::frf::{convert_quantity, FrfSet};
 use crate::metrics;
-use crate::report::svg::{Plot, Series, PALETTE};
+use crate::report::svg::{stacked, Plot, Series, PALETTE};
 use crate::stages::StageError;
 use num_complex::Complex64;
 use std::fmt::Write as _;
@@ -30,17 +36,40 @@ pub fn compare_frfs(
     tables: &Path,
     plots: &Path,
 ) -> Result<FrfMetrics, StageError> {
+    let mut conversions = Vec::new();
+    let mut convert = |sets: &[FrfSet], what: &str, r: &FrfSet| -> Option<FrfSet> {
+        let s = sets.iter().find(|s| s.position.index == r.position.index)?;
+        if s.quantity == r.quantity {
+            return Some(s.clone());
+        }
+        let (converted, dropped) = convert_quantity(s, r.quantity);
+        conversions.push(format!(
+            "position {}: {what} {} converted to {} by (jω)^{}{}",
+            r.position.index,
+            s.quantity.name(),
+            r.quantity.name(),
+            r.quantity.order() - s.quantity.order(),
+            if dropped > 0 {
+                format!("; {dropped} line(s) at 0 Hz left out (division by jω)")
+            } else {
+                String::new()
+            }
+        ));
+        Some(converted)
+    };
     let mut csv = String::from("position,response,reference,FRAC,CSF\n");
     let mut positions = Vec::new();
     let (mut all_frac, mut all_csf) = (Vec::new(), Vec::new());
     let (mut init_frac, mut init_csf) = (Vec::new(), Vec::new());
+    let mut initial_sets = Vec::new();
     for r in reference {
-        let Some(c) = candidate
-            .iter()
-            .find(|c| c.position.index == r.position.index)
-        else {
+        let Some(c) = convert(candidate, "candidate", r) else {
             continue;
         };
+        let c = &c;
+        if let Some(i) = initial.and_then(|sets| convert(sets, "initial", r)) {
+            initial_sets.push(i);
+        }
         // Compare on the reference lines the candidate also has (exact match).
         let lines: Vec<(usize, usize)> = r
             .frequencies_hz
@@ -58,19 +87,12 @@ pub fn compare_frfs(
             });
         }
         let (mut fracs, mut csfs) = (Vec::new(), Vec::new());
-        let mut plot = Plot::new(
-            &format!(
-                "FRF overlay, position {} {}",
-                r.position.index, r.position.label
-            ),
-            "frequency [Hz]",
-            "|H|",
-        );
-        plot.y_log = true;
+        let mut overlay = Overlay::new(r.quantity);
         let f: Vec<f64> = lines.iter().map(|&(i, _)| r.frequencies_hz[i]).collect();
         // The initial model's FRFs of this position, on the compared lines.
-        let initial_set = initial
-            .and_then(|sets| sets.iter().find(|s| s.position.index == r.position.index))
+        let initial_set = initial_sets
+            .iter()
+            .find(|s| s.position.index == r.position.index)
             .and_then(|s| line_indices(&s.frequencies_hz, &f).map(|idx| (s, idx)));
         for ch in &r.channels {
             let Some(cc) = c.channel(ch.response, ch.reference) else {
@@ -92,35 +114,19 @@ pub fn compare_frfs(
                 init_frac.push(metrics::frac(&a, h0));
                 init_csf.push(metrics::csf(&a, h0));
             }
-            // Up to three channels as reference/candidate pairs, or two as
-            // reference/initial/candidate triples.
-            let per = if initial.is_some() { 3 } else { 2 };
-            if plot.series.len() + per <= 6 {
-                let k = plot.series.len() / per;
-                let curve =
-                    |h: &[Complex64]| f.iter().zip(h).map(|(f, h)| (*f, h.norm())).collect();
-                let name = |what: &str| format!("{}/{} {what}", ch.response, ch.reference);
-                plot.series
-                    .push(Series::line(name("reference"), curve(&a), PALETTE[per * k]));
-                if let Some(h0) = &before {
-                    plot.series.push(Series::line(
-                        name("initial"),
-                        curve(h0),
-                        PALETTE[per * k + 2],
-                    ));
-                }
-                plot.series.push(Series::line(
-                    name("candidate"),
-                    curve(&b),
-                    PALETTE[per * k + 1],
-                ));
-            }
+            overlay.add(
+                &format!("{}/{}", ch.response, ch.reference),
+                &f,
+                &a,
+                before.as_deref(),
+                &b,
+            );
             fracs.push(fr);
             csfs.push(cs);
         }
         write(
             &plots.join(format!("frf_{}.svg", r.position.index)),
-            plot.to_svg(),
+            overlay.to_svg(r, initial.is_some()),
         )?;
         positions.push(PositionFrf {
             position: r.position.index,
@@ -140,5 +146,106 @@ pub fn compare_frfs(
         positions,
         initial_mean_frac: initial.and(mean(&init_frac)),
         initial_mean_csf: initial.and(mean(&init_csf)),
+        quantity: reference
+            .first()
+            .map_or(String::new(), |r| r.quantity.name().to_string()),
+        conversions,
     })
+}
+
+/// Magnitude and phase panels of up to two channels (style guide rule 5):
+/// per channel the reference dashed beneath, the initial model dotted and
+/// the candidate solid on top.
+struct Overlay {
+    magnitude: Plot,
+    phase: Plot,
+    channels: usize,
+}
+
+impl Overlay {
+    fn new(q: crate::frf::FrfQuantity) -> Overlay {
+        let mut magnitude = Plot::new("", "frequency [Hz]", &format!("|H| [{}]", q.si_unit()));
+        magnitude.y_log = true;
+        magnitude.height = 260.0;
+        let mut phase = Plot::new("", "frequency [Hz]", "phase [°]");
+        phase.y_fixed = Some((-180.0, 180.0, 90.0));
+        phase.height = 140.0;
+        Overlay {
+            magnitude,
+            phase,
+            channels: 0,
+        }
+    }
+
+    fn add(
+        &mut self,
+        name: &str,
+        f: &[f64],
+        reference: &[Complex64],
+        initial: Option<&[Complex64]>,
+        candidate: &[Complex64],
+    ) {
+        if self.channels == 2 {
+            return;
+        }
+        let k = self.channels;
+        self.channels += 1;
+        let curve = |h: &[Complex64], g: fn(&Complex64) -> f64| -> Vec<(f64, f64)> {
+            let mut out: Vec<(f64, f64)> = Vec::with_capacity(h.len());
+            for (f, h) in f.iter().zip(h) {
+                let v = g(h);
+                // A phase wrap (a jump over 180°) breaks the line.
+                if out.last().is_some_and(|&(_, u)| (v - u).abs() > 180.0) {
+                    out.push((*f, f64::NAN));
+                }
+                out.push((*f, v));
+            }
+            out
+        };
+        let mag = |h: &Complex64| h.norm();
+        let deg = |h: &Complex64| h.arg().to_degrees();
+        let reference_colour = ["#222222", "#8c8c8c"][k];
+        for (plot, g) in [
+            (&mut self.magnitude, mag as fn(&Complex64) -> f64),
+            (&mut self.phase, deg),
+        ] {
+            let mut r = Series::reference(format!("{name} reference"), curve(reference, g));
+            r.color = reference_colour.into();
+            plot.series.push(r);
+            if let Some(h0) = initial {
+                let mut s = Series::line(
+                    format!("{name} initial model"),
+                    curve(h0, g),
+                    PALETTE[2 + k],
+                );
+                s.dash = Some("2 2".into());
+                plot.series.push(s);
+            }
+            plot.series.push(Series::line(
+                format!("{name} candidate"),
+                curve(candidate, g),
+                PALETTE[k],
+            ));
+        }
+    }
+
+    fn to_svg(&self, r: &FrfSet, with_initial: bool) -> String {
+        let at = if r.position.label.is_empty() {
+            format!("position {}", r.position.index)
+        } else {
+            format!("position {} ({})", r.position.index, r.position.label)
+        };
+        let caption = format!(
+            "FRF overlay, {at}: magnitude and phase of the reference (dashed){} and the candidate (solid) as {} in {}, the first {} channel(s)",
+            if with_initial { ", the initial model (dotted)" } else { "" },
+            r.quantity.name(),
+            r.quantity.si_unit(),
+            self.channels
+        );
+        stacked(
+            &format!("FRF overlay, {at}"),
+            &caption,
+            &[self.magnitude.clone(), self.phase.clone()],
+        )
+    }
 }

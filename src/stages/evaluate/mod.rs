@@ -14,6 +14,7 @@
 //! metrics.json has one schema, [`Metrics`], for the writer and readers.
 
 mod frf;
+pub mod geometry;
 mod modes;
 mod parameters;
 mod schema;
@@ -101,6 +102,13 @@ const INPUTS: &[InputSpec] = &[
         doc: "estimated parameters (parameters.csv)",
     },
     InputSpec {
+        name: "geometry",
+        required: false,
+        list: false,
+        artifact: Artifact::Json,
+        doc: "the structure to draw paired mode shapes on: a synthesize stage's `model` (sensor points of the model file) or an import stage's `geometry` (UFF 15/2411 nodes, 82 trace lines)",
+    },
+    InputSpec {
         name: "cost",
         required: false,
         list: false,
@@ -124,9 +132,11 @@ impl Kind for Evaluate {
     const NAME: &'static str = "evaluate";
 
     /// 2: modes paired by frequency and MAC. 3: pair margins, unpaired and
-    /// ambiguous modes, the identification's verdict.
+    /// ambiguous modes, the identification's verdict. 4: FRFs compared in the
+    /// reference's quantity, figures to the style guide (magnitude + phase,
+    /// titled MAC axes), mode shapes on the geometry.
     fn version(&self) -> u32 {
-        3
+        4
     }
     fn summary(&self) -> &'static str {
         "compare candidate modes/FRFs/parameters with a reference: MAC, MACXP, NFD, NDD, FRAC, CSF, parameter errors, unpaired and ambiguous modes, the identification's verdict"
@@ -178,8 +188,19 @@ impl Kind for Evaluate {
         if has("reference") && has("candidate") {
             let reference = read_modes(ctx.input("reference")?, "reference")?;
             let candidate = read_modes(ctx.input("candidate")?, "candidate")?;
+            let geometry = if has("geometry") {
+                Some(geometry::read(ctx.input("geometry")?)?)
+            } else {
+                None
+            };
+            let at = |position: u32| geometry.as_ref().and_then(|g| g.at(position));
             summary.modes = Some(modes::compare_modes(
-                &reference, &candidate, &settings, &tables, &plots,
+                &reference,
+                &candidate,
+                &settings,
+                geometry.as_ref().map(|_| &at as &dyn Fn(u32) -> Option<_>),
+                &tables,
+                &plots,
             )?);
         }
         if has("reference_frf") && has("candidate_frf") {

@@ -6,13 +6,17 @@
 //! candidate modes (spurious) and ambiguous pairs.
 //!
 //! Writes `pairs.csv` (one row per pair, with `cost`, `margin` and
-//! `ambiguous`), `mac.csv` and one MAC heatmap per position.
+//! `ambiguous`), `mac.csv`, one MAC heatmap per position (both axes
+//! labelled `mode · frequency`) and, with a geometry, the paired modes
+//! drawn on the structure side by side (`shapes_<position>.svg`).
 
 use super::schema::{extreme, mean, AmbiguousPair, ModeMetrics, ModeRef, PositionModes};
 use super::write;
+use crate::geometry::Geometry;
 use crate::metrics;
 use crate::modal::ModalModel;
 use crate::pairing::{self, Pair, Pairing};
+use crate::report::shapes::{self, Drawn};
 use crate::report::svg::heatmap;
 use crate::stages::StageError;
 use num_complex::Complex64;
@@ -26,6 +30,7 @@ pub fn compare_modes(
     reference: &[ModalModel],
     candidate: &[ModalModel],
     settings: &Pairing,
+    geometry: Option<&dyn Fn(u32) -> Option<Geometry>>,
     tables: &Path,
     plots: &Path,
 ) -> Result<ModeMetrics, StageError> {
@@ -66,6 +71,9 @@ pub fn compare_modes(
         }
         mac_heatmap(r, c, &macs, plots)?;
         let p = compare_position(r, c, &shared.first, &shared.second, &macs, settings);
+        if let Some(g) = geometry.and_then(|g| g(r.position.index)) {
+            shape_figure(r, c, &p.pairs, &g, plots)?;
+        }
         for row in &p.rows {
             pairs_csv.push_str(row);
         }
@@ -114,24 +122,97 @@ fn mac_heatmap(
         m.modes
             .iter()
             .enumerate()
-            .map(|(k, m)| format!("{} ({:.1} Hz)", k + 1, m.frequency_hz))
+            .map(|(k, m)| format!("{} · {}", k + 1, hz(m.frequency_hz)))
             .collect::<Vec<_>>()
     };
+    let (rl, cl) = (labels(r), labels(c));
+    let at = position_text(r);
     let svg = heatmap(
-        &format!("MAC, position {} {}", r.position.index, r.position.label),
-        &labels(r),
-        &labels(c),
+        &format!("MAC, {at}"),
+        ("reference mode", &rl),
+        ("candidate mode", &cl),
         macs,
-        0.0,
-        1.0,
+        (0.0, 1.0),
+        &format!(
+            "MAC (eq. 2.62) of every reference mode (rows) with every candidate mode (columns), {at}, on the DOFs both share"
+        ),
     );
     write(&plots.join(format!("mac_{}.svg", r.position.index)), &svg)
+}
+
+/// `position 2 (wpt=0.400)` or `position 2`.
+fn position_text(m: &ModalModel) -> String {
+    if m.position.label.is_empty() {
+        format!("position {}", m.position.index)
+    } else {
+        format!("position {} ({})", m.position.index, m.position.label)
+    }
+}
+
+/// A frequency to 4 significant digits with its unit.
+fn hz(f: f64) -> String {
+    format!("{} Hz", crate::report::format::sig(f, 4))
+}
+
+/// A mode to draw with its heading.
+fn drawn<'a>(m: &'a ModalModel, k: usize, what: &str, mode: &crate::modal::Mode) -> Drawn<'a> {
+    Drawn {
+        model: m,
+        mode: k,
+        heading: format!(
+            "{what} mode {} · {} · ζ {} %",
+            k + 1,
+            hz(mode.frequency_hz),
+            crate::report::format::sig(100.0 * mode.damping_ratio, 3)
+        ),
+    }
+}
+
+/// The paired modes of one position drawn on the structure: reference and
+/// candidate side by side, one pair per row, with the pair's MAC.
+fn shape_figure(
+    r: &ModalModel,
+    c: &ModalModel,
+    pairs: &[Pair],
+    g: &Geometry,
+    plots: &Path,
+) -> Result<(), StageError> {
+    let rows: Vec<(Vec<Drawn<'_>>, String)> = pairs
+        .iter()
+        .map(|p| {
+            let (a, b) = (&r.modes[p.reference], &c.modes[p.candidate]);
+            (
+                vec![
+                    drawn(r, p.reference, "reference", a),
+                    drawn(c, p.candidate, "candidate", b),
+                ],
+                format!("MAC {:.3}", p.mac),
+            )
+        })
+        .collect();
+    if rows.is_empty() {
+        return Ok(());
+    }
+    let at = position_text(r);
+    let svg = shapes::figure(
+        &format!("Paired mode shapes, {at}"),
+        &format!(
+            "Reference (blue) and candidate (orange) mode shapes of every pair, {at}, deformed over the undeformed structure (grey) in three views; animated in the HTML report"
+        ),
+        g,
+        &rows,
+    );
+    write(
+        &plots.join(format!("shapes_{}.svg", r.position.index)),
+        &svg,
+    )
 }
 
 /// One position's pairs: its summary (without `common_dofs`), pairs.csv
 /// rows and the criteria of its pairs.
 struct PositionResult {
     summary: PositionModes,
+    pairs: Vec<Pair>,
     rows: Vec<String>,
     macs: Vec<f64>,
     nfds: Vec<f64>,
@@ -153,6 +234,7 @@ fn compare_position(
     let margins = pairing::margins(&costs, &pairs);
     let mut out = PositionResult {
         summary: PositionModes::default(),
+        pairs: pairs.clone(),
         rows: Vec::new(),
         macs: Vec::new(),
         nfds: Vec::new(),

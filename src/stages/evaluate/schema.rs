@@ -134,6 +134,14 @@ pub struct FrfMetrics {
     pub initial_mean_frac: Option<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub initial_mean_csf: Option<f64>,
+    /// The quantity compared in (the reference's): receptance, mobility or
+    /// accelerance.
+    #[serde(default)]
+    pub quantity: String,
+    /// Conversions of candidate or initial FRFs to the reference's quantity
+    /// by (jω)ⁿ, one line each (empty when all agreed).
+    #[serde(default)]
+    pub conversions: Vec<String>,
 }
 
 /// FRFs of one position.

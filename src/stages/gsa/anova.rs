@@ -330,7 +330,14 @@ fn write_factorial(
             skipped.len()
         )
     };
-    let svg = crate::report::svg::heatmap(&title, &r.outputs, &sources, &share, 0.0, 1.0);
+    let svg = crate::report::svg::heatmap(
+        &title,
+        ("model output", &r.outputs),
+        ("source of variance", &sources),
+        &share,
+        (0.0, 1.0),
+        "Share of each output's variance (sum of squares) explained by each factor, interaction and the residual (ANOVA, section 2.1.1)",
+    );
     let heatmap = ctx.scratch.join("anova.svg");
     write(&heatmap, &svg)?;
     Ok(StageOutputs {

@@ -105,11 +105,14 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
     let heatmap = ctx.scratch.join("sobol.svg");
     let svg = crate::report::svg::heatmap(
         &format!("Total Sobol indices ST ({})", ctx.stage),
-        &names,
-        &report.parameters,
+        ("model output", &names),
+        ("parameter", &report.parameters),
         &st,
-        0.0,
-        1.0,
+        (0.0, 1.0),
+        &format!(
+            "Total Sobol indices ST (Jansen) of every model output (rows) to every parameter (columns), {}",
+            ctx.stage
+        ),
     );
     write(&heatmap, &svg)?;
 
@@ -231,12 +234,13 @@ fn validate(
             v.min,
             v.mean
         ),
-        "conformity",
-        &labels,
+        ("model output", &labels),
+        "conformity [–]",
         &[
             ("min".into(), shown.iter().map(|o| o.min).collect()),
             ("mean".into(), shown.iter().map(|o| o.mean).collect()),
         ],
+        "Minimum and mean conformity of each output over the Monte Carlo samples with the non-significant parameters random (1 = the all-true model's output)",
     );
     let plot = ctx.scratch.join("validation.svg");
     write(&plot, &svg)?;

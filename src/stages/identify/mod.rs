@@ -69,8 +69,10 @@ impl Kind for Identify {
     type Params = Params;
     const NAME: &'static str = "identify";
 
+    /// 8: the `updated_model` output (the identified values in the model
+    /// file).
     fn version(&self) -> u32 {
-        7
+        8
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -87,6 +89,7 @@ impl Kind for Identify {
         ("correlation", Artifact::Correlation),
         ("identifiability", Artifact::Identifiability),
         ("subproblems", Artifact::Json),
+        ("updated_model", Artifact::Any),
     ];
     fn outputs(&self, p: &Params) -> Vec<Output> {
         let guided = p.strategy == StrategyName::SensitivityGuided;
@@ -239,7 +242,12 @@ impl Kind for Identify {
             ctx.progress
                 .set_message(format!("verdict: {}", u.verdict.message));
         }
-        let files = write_outputs(ctx, &objective, &spec, &u, started)?;
+        let mut files = write_outputs(ctx, &objective, &spec, &u, started)?;
+        // The updated model file (see stages::updated_model).
+        let model_dir = ctx.scratch.join("updated_model");
+        let parameters = ctx.scratch.join("parameters.csv");
+        crate::stages::updated_model::write(ctx, p.model.as_deref(), &parameters, &model_dir)?;
+        files.push(("updated_model".to_string(), model_dir));
         Ok(StageOutputs {
             files,
             counters: [("evaluations".to_string(), u.evaluations as u64)].into(),

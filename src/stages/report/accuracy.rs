@@ -60,7 +60,82 @@ pub fn accuracy(doc: &mut Document, inputs: &[(String, Metrics)]) {
         "verdict",
     ];
     doc.table(header.map(String::from).to_vec(), rows);
+    per_position(doc, inputs);
     pairing_findings(doc, inputs);
+}
+
+/// One row per evaluate stage and position: the pairing and FRF criteria
+/// of that position alone, so a good mean cannot hide a bad position.
+fn per_position(doc: &mut Document, inputs: &[(String, Metrics)]) {
+    let mut rows = Vec::new();
+    for (stage, m) in inputs {
+        let mut indices: Vec<(u32, String)> = Vec::new();
+        if let Some(x) = &m.modes {
+            indices.extend(x.positions.iter().map(|p| (p.position, p.label.clone())));
+        }
+        if let Some(f) = &m.frf {
+            for p in &f.positions {
+                if !indices.iter().any(|(i, _)| *i == p.position) {
+                    indices.push((p.position, p.label.clone()));
+                }
+            }
+        }
+        indices.sort();
+        for (index, label) in indices {
+            let modes = m
+                .modes
+                .as_ref()
+                .and_then(|x| x.positions.iter().find(|p| p.position == index));
+            let frf = m
+                .frf
+                .as_ref()
+                .and_then(|x| x.positions.iter().find(|p| p.position == index));
+            let count = |n: Option<usize>| match n {
+                None => "–".to_string(),
+                Some(0) => "0".to_string(),
+                Some(k) => format!("✗ {k}"),
+            };
+            rows.push(vec![
+                stage.clone(),
+                if label.is_empty() {
+                    index.to_string()
+                } else {
+                    format!("{index} ({label})")
+                },
+                modes.map_or("–".into(), |p| {
+                    format!("{}/{}", p.paired, p.reference_modes)
+                }),
+                count(modes.map(|p| p.unpaired_reference.len())),
+                count(modes.map(|p| p.unpaired_candidate.len())),
+                pct(modes.and_then(|p| p.mean_mac)),
+                pct(modes.and_then(|p| p.min_mac)),
+                pct(modes.and_then(|p| p.mean_nfd)),
+                pct(modes.and_then(|p| p.max_nfd)),
+                pct(modes.and_then(|p| p.mean_ndd)),
+                pct(frf.and_then(|p| p.mean_frac)),
+                pct(frf.and_then(|p| p.mean_csf)),
+            ]);
+        }
+    }
+    if rows.len() < 2 {
+        return;
+    }
+    doc.heading(3, "Accuracy per position");
+    let header = [
+        "stage",
+        "position",
+        "paired",
+        "missed",
+        "spurious",
+        "mean MAC %",
+        "min MAC %",
+        "mean NFD %",
+        "max NFD %",
+        "mean NDD %",
+        "FRAC %",
+        "CSF %",
+    ];
+    doc.table(header.map(String::from).to_vec(), rows);
 }
 
 /// `2 (45.10 Hz), 5 (120.3 Hz)`.

@@ -11,12 +11,14 @@ pub fn convergence(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(
     if inputs.is_empty() {
         return Ok(());
     }
-    let mut plot = Plot::new("Convergence", "model evaluations", "best objective");
+    let mut plot = Plot::new("Convergence", "model evaluations [–]", "best objective [–]");
     plot.y_log = true;
+    plot.caption = "Best objective over model evaluations per identification (J for black-box strategies, ½‖r‖² of the refinement for guided ones; not comparable between the two)".into();
     // 1 − mean MAC of the best point: one scale for criteria that differ
     // between strategies (J for black-box, the refinement's ½‖r‖² for guided).
-    let mut mac = Plot::new("MAC reached", "model evaluations", "1 − mean MAC");
+    let mut mac = Plot::new("MAC reached", "model evaluations [–]", "1 − mean MAC [–]");
     mac.y_log = true;
+    mac.caption = "1 − mean MAC of the best point over model evaluations per identification: one scale for every strategy".into();
     for (k, (stage, path)) in inputs.iter().enumerate() {
         let text = std::fs::read_to_string(path)
             .map_err(|e| StageError::io("cannot read input `histories`", e))?;
@@ -42,17 +44,9 @@ pub fn convergence(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(
         }
     }
     doc.heading(2, "Convergence");
-    doc.figure(
-        "Best objective over model evaluations per optimizer and seed",
-        "convergence.svg",
-        plot.to_svg(),
-    );
+    doc.figure(plot.caption.clone(), "convergence.svg", plot.to_svg());
     if !mac.series.is_empty() {
-        doc.figure(
-            "1 − mean MAC of the best point over model evaluations",
-            "mac_convergence.svg",
-            mac.to_svg(),
-        );
+        doc.figure(mac.caption.clone(), "mac_convergence.svg", mac.to_svg());
     }
     Ok(())
 }
@@ -87,10 +81,17 @@ pub fn parameter_errors(
         return Ok(());
     }
     doc.heading(2, "Parameter errors");
+    let caption = "Absolute relative error |p − p_true|/p_true of each identified parameter per evaluate stage, in percent";
     doc.figure(
-        "Absolute relative error of each identified parameter, %",
+        caption,
         "parameter_errors.svg",
-        bars("Parameter errors", "|relative error| %", &labels, &series),
+        bars(
+            "Parameter errors",
+            ("parameter", &labels),
+            "|relative error| [%]",
+            &series,
+            caption,
+        ),
     );
     Ok(())
 }

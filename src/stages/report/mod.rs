@@ -122,9 +122,12 @@ impl Kind for Report {
     const NAME: &'static str = "report";
 
     /// 3: verdicts, unpaired and ambiguous modes, identifiability and
-    /// correlation sections. 4: the run trace's path.
+    /// correlation sections. 4: the run trace's path. 5: the style guide
+    /// (captions from the figures, significant digits, p-values), accuracy
+    /// per position, each figure as SVG and PNG, zoom of dense figures,
+    /// figures/style.txt.
     fn version(&self) -> u32 {
-        4
+        5
     }
     fn summary(&self) -> &'static str {
         "an HTML report (self-contained) and a Markdown twin from verdicts, metrics, costs, identifiability, histories and figures"
@@ -192,9 +195,30 @@ impl Kind for Report {
             std::fs::write(&p, text)
                 .map_err(|e| StageError::io(format!("cannot write {}", p.display()), e))
         };
+        // Each figure standalone: the SVG and a PNG at 2× (style guide
+        // rule 9), and the style guide's structural checks as warnings.
+        let mut problems = Vec::new();
         for (file, svg) in doc.figures() {
             write(fig_dir.join(file), svg)?;
+            let stem = file.strip_suffix(".svg").unwrap_or(file);
+            let png = crate::report::raster::png(svg, 2.0).map_err(|m| {
+                StageError::Failed(format!("cannot render figure {file} as PNG: {m}"))
+            })?;
+            std::fs::write(fig_dir.join(format!("{stem}.png")), png)
+                .map_err(|e| StageError::io(format!("cannot write {stem}.png"), e))?;
+            problems.extend(
+                crate::report::lint::check(svg)
+                    .into_iter()
+                    .map(|p| format!("{file}: {p}")),
+            );
         }
+        if !problems.is_empty() {
+            ctx.progress.set_message(format!(
+                "{} figure problem(s), see figures/style.txt",
+                problems.len()
+            ));
+        }
+        write(fig_dir.join("style.txt"), &(problems.join("\n") + "\n"))?;
         write(dir.join("index.html"), &doc.to_html())?;
         write(dir.join("report.md"), &doc.to_markdown("figures"))?;
         Ok(StageOutputs {
@@ -241,15 +265,7 @@ fn pct(v: Option<f64>) -> String {
 /// A number to four significant digits (`0.005685`, `46.51`, `2.406e6`);
 /// `–` when absent.
 fn sig4(v: Option<f64>) -> String {
-    let Some(x) = v.filter(|x| x.is_finite()) else {
-        return "–".into();
-    };
-    let rounded: f64 = format!("{x:.3e}").parse().unwrap_or(x);
-    if rounded == 0.0 || (1e-3..1e5).contains(&rounded.abs()) {
-        format!("{rounded}")
-    } else {
-        format!("{rounded:e}")
-    }
+    v.map_or("–".into(), |x| crate::report::format::sig(x, 4))
 }
 
 #[cfg(test)]

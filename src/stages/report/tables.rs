@@ -2,6 +2,8 @@
 //! shortened) and any SVG figure or directory of figures.
 
 use crate::report::document::Document;
+use crate::report::format;
+use crate::report::svg::caption_of;
 use crate::stages::StageError;
 use std::path::PathBuf;
 
@@ -18,10 +20,20 @@ pub fn tables(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), St
             .split(',')
             .map(str::to_string)
             .collect();
+        // p-value columns in scientific notation (style guide rule 7).
+        let p_columns: Vec<bool> = header
+            .iter()
+            .map(|h| matches!(h.trim(), "p" | "p_value" | "pvalue"))
+            .collect();
         let rows: Vec<Vec<String>> = lines
             .by_ref()
             .take(MAX_ROWS)
-            .map(|l| l.split(',').map(short_number).collect())
+            .map(|l| {
+                l.split(',')
+                    .enumerate()
+                    .map(|(i, c)| format::cell(c, p_columns.get(i).copied().unwrap_or(false)))
+                    .collect()
+            })
             .collect();
         doc.heading(2, stage.clone());
         doc.table(header, rows);
@@ -31,16 +43,6 @@ pub fn tables(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), St
         }
     }
     Ok(())
-}
-
-/// Numbers to 4 significant digits for reading; text as it is.
-pub fn short_number(cell: &str) -> String {
-    match cell.parse::<f64>() {
-        Ok(v) if v.is_finite() && v != v.trunc() => format!("{v:.4e}")
-            .parse::<f64>()
-            .map_or(cell.to_string(), |r| format!("{r}")),
-        _ => cell.to_string(),
-    }
 }
 
 pub fn figures(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), StageError> {
@@ -78,13 +80,39 @@ pub fn figures(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), S
             } else {
                 String::new()
             };
+            // The figure says what it shows in its <desc>; the stage that
+            // made it follows in brackets.
             let slug = stage.replace(|c: char| !c.is_ascii_alphanumeric(), "_");
+            let caption = |fallback: String| match caption_of(&svg) {
+                Some(c) => format!("{c} [{stage}]"),
+                None => fallback,
+            };
             if name.is_empty() {
-                doc.figure(stage.clone(), format!("{slug}.svg"), svg);
+                let c = caption(describe(stage, ""));
+                doc.figure(c, format!("{slug}.svg"), svg);
             } else {
-                doc.figure(format!("{stage}: {name}"), format!("{slug}_{name}"), svg);
+                let c = caption(describe(stage, &name));
+                doc.figure(c, format!("{slug}_{name}"), svg);
             }
         }
     }
     Ok(())
+}
+
+/// A caption for a figure that carries none, from what made it.
+fn describe(stage: &str, file: &str) -> String {
+    let what = if file.starts_with("stabilization") || stage.ends_with(".stabilization") {
+        "Stabilization diagram: poles per model order (symbols by class), selected modes ringed, CMIF curves beneath"
+    } else if file.starts_with("mac_") {
+        "MAC matrix"
+    } else if file.starts_with("frf_") {
+        "FRF overlay"
+    } else {
+        "Figure"
+    };
+    if file.is_empty() {
+        format!("{what} [{stage}]")
+    } else {
+        format!("{what} [{stage}: {file}]")
+    }
 }

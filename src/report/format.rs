@@ -1,0 +1,115 @@
+//! Numbers as a report shows them (style guide rule 7): significant digits,
+//! scientific notation for very small and very large magnitudes, p-values,
+//! and powers of ten with superscript exponents for log-axis ticks.
+
+/// `v` to `digits` significant digits: plain between 10⁻³ and 10⁵
+/// (`0.005685`, `46.51`), else scientific (`2.406e6`, `3.953e-5`); `–` for
+/// a non-finite value.
+pub fn sig(v: f64, digits: usize) -> String {
+    if !v.is_finite() {
+        return "–".into();
+    }
+    if v == 0.0 {
+        return "0".into();
+    }
+    let d = digits.max(1);
+    let rounded: f64 = format!("{v:.*e}", d - 1).parse().unwrap_or(v);
+    if (1e-3..1e5).contains(&rounded.abs()) {
+        format!("{rounded}")
+    } else {
+        format!("{rounded:e}")
+    }
+}
+
+/// A p-value: 2 significant digits, scientific below 10⁻³, and `< 1e-16`
+/// below what a double resolves next to 1.
+pub fn p_value(p: f64) -> String {
+    if !p.is_finite() {
+        "–".into()
+    } else if p < 1e-16 {
+        "< 1e-16".into()
+    } else if p < 1e-3 {
+        format!("{p:.1e}")
+    } else {
+        sig(p, 2)
+    }
+}
+
+/// `10ⁿ` with a superscript exponent.
+pub fn power_of_ten(n: i32) -> String {
+    const SUP: [char; 10] = ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹'];
+    let mut s = String::from("10");
+    if n < 0 {
+        s.push('⁻');
+    }
+    for c in n.unsigned_abs().to_string().chars() {
+        s.push(SUP[c.to_digit(10).unwrap_or(0) as usize]);
+    }
+    s
+}
+
+/// A linear tick label: as many decimals as the tick step needs.
+pub fn tick(v: f64, step: f64) -> String {
+    if !v.is_finite() {
+        return "–".into();
+    }
+    if v == 0.0 {
+        return "0".into();
+    }
+    if v.abs() >= 1e5 || v.abs() < 1e-3 {
+        return sig(v, 3);
+    }
+    let decimals = if step >= 1.0 {
+        0
+    } else {
+        (-step.log10().floor()) as usize
+    };
+    format!("{v:.decimals$}")
+}
+
+/// A table cell: numbers with a fraction to 4 significant digits (p-value
+/// columns with [`p_value`]), anything else as it is.
+pub fn cell(text: &str, is_p_value: bool) -> String {
+    match text.trim().parse::<f64>() {
+        Ok(v) if is_p_value => p_value(v),
+        Ok(v) if v.is_finite() && v != v.trunc() => sig(v, 4),
+        Ok(v) if v.is_finite() && v.abs() >= 1e9 => sig(v, 4),
+        _ => text.to_string(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn significant_digits_and_p_values() {
+        assert_eq!(sig(2_406_012.0, 4), "2.406e6");
+        assert_eq!(sig(46.505_1, 4), "46.51");
+        assert_eq!(sig(0.005_684_9, 4), "0.005685");
+        assert_eq!(sig(3.953e-5, 4), "3.953e-5");
+        assert_eq!(sig(0.0, 4), "0");
+        assert_eq!(sig(f64::NAN, 4), "–");
+        assert_eq!(p_value(3.688e-27), "< 1e-16");
+        assert_eq!(p_value(4.1e-13), "4.1e-13");
+        assert_eq!(p_value(0.000_91), "9.1e-4");
+        assert_eq!(p_value(0.5712), "0.57");
+        assert_eq!(
+            cell("0.0000000000000000000000000036880356654730204", true),
+            "< 1e-16"
+        );
+        assert_eq!(cell("12.345678", false), "12.35");
+        assert_eq!(cell("p0.mode1", false), "p0.mode1");
+        assert_eq!(cell("42", false), "42");
+    }
+
+    #[test]
+    fn ticks_and_powers() {
+        assert_eq!(power_of_ten(-32), "10⁻³²");
+        assert_eq!(power_of_ten(5), "10⁵");
+        assert_eq!(tick(0.25, 0.05), "0.25");
+        assert_eq!(tick(150.0, 50.0), "150");
+        assert_eq!(tick(-180.0, 90.0), "-180");
+        assert_eq!(tick(2.0e6, 5e5), "2e6");
+    }
+}

@@ -1,0 +1,49 @@
+//! The `geometry` input of evaluate (and the report): a synthesize stage's
+//! model.json (the model file's sensor points, per position) or an import
+//! stage's geometry.json (one geometry for every position).
+
+use crate::dynamics::model_file::{self, ModelFile};
+use crate::geometry::Geometry;
+use crate::stages::StageError;
+use std::path::Path;
+
+/// A geometry source.
+pub enum Source {
+    Model(Box<ModelFile>),
+    Fixed(Geometry),
+}
+
+impl Source {
+    /// The geometry of a position.
+    pub fn at(&self, position: u32) -> Option<Geometry> {
+        match self {
+            Source::Model(spec) => Some(Geometry::from_model_file(spec, position as usize)),
+            Source::Fixed(g) => (!g.nodes.is_empty()).then(|| g.clone()),
+        }
+    }
+}
+
+/// Read a model.json or geometry.json.
+pub fn read(path: &Path) -> Result<Source, StageError> {
+    let bad = |message: String| StageError::InvalidInput {
+        input: "geometry".into(),
+        message,
+    };
+    let bytes =
+        std::fs::read(path).map_err(|e| StageError::io("cannot read input `geometry`", e))?;
+    let json: serde_json::Value =
+        serde_json::from_slice(&bytes).map_err(|e| bad(format!("not JSON: {e}")))?;
+    if let Some(yaml) = json.get("yaml").and_then(|v| v.as_str()) {
+        let name = json["file"].as_str().unwrap_or("model.json");
+        let spec = model_file::parse(yaml, name).map_err(|e| bad(e.to_string()))?;
+        return Ok(Source::Model(Box::new(spec)));
+    }
+    if json.get("nodes").is_some() {
+        let g: Geometry =
+            serde_json::from_value(json).map_err(|e| bad(format!("geometry.json: {e}")))?;
+        return Ok(Source::Fixed(g));
+    }
+    Err(bad(
+        "neither a model.json (synthesize `model`) nor a geometry.json (import `geometry`)".into(),
+    ))
+}
