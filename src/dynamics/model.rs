@@ -74,6 +74,8 @@ pub struct Model {
     pub(crate) axes: Vec<Axis>,
     pub(crate) sensors: Vec<PointDof>,
     pub(crate) excitations: Vec<PointDof>,
+    /// Eigensolver settings of the model file.
+    pub solver: model_file::SolverSpec,
 }
 
 impl Model {
@@ -96,7 +98,7 @@ impl Model {
             .iter()
             .map(|b| match &b.kind {
                 super::bodies::BodyKind::Rigid { dofs, .. } => dofs.len(),
-                super::bodies::BodyKind::Fe { fe, .. } => fe.M.nrows(),
+                super::bodies::BodyKind::Fe { fe, .. } => fe.n(),
             })
             .sum()
     }
@@ -407,7 +409,16 @@ impl Model {
         };
         let sensors = point_dofs(&spec.sensors, "sensors")?;
         let excitations = point_dofs(&spec.excitations, "excitations")?;
+        if let Some(b) = spec.solver.block {
+            if !(1..=16).contains(&b) {
+                return Err(inv(
+                    "solver.block".into(),
+                    format!("Lanczos block size {b}: give 1..=16 (default 4)"),
+                ));
+            }
+        }
         Ok(Model {
+            solver: spec.solver,
             parameters,
             bodies,
             joints,

@@ -24,6 +24,33 @@ pub struct ModelFile {
     pub sensors: Vec<PointDofSpec>,
     #[serde(default)]
     pub excitations: Vec<PointDofSpec>,
+    /// Eigensolver settings (default: chosen by size and fill).
+    #[serde(default)]
+    pub solver: SolverSpec,
+}
+
+/// Which eigensolver path a model uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverMethod {
+    /// Dense below 1,500 DOF or above 5 % fill, sparse otherwise.
+    #[default]
+    Auto,
+    /// Dense Cholesky of K + σM (reduced models).
+    Dense,
+    /// Sparse Cholesky of K + σM, symbolic analysis once (unreduced FE).
+    Sparse,
+}
+
+/// `solver:` block of a model file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSpec {
+    #[serde(default)]
+    pub method: SolverMethod,
+    /// Lanczos block size, 1..=16 (default 4): eigenvalues of multiplicity
+    /// up to the block size are found.
+    pub block: Option<usize>,
 }
 
 impl ModelFile {

@@ -8,7 +8,7 @@
 use super::error::DynamicsError;
 use super::fe_body::{FeBody, FeNode};
 use super::model_file::SuperelementSpec;
-use faer::Mat;
+use super::sparse::Csc;
 
 /// Turns a path written in the model file into the file's bytes.
 pub type Resolver<'a> = &'a dyn Fn(&str) -> std::io::Result<Vec<u8>>;
@@ -25,7 +25,7 @@ fn read_matrix(
     resolver: Resolver<'_>,
     file: &str,
     field: &str,
-) -> Result<Mat<f64>, DynamicsError> {
+) -> Result<Csc, DynamicsError> {
     let fail = |message: String| DynamicsError::ExternalFile {
         file: file.to_string(),
         field: field.to_string(),
@@ -40,35 +40,20 @@ fn read_matrix(
     if r != c {
         return Err(fail(format!("matrix is {r}×{c}, expected square")));
     }
-    // Held dense: bound the declared size by the memory limit first.
-    let bytes = 8.0 * r as f64 * c as f64;
-    let limit = crate::resources::memory_limit() as f64;
-    if bytes > limit {
-        return Err(fail(format!(
-            "a {r}×{c} matrix needs an estimated {} held dense, more than the limit of {} \
-             (--max-memory)",
-            crate::resources::human(bytes),
-            crate::resources::human(limit)
-        )));
-    }
-    let mut A = Mat::<f64>::zeros(r, c);
+    let mut t = Vec::with_capacity(tri.nnz());
     for (v, (i, j)) in tri.triplet_iter() {
         if !v.is_finite() {
             return Err(fail(format!("entry ({}, {}) is not finite", i + 1, j + 1)));
         }
-        A[(i, j)] += *v;
+        t.push((i, j, *v));
     }
-    for i in 0..r {
-        for j in 0..i {
-            let (a, b) = (A[(i, j)], A[(j, i)]);
-            if (a - b).abs() > 1e-9 * (a.abs() + b.abs()) {
-                return Err(fail(format!(
-                    "matrix is not symmetric at ({}, {}): {a} vs {b}",
-                    i + 1,
-                    j + 1
-                )));
-            }
-        }
+    let A = Csc::from_triplets(r, t);
+    if let Some((i, j, a, b)) = A.asymmetry(1e-9) {
+        return Err(fail(format!(
+            "matrix is not symmetric at ({}, {}): {a} vs {b}",
+            i + 1,
+            j + 1
+        )));
     }
     Ok(A)
 }
@@ -87,18 +72,14 @@ pub fn load_superelement(
         file,
         &format!("{field}.stiffness"),
     )?;
-    if M.nrows() != K.nrows() {
+    if M.n != K.n {
         return Err(DynamicsError::invalid(
             file,
             field,
-            format!(
-                "mass is {0}×{0} but stiffness is {1}×{1}",
-                M.nrows(),
-                K.nrows()
-            ),
+            format!("mass is {0}×{0} but stiffness is {1}×{1}", M.n, K.n),
         ));
     }
-    let n = M.nrows();
+    let n = M.n;
     let mut nodes = Vec::with_capacity(spec.nodes.len());
     for (i, node) in spec.nodes.iter().enumerate() {
         let f = format!("{field}.nodes[{i}]");
@@ -171,9 +152,9 @@ mod tests {
         };
         let b =
             load_superelement(&spec(), &resolver, "model.yaml", "bodies[0].superelement").unwrap();
-        assert_eq!(b.K[(0, 1)], -1.0);
-        assert_eq!(b.K[(1, 0)], -1.0);
-        assert_eq!(b.M[(2, 2)], 2.0);
+        assert_eq!(b.K.get(0, 1), -1.0);
+        assert_eq!(b.K.get(1, 0), -1.0);
+        assert_eq!(b.M.get(2, 2), 2.0);
         assert_eq!(b.nodes[0].dofs[3], None);
     }
 
