@@ -298,6 +298,46 @@ impl PreparedModel {
         ])
     }
 
+    /// Sparse matrices (M, K, B, D) of a configuration at the given
+    /// parameter values, for exports and peer comparisons.
+    pub fn sparse_matrices(
+        &self,
+        config: usize,
+        values: &[f64],
+    ) -> Result<[Csc; 4], DynamicsError> {
+        self.check_values(values)?;
+        let c = self.config(config)?;
+        let n = self.n_dofs();
+        let (M, K0, D0) = match &*self.storage {
+            Storage::Dense(d) => (
+                dense_csc(&d.M),
+                dense_csc(&d.K0),
+                d.D0.as_ref().map(dense_csc),
+            ),
+            Storage::Sparse(s) => (s.M.clone(), s.K0.clone(), s.D0.clone()),
+        };
+        let with = |base: Option<Csc>, t: &JointTerms| {
+            let mut tr = Vec::new();
+            if let Some(b) = base {
+                b.triplets(0, 1.0, &mut tr);
+            }
+            for (g, &p) in t.columns.iter().zip(&t.params) {
+                for &(i, gi) in g {
+                    for &(j, gj) in g {
+                        tr.push((i, j, values[p] * gi * gj));
+                    }
+                }
+            }
+            Csc::from_triplets(n, tr)
+        };
+        Ok([
+            M,
+            with(Some(K0), &c.stiffness),
+            with(None, &c.viscous),
+            with(D0, &c.hysteretic),
+        ])
+    }
+
     /// Parameter vectors must match the model and be finite and ≥ 0.
     pub fn check_values(&self, values: &[f64]) -> Result<(), DynamicsError> {
         if values.len() != self.parameters.len() {
@@ -521,4 +561,10 @@ fn configuration(
         S: rows(&model.sensors),
         E: rows(&model.excitations),
     })
+}
+
+fn dense_csc(A: &Mat<f64>) -> Csc {
+    let mut t = Vec::new();
+    Csc::dense_triplets(A, 0, &mut t);
+    Csc::from_triplets(A.nrows(), t)
 }

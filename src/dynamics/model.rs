@@ -103,6 +103,52 @@ impl Model {
             .sum()
     }
 
+    /// Estimated peak memory of preparing and evaluating the model, bytes,
+    /// and what dominates it: about six dense n × n matrices when the
+    /// solver is (or will be chosen) dense, O(nnz) when it is sparse (the
+    /// factor's fill, ~30× the bodies' non-zeros for beam-like bodies, and
+    /// a Krylov basis of a few hundred vectors); a Craig–Bampton body is
+    /// reduced with dense matrices of its full size.
+    pub fn memory_estimate(&self) -> (f64, String) {
+        let n = self.n_dofs() as f64;
+        let mut nnz = 0.0;
+        let mut reduced = 0.0f64;
+        for b in &self.bodies {
+            match &b.kind {
+                BodyKind::Fe { fe, modes, .. } => {
+                    if modes.is_some() {
+                        reduced = reduced.max(fe.n() as f64);
+                        nnz += (fe.n() as f64).powi(2);
+                    } else {
+                        nnz += (fe.K.nnz() + fe.M.nnz()) as f64;
+                    }
+                }
+                BodyKind::Rigid { dofs, .. } => nnz += (dofs.len() * dofs.len()) as f64,
+            }
+        }
+        let method = super::storage::choose(self.solver.method, n as usize, nnz as usize);
+        let solve = if method == model_file::SolverMethod::Dense {
+            (
+                8.0 * 6.0 * n * n,
+                format!("{n} DOF: the dense eigenproblem (6 n × n matrices)"),
+            )
+        } else {
+            (
+                8.0 * (30.0 * nnz + 300.0 * n),
+                format!("{n} DOF, {nnz} non-zeros: sparse factor and Krylov basis"),
+            )
+        };
+        let cb = 8.0 * 4.0 * reduced * reduced;
+        if cb > solve.0 {
+            (
+                cb,
+                format!("Craig–Bampton reduction of a {reduced}-DOF body (dense)"),
+            )
+        } else {
+            solve
+        }
+    }
+
     /// Index of a parameter by name.
     pub fn parameter_index(&self, name: &str) -> Option<usize> {
         self.parameters.iter().position(|p| p.name == name)

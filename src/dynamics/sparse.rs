@@ -18,8 +18,8 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
 
-/// A square sparse matrix in compressed sparse columns, rows sorted within
-/// each column, duplicates summed.
+/// A square symmetric sparse matrix in compressed sparse columns (both
+/// triangles stored), rows sorted within each column, duplicates summed.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Csc {
     pub n: usize,
@@ -113,21 +113,39 @@ impl Csc {
         out
     }
 
-    /// Y = A X (Y overwritten).
+    /// Y = A X (Y overwritten) for symmetric A.
     pub fn mul(&self, X: MatRef<'_, f64>, mut Y: MatMut<'_, f64>) {
-        Y.fill(0.0);
         for c in 0..X.ncols() {
-            let x = X.col(c);
-            let mut y = Y.rb_mut().col_mut(c);
-            for j in 0..self.n {
-                let xj = x[j];
-                if xj == 0.0 {
-                    continue;
-                }
-                for p in self.col_ptr[j]..self.col_ptr[j + 1] {
-                    y[self.row_idx[p]] += self.values[p] * xj;
+            let mut yc = Y.rb_mut().col_mut(c);
+            let xc = X.col(c);
+            match (
+                xc.try_as_col_major().map(|x| x.as_slice()),
+                yc.rb_mut().try_as_col_major_mut().map(|y| y.as_slice_mut()),
+            ) {
+                (Some(x), Some(y)) => self.mul_slice(x, y),
+                _ => {
+                    let x: Vec<f64> = (0..self.n).map(|i| xc[i]).collect();
+                    let mut y = vec![0.0; self.n];
+                    self.mul_slice(&x, &mut y);
+                    for (i, v) in y.into_iter().enumerate() {
+                        yc[i] = v;
+                    }
                 }
             }
+        }
+    }
+
+    /// y = A x as a gather over the stored columns: column j of a symmetric
+    /// A is its row j, so y_j = Σ_p A_pj x_p accumulates in a register (no
+    /// scattered writes). Every matrix stored here is symmetric.
+    fn mul_slice(&self, x: &[f64], y: &mut [f64]) {
+        for (j, yj) in y.iter_mut().enumerate() {
+            let (a, b) = (self.col_ptr[j], self.col_ptr[j + 1]);
+            let mut s = 0.0;
+            for (&i, &v) in self.row_idx[a..b].iter().zip(&self.values[a..b]) {
+                s += v * x[i];
+            }
+            *yj = s;
         }
     }
 
