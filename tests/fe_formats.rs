@@ -1,4 +1,5 @@
 //! FE export formats (issue 16): the two-node fixture of
+#![allow(non_snake_case)]
 //! `tests/fixtures/fe/` (README there) in Matrix Market, Harwell–Boeing with
 //! an ANSYS mapping, Abaqus coordinate `.mtx` and a Nastran DMIG punch gives
 //! the same super-element, the analytic eigenvalues and nodes from the

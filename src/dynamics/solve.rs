@@ -272,7 +272,7 @@ impl PreparedModel {
                 .sum::<f64>()
                 .sqrt();
             let scale = (kn + l.abs() * mn) * Phi.col(r).norm_l2();
-            if !(res <= tol * scale) {
+            if res.is_nan() || res > tol * scale {
                 return Err(DynamicsError::Lanczos {
                     message: format!(
                         "mode {} ({:.4} Hz) fails the residual check: ‖Kφ − λMφ‖ / ((‖K‖ + |λ|‖M‖)‖φ‖) = {:.1e} > {tol:.1e}; try `solver: {{method: dense}}` or a larger shift",

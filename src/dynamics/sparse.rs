@@ -32,7 +32,7 @@ impl Csc {
     /// Build from (row, column, value) triplets; duplicates are summed in a
     /// fixed order (sorted by position, then by input order).
     pub fn from_triplets(n: usize, mut t: Vec<(usize, usize, f64)>) -> Csc {
-        t.sort_by(|a, b| (a.1, a.0).cmp(&(b.1, b.0)));
+        t.sort_by_key(|a| (a.1, a.0));
         let mut col_ptr = vec![0usize; n + 1];
         let mut row_idx = Vec::with_capacity(t.len());
         let mut values: Vec<f64> = Vec::with_capacity(t.len());

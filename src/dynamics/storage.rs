@@ -43,11 +43,13 @@ pub struct SparseStorage {
     slots: Vec<Vec<Vec<usize>>>,
 }
 
-/// The body matrices of a prepared model.
+/// The body matrices of a prepared model (one per model, behind an `Arc`,
+/// so the variants' sizes do not matter).
 #[derive(Debug)]
+#[allow(clippy::large_enum_variant)]
 pub enum Storage {
     Dense(DenseStorage),
-    Sparse(SparseStorage),
+    Sparse(Box<SparseStorage>),
 }
 
 /// Dense when the model is small or its K_σ is dense anyway: below 1,500
@@ -137,14 +139,14 @@ impl Storage {
             .collect();
         let chol = SparseCholesky::analyse(&K0_shifted)
             .map_err(|m| DynamicsError::Parameters { message: m })?;
-        Ok(Storage::Sparse(SparseStorage {
+        Ok(Storage::Sparse(Box::new(SparseStorage {
             M,
             K0,
             D0,
             K0_shifted,
             chol,
             slots,
-        }))
+        })))
     }
 
     pub fn n(&self) -> usize {
@@ -214,7 +216,11 @@ impl Storage {
                 1.0,
                 Par::Seq,
             ),
-            Storage::Sparse(SparseStorage { D0: Some(D0), .. }) => D0.mul(Phi.as_ref(), W.as_mut()),
+            Storage::Sparse(s) if s.D0.is_some() => {
+                if let Some(D0) = &s.D0 {
+                    D0.mul(Phi.as_ref(), W.as_mut())
+                }
+            }
             _ => return vec![0.0; m],
         }
         (0..m)

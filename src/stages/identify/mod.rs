@@ -69,8 +69,9 @@ impl Kind for Identify {
     type Params = Params;
     const NAME: &'static str = "identify";
 
+    /// 8: model modes by shift-invert block Lanczos (issue 16).
     fn version(&self) -> u32 {
-        7
+        8
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
