@@ -135,7 +135,7 @@ fn long_cantilever_matches_euler_bernoulli_with_both_copies_of_each_bending_mode
         4.694091132974175,
         7.854757438237613,
         10.995540734875467,
-        14.137168391046471,
+        14.137_168_391_046_47,
     ];
     let mut previous: Option<Vec<f64>> = None;
     for (method, block) in [("sparse", 4), ("dense", 4), ("sparse", 2)] {
