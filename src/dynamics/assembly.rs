@@ -13,14 +13,20 @@
 
 use super::configuration::{axis_states, locate, locate_b, Location};
 use super::craig_bampton::craig_bampton;
-use super::eigen::{cholesky, DEFAULT_SHIFT};
+use super::eigen::DEFAULT_SHIFT;
 use super::error::DynamicsError;
+use super::lanczos::LanczosOptions;
 use super::model::{BodyKind, End, Model, Parameter};
 use super::model_file::DampingModel;
+use super::model_file::{SolverMethod, SolverSpec};
 use super::rigid::{offset_map, rigid_mass};
+use super::shift_invert::WorkspacePool;
+use super::sparse::Csc;
+use super::storage::{choose, Storage};
 use crate::frf::{Dof, Position};
 use faer::Mat;
 use std::collections::BTreeSet;
+use std::sync::Arc;
 
 /// One body in the global DOF vector.
 #[derive(Debug, Clone)]
@@ -78,8 +84,9 @@ pub struct Configuration {
     pub E: Mat<f64>,
 }
 
-/// A model ready for fast evaluation: reductions, factorization and
-/// configurations computed once; see [`PreparedModel::evaluate`].
+/// A model ready for fast evaluation: reductions, the body matrices (dense
+/// or sparse, [`Storage`]), the symbolic factorization and configurations
+/// computed once; see [`PreparedModel::evaluate`].
 #[derive(Debug, Clone)]
 pub struct PreparedModel {
     pub parameters: Vec<Parameter>,
@@ -88,23 +95,24 @@ pub struct PreparedModel {
     pub configurations: Vec<Configuration>,
     /// Human-readable label of every DOF (`bed.node3.y`, `bed.cb2`).
     pub dof_labels: Vec<String>,
-    /// Assembled body mass and stiffness (no joints).
-    pub M: Mat<f64>,
-    pub K0: Mat<f64>,
-    /// Material hysteretic damping of the bodies, Σ η_b K_b (eq. 2.51);
-    /// `None` when every loss factor is zero.
-    pub D0: Option<Mat<f64>>,
-    /// Cholesky factor C of M = C Cᵀ.
-    pub M_chol: Mat<f64>,
-    /// K₀ + σ M.
-    K0_shifted: Mat<f64>,
+    /// Assembled body mass, stiffness and material damping (no joints),
+    /// and the eigensolver path.
+    pub storage: Arc<Storage>,
     /// Shift σ of the shift-invert eigensolver, rad²/s²
     /// ([`crate::dynamics::eigen`]).
     shift: f64,
-    bodies: Vec<PreparedBody>,
+    pub(crate) lanczos: LanczosOptions,
+    pub(crate) scratch: WorkspacePool,
 }
 
 const AXES: [&str; 6] = ["x", "y", "z", "rx", "ry", "rz"];
+
+/// One body's matrices: dense after a Craig–Bampton reduction or for a
+/// rigid body, sparse for an unreduced FE body.
+enum Block {
+    Dense(Mat<f64>, Mat<f64>),
+    Sparse(Csc, Csc),
+}
 
 impl PreparedModel {
     /// Reduce bodies, assemble, factor M and set up all configurations,
@@ -116,6 +124,16 @@ impl PreparedModel {
     /// As [`PreparedModel::new`] with shift σ > 0 (rad²/s²): choose σ below
     /// the lowest elastic eigenvalue of interest.
     pub fn with_shift(model: &Model, shift: f64) -> Result<PreparedModel, DynamicsError> {
+        PreparedModel::with_solver(model, shift, model.solver)
+    }
+
+    /// As [`PreparedModel::with_shift`] with the solver settings given
+    /// (instead of the model file's `solver:`).
+    pub fn with_solver(
+        model: &Model,
+        shift: f64,
+        solver: SolverSpec,
+    ) -> Result<PreparedModel, DynamicsError> {
         if !(shift.is_finite() && shift > 0.0) {
             return Err(DynamicsError::Parameters {
                 message: format!("eigensolver shift must be finite and > 0, got {shift}"),
@@ -141,92 +159,70 @@ impl PreparedModel {
             }
         }
         let mut bodies = Vec::new();
-        let mut blocks: Vec<(Mat<f64>, Mat<f64>, f64)> = Vec::new();
+        let mut blocks: Vec<(Block, f64)> = Vec::new();
         let mut dof_labels = Vec::new();
         let mut offset = 0;
         for (bi, body) in model.bodies.iter().enumerate() {
-            let eta = match &body.kind {
-                BodyKind::Fe { loss_factor, .. } => *loss_factor,
-                BodyKind::Rigid { .. } => 0.0,
+            let (block, eta, T) = body_block(body, &used[bi], &mut dof_labels)?;
+            let n = match &block {
+                Block::Dense(M, _) => M.nrows(),
+                Block::Sparse(M, _) => M.n,
             };
-            let (M, K, T) = match &body.kind {
-                BodyKind::Rigid {
-                    mass,
-                    inertia,
-                    dofs,
-                    ..
-                } => {
-                    dof_labels.extend(dofs.iter().map(|&a| format!("{}.{}", body.name, AXES[a])));
-                    let full = rigid_mass(*mass, inertia);
-                    let n = dofs.len();
-                    (
-                        Mat::from_fn(n, n, |i, j| full[(dofs[i], dofs[j])]),
-                        Mat::zeros(n, n),
-                        None,
-                    )
-                }
-                BodyKind::Fe {
-                    fe, modes: Some(q), ..
-                } => {
-                    let boundary: Vec<usize> =
-                        used[bi].iter().flat_map(|&n| fe.node_dofs(n)).collect();
-                    for &n in &used[bi] {
-                        let id = fe.nodes[n].id;
-                        for (j, d) in fe.nodes[n].dofs.iter().enumerate() {
-                            if d.is_some() {
-                                dof_labels.push(format!("{}.node{id}.{}", body.name, AXES[j]));
-                            }
-                        }
-                    }
-                    let r = craig_bampton(&fe.K, &fe.M, &boundary, *q, &body.name)?;
-                    let nq = r.M.nrows() - boundary.len();
-                    dof_labels.extend((0..nq).map(|i| format!("{}.cb{i}", body.name)));
-                    (r.M, r.K, Some(r.T))
-                }
-                BodyKind::Fe {
-                    fe, modes: None, ..
-                } => {
-                    let mut labels = vec![String::new(); fe.M.nrows()];
-                    for (i, l) in labels.iter_mut().enumerate() {
-                        *l = format!("{}.row{i}", body.name);
-                    }
-                    for node in &fe.nodes {
-                        for (j, d) in node.dofs.iter().enumerate() {
-                            if let Some(d) = d {
-                                labels[*d] = format!("{}.node{}.{}", body.name, node.id, AXES[j]);
-                            }
-                        }
-                    }
-                    dof_labels.extend(labels);
-                    (fe.M.clone(), fe.K.clone(), None)
-                }
-            };
-            let n = M.nrows();
             bodies.push(PreparedBody { offset, n, T });
-            blocks.push((M, K, eta));
+            blocks.push((block, eta));
             offset += n;
         }
         let n = offset;
-        let mut M = Mat::<f64>::zeros(n, n);
-        let mut K0 = Mat::<f64>::zeros(n, n);
-        let mut D0 = blocks
-            .iter()
-            .any(|b| b.2 > 0.0)
-            .then(|| Mat::<f64>::zeros(n, n));
-        for (b, (Mb, Kb, eta)) in bodies.iter().zip(&blocks) {
-            M.submatrix_mut(b.offset, b.offset, b.n, b.n).copy_from(Mb);
-            K0.submatrix_mut(b.offset, b.offset, b.n, b.n).copy_from(Kb);
-            if let Some(D0) = D0.as_mut() {
-                D0.submatrix_mut(b.offset, b.offset, b.n, b.n)
-                    .copy_from(Kb * faer::Scale(*eta));
+        let (mut tm, mut tk, mut td) = (Vec::new(), Vec::new(), Vec::new());
+        for (b, (block, eta)) in bodies.iter().zip(&blocks) {
+            match block {
+                Block::Dense(Mb, Kb) => {
+                    Csc::dense_triplets(Mb, b.offset, &mut tm);
+                    Csc::dense_triplets(Kb, b.offset, &mut tk);
+                    if *eta > 0.0 {
+                        Csc::dense_triplets(&(Kb * faer::Scale(*eta)), b.offset, &mut td);
+                    }
+                }
+                Block::Sparse(Mb, Kb) => {
+                    Mb.triplets(b.offset, 1.0, &mut tm);
+                    Kb.triplets(b.offset, 1.0, &mut tk);
+                    if *eta > 0.0 {
+                        Kb.triplets(b.offset, *eta, &mut td);
+                    }
+                }
             }
         }
-        let M_chol = cholesky(&M).map_err(|pivot| DynamicsError::MassNotPositiveDefinite {
-            pivot,
-            dof: dof_labels.get(pivot).cloned().unwrap_or_default(),
-        })?;
-        let K0_shifted = &K0 + &M * faer::Scale(shift);
-        let mut prepared = PreparedModel {
+        let any_damping = blocks.iter().any(|b| b.1 > 0.0);
+        drop(blocks);
+        let M = Csc::from_triplets(n, tm);
+        let K0 = Csc::from_triplets(n, tk);
+        let D0 = any_damping.then(|| Csc::from_triplets(n, td));
+        let configurations = states
+            .iter()
+            .enumerate()
+            .map(|(index, st)| configuration(model, &bodies, n, st, index))
+            .collect::<Result<Vec<_>, _>>()?;
+        let joint_nnz: usize = configurations
+            .iter()
+            .flat_map(|c| c.stiffness.columns.iter().map(|g| g.len() * g.len()))
+            .sum();
+        let method = choose(solver.method, n, M.nnz().max(K0.nnz()) + joint_nnz);
+        if method == SolverMethod::Dense {
+            let bytes = 8.0 * 6.0 * (n as f64).powi(2);
+            let limit = crate::resources::memory_limit() as f64;
+            if bytes > limit {
+                return Err(DynamicsError::Parameters {
+                    message: format!(
+                        "the dense eigenproblem of {n} DOF needs an estimated {}, more than the \
+                         limit of {} (--max-memory); use `solver: {{method: sparse}}` or a reduction",
+                        crate::resources::human(bytes),
+                        crate::resources::human(limit)
+                    ),
+                });
+            }
+        }
+        let storage = Storage::new(method, M, K0, D0, &configurations, shift, &dof_labels)?;
+        Ok(PreparedModel {
             parameters: model.parameters.clone(),
             sensors: model
                 .sensors
@@ -238,21 +234,16 @@ impl PreparedModel {
                 .iter()
                 .map(|s| (s.name.clone(), s.dof))
                 .collect(),
-            configurations: Vec::new(),
+            configurations,
             dof_labels,
-            M,
-            K0,
-            D0,
-            M_chol,
-            K0_shifted,
+            storage: Arc::new(storage),
             shift,
-            bodies,
-        };
-        for (index, st) in states.iter().enumerate() {
-            let c = prepared.configuration(model, st, index)?;
-            prepared.configurations.push(c);
-        }
-        Ok(prepared)
+            lanczos: LanczosOptions {
+                block: solver.block.unwrap_or(LanczosOptions::default().block),
+                ..LanczosOptions::default()
+            },
+            scratch: WorkspacePool::default(),
+        })
     }
 
     /// The eigensolver shift σ, rad²/s².
@@ -260,121 +251,15 @@ impl PreparedModel {
         self.shift
     }
 
-    /// K₀ + σ M (body stiffness plus shift), the base of every evaluation.
-    pub fn shifted_body_stiffness(&self) -> &Mat<f64> {
-        &self.K0_shifted
-    }
-
     /// Number of DOFs of the assembled (reduced) model.
     pub fn n_dofs(&self) -> usize {
-        self.M.nrows()
+        self.storage.n()
     }
 
-    /// 6 × n rows of a point's (u, θ) in global DOFs.
-    fn point_rows(&self, model: &Model, body: usize, loc: Location) -> Mat<f64> {
-        let pb = &self.bodies[body];
-        let mut P = Mat::<f64>::zeros(6, self.n_dofs());
-        let local: Mat<f64> = match (&model.bodies[body].kind, loc) {
-            (BodyKind::Rigid { dofs, .. }, Location::Rigid(r)) => {
-                let T = offset_map(r);
-                Mat::from_fn(6, dofs.len(), |i, j| T[i][dofs[j]])
-            }
-            (BodyKind::Fe { fe, .. }, Location::Node(node, off)) => {
-                let full = fe.point_rows(node, off);
-                match &pb.T {
-                    Some(T) => full * T,
-                    None => full,
-                }
-            }
-            // Locations are produced from the body's own kind.
-            _ => Mat::zeros(6, pb.n),
-        };
-        P.submatrix_mut(0, pb.offset, 6, pb.n).copy_from(&local);
-        P
+    /// Dense or sparse eigensolver path.
+    pub fn solver_method(&self) -> SolverMethod {
+        self.storage.method()
     }
-
-    fn configuration(
-        &self,
-        model: &Model,
-        st: &super::configuration::AxisState,
-        index: usize,
-    ) -> Result<Configuration, DynamicsError> {
-        let n = self.n_dofs();
-        let mut cols: [(Vec<Vec<f64>>, Vec<usize>); 3] = Default::default();
-        for (ji, j) in model.joints.iter().enumerate() {
-            let Pa = self.point_rows(model, j.a.body, locate(model, st, &j.a));
-            let Pb =
-                j.b.as_ref()
-                    .map(|b| self.point_rows(model, b.body, locate_b(model, st, ji, b)));
-            for c in &j.connections {
-                // Weights in global axes: c_t = Rᵀ w_t, c_r = Rᵀ w_r.
-                let w = c.spec.weights;
-                let cg: [f64; 6] = std::array::from_fn(|i| {
-                    let (o, k) = (3 * (i / 3), i % 3);
-                    (0..3).map(|q| j.frame[q][k] * w[o + q]).sum()
-                });
-                let g: Vec<f64> = (0..n)
-                    .map(|col| {
-                        let a: f64 = (0..6).map(|i| Pa[(i, col)] * cg[i]).sum();
-                        let b: f64 = Pb
-                            .as_ref()
-                            .map_or(0.0, |Pb| (0..6).map(|i| Pb[(i, col)] * cg[i]).sum());
-                        a - b
-                    })
-                    .collect();
-                if let Some(k) = c.stiffness {
-                    cols[0].0.push(g.clone());
-                    cols[0].1.push(k);
-                }
-                if let Some(d) = c.damper {
-                    let slot = if c.spec.damping == DampingModel::Viscous {
-                        1
-                    } else {
-                        2
-                    };
-                    cols[slot].0.push(g);
-                    cols[slot].1.push(d);
-                }
-            }
-        }
-        let terms = |(g, params): (Vec<Vec<f64>>, Vec<usize>)| {
-            let columns = g
-                .into_iter()
-                .map(|col| {
-                    col.into_iter()
-                        .enumerate()
-                        .filter(|(_, v)| *v != 0.0)
-                        .collect()
-                })
-                .collect();
-            JointTerms { columns, params }
-        };
-        let [k, b, d] = cols;
-        let rows = |list: &[super::model::PointDof]| {
-            let mut R = Mat::<f64>::zeros(list.len(), n);
-            for (i, p) in list.iter().enumerate() {
-                let P = self.point_rows(model, p.end.body, locate(model, st, &p.end));
-                let axis = p.dof.direction.unsigned_abs() as usize - 1;
-                let sign = p.dof.direction.signum() as f64;
-                for col in 0..n {
-                    R[(i, col)] = sign * P[(axis, col)];
-                }
-            }
-            R
-        };
-        Ok(Configuration {
-            position: Position {
-                index: index as u32,
-                label: st.label.clone(),
-            },
-            stiffness: terms(k),
-            viscous: terms(b),
-            hysteretic: terms(d),
-            S: rows(&model.sensors),
-            E: rows(&model.excitations),
-        })
-    }
-
     /// The configuration with this index, or an error.
     pub fn config(&self, index: usize) -> Result<&Configuration, DynamicsError> {
         self.configurations
@@ -395,14 +280,61 @@ impl PreparedModel {
             base
         };
         let n = self.n_dofs();
+        let bytes = 4.0 * 8.0 * (n as f64).powi(2);
+        if bytes > crate::resources::memory_limit() as f64 {
+            return Err(DynamicsError::Parameters {
+                message: format!(
+                    "dense matrices of {n} DOF need {}, more than the memory limit (--max-memory)",
+                    crate::resources::human(bytes)
+                ),
+            });
+        }
+        let (M, K0, D0) = self.storage.dense();
         Ok([
-            self.M.clone(),
-            add(self.K0.clone(), &c.stiffness),
+            M,
+            add(K0, &c.stiffness),
             add(Mat::zeros(n, n), &c.viscous),
-            add(
-                self.D0.clone().unwrap_or_else(|| Mat::zeros(n, n)),
-                &c.hysteretic,
+            add(D0.unwrap_or_else(|| Mat::zeros(n, n)), &c.hysteretic),
+        ])
+    }
+
+    /// Sparse matrices (M, K, B, D) of a configuration at the given
+    /// parameter values, for exports and peer comparisons.
+    pub fn sparse_matrices(
+        &self,
+        config: usize,
+        values: &[f64],
+    ) -> Result<[Csc; 4], DynamicsError> {
+        self.check_values(values)?;
+        let c = self.config(config)?;
+        let n = self.n_dofs();
+        let (M, K0, D0) = match &*self.storage {
+            Storage::Dense(d) => (
+                dense_csc(&d.M),
+                dense_csc(&d.K0),
+                d.D0.as_ref().map(dense_csc),
             ),
+            Storage::Sparse(s) => (s.M.clone(), s.K0.clone(), s.D0.clone()),
+        };
+        let with = |base: Option<Csc>, t: &JointTerms| {
+            let mut tr = Vec::new();
+            if let Some(b) = base {
+                b.triplets(0, 1.0, &mut tr);
+            }
+            for (g, &p) in t.columns.iter().zip(&t.params) {
+                for &(i, gi) in g {
+                    for &(j, gj) in g {
+                        tr.push((i, j, values[p] * gi * gj));
+                    }
+                }
+            }
+            Csc::from_triplets(n, tr)
+        };
+        Ok([
+            M,
+            with(Some(K0), &c.stiffness),
+            with(None, &c.viscous),
+            with(D0, &c.hysteretic),
         ])
     }
 
@@ -431,4 +363,208 @@ impl PreparedModel {
         }
         Ok(())
     }
+}
+
+/// The matrices of one body (reduced if it asks for Craig–Bampton), its
+/// material loss factor and full → reduced map; appends its DOF labels.
+fn body_block(
+    body: &super::model::Body,
+    used: &BTreeSet<usize>,
+    dof_labels: &mut Vec<String>,
+) -> Result<(Block, f64, Option<Mat<f64>>), DynamicsError> {
+    let eta = match &body.kind {
+        BodyKind::Fe { loss_factor, .. } => *loss_factor,
+        BodyKind::Rigid { .. } => 0.0,
+    };
+    Ok(match &body.kind {
+        BodyKind::Rigid {
+            mass,
+            inertia,
+            dofs,
+            ..
+        } => {
+            dof_labels.extend(dofs.iter().map(|&a| format!("{}.{}", body.name, AXES[a])));
+            let full = rigid_mass(*mass, inertia);
+            let n = dofs.len();
+            (
+                Block::Dense(
+                    Mat::from_fn(n, n, |i, j| full[(dofs[i], dofs[j])]),
+                    Mat::zeros(n, n),
+                ),
+                eta,
+                None,
+            )
+        }
+        BodyKind::Fe {
+            fe, modes: Some(q), ..
+        } => {
+            let boundary: Vec<usize> = used.iter().flat_map(|&n| fe.node_dofs(n)).collect();
+            for &n in used {
+                let id = fe.nodes[n].id;
+                for (j, d) in fe.nodes[n].dofs.iter().enumerate() {
+                    if d.is_some() {
+                        dof_labels.push(format!("{}.node{id}.{}", body.name, AXES[j]));
+                    }
+                }
+            }
+            // Craig–Bampton works on dense matrices: bound them first.
+            let nf = fe.n() as f64;
+            let bytes = 8.0 * 4.0 * nf * nf;
+            let limit = crate::resources::memory_limit() as f64;
+            if bytes > limit {
+                return Err(DynamicsError::Reduction {
+                    body: body.name.clone(),
+                    message: format!(
+                        "the Craig–Bampton reduction of {nf} DOF needs an estimated {} held dense, \
+                         more than the limit of {} (--max-memory); drop the reduction (sparse solver)",
+                        crate::resources::human(bytes),
+                        crate::resources::human(limit)
+                    ),
+                });
+            }
+            let r = craig_bampton(
+                &fe.K.to_dense(),
+                &fe.M.to_dense(),
+                &boundary,
+                *q,
+                &body.name,
+            )?;
+            let nq = r.M.nrows() - boundary.len();
+            dof_labels.extend((0..nq).map(|i| format!("{}.cb{i}", body.name)));
+            (Block::Dense(r.M, r.K), eta, Some(r.T))
+        }
+        BodyKind::Fe {
+            fe, modes: None, ..
+        } => {
+            let mut labels: Vec<String> = (0..fe.n())
+                .map(|i| format!("{}.row{i}", body.name))
+                .collect();
+            for node in &fe.nodes {
+                for (j, d) in node.dofs.iter().enumerate() {
+                    if let Some(d) = d {
+                        labels[*d] = format!("{}.node{}.{}", body.name, node.id, AXES[j]);
+                    }
+                }
+            }
+            dof_labels.extend(labels);
+            (Block::Sparse(fe.M.clone(), fe.K.clone()), eta, None)
+        }
+    })
+}
+
+/// 6 × n rows of a point's (u, θ) in global DOFs.
+fn point_rows(
+    model: &Model,
+    bodies: &[PreparedBody],
+    n: usize,
+    body: usize,
+    loc: Location,
+) -> Mat<f64> {
+    let pb = &bodies[body];
+    let mut P = Mat::<f64>::zeros(6, n);
+    let local: Mat<f64> = match (&model.bodies[body].kind, loc) {
+        (BodyKind::Rigid { dofs, .. }, Location::Rigid(r)) => {
+            let T = offset_map(r);
+            Mat::from_fn(6, dofs.len(), |i, j| T[i][dofs[j]])
+        }
+        (BodyKind::Fe { fe, .. }, Location::Node(node, off)) => {
+            let full = fe.point_rows(node, off);
+            match &pb.T {
+                Some(T) => full * T,
+                None => full,
+            }
+        }
+        // Locations are produced from the body's own kind.
+        _ => Mat::zeros(6, pb.n),
+    };
+    P.submatrix_mut(0, pb.offset, 6, pb.n).copy_from(&local);
+    P
+}
+
+fn configuration(
+    model: &Model,
+    bodies: &[PreparedBody],
+    n: usize,
+    st: &super::configuration::AxisState,
+    index: usize,
+) -> Result<Configuration, DynamicsError> {
+    let mut cols: [(Vec<Vec<f64>>, Vec<usize>); 3] = Default::default();
+    for (ji, j) in model.joints.iter().enumerate() {
+        let Pa = point_rows(model, bodies, n, j.a.body, locate(model, st, &j.a));
+        let Pb =
+            j.b.as_ref()
+                .map(|b| point_rows(model, bodies, n, b.body, locate_b(model, st, ji, b)));
+        for c in &j.connections {
+            // Weights in global axes: c_t = Rᵀ w_t, c_r = Rᵀ w_r.
+            let w = c.spec.weights;
+            let cg: [f64; 6] = std::array::from_fn(|i| {
+                let (o, k) = (3 * (i / 3), i % 3);
+                (0..3).map(|q| j.frame[q][k] * w[o + q]).sum()
+            });
+            let g: Vec<f64> = (0..n)
+                .map(|col| {
+                    let a: f64 = (0..6).map(|i| Pa[(i, col)] * cg[i]).sum();
+                    let b: f64 = Pb
+                        .as_ref()
+                        .map_or(0.0, |Pb| (0..6).map(|i| Pb[(i, col)] * cg[i]).sum());
+                    a - b
+                })
+                .collect();
+            if let Some(k) = c.stiffness {
+                cols[0].0.push(g.clone());
+                cols[0].1.push(k);
+            }
+            if let Some(d) = c.damper {
+                let slot = if c.spec.damping == DampingModel::Viscous {
+                    1
+                } else {
+                    2
+                };
+                cols[slot].0.push(g);
+                cols[slot].1.push(d);
+            }
+        }
+    }
+    let terms = |(g, params): (Vec<Vec<f64>>, Vec<usize>)| {
+        let columns = g
+            .into_iter()
+            .map(|col| {
+                col.into_iter()
+                    .enumerate()
+                    .filter(|(_, v)| *v != 0.0)
+                    .collect()
+            })
+            .collect();
+        JointTerms { columns, params }
+    };
+    let [k, b, d] = cols;
+    let rows = |list: &[super::model::PointDof]| {
+        let mut R = Mat::<f64>::zeros(list.len(), n);
+        for (i, p) in list.iter().enumerate() {
+            let P = point_rows(model, bodies, n, p.end.body, locate(model, st, &p.end));
+            let axis = p.dof.direction.unsigned_abs() as usize - 1;
+            let sign = p.dof.direction.signum() as f64;
+            for col in 0..n {
+                R[(i, col)] = sign * P[(axis, col)];
+            }
+        }
+        R
+    };
+    Ok(Configuration {
+        position: Position {
+            index: index as u32,
+            label: st.label.clone(),
+        },
+        stiffness: terms(k),
+        viscous: terms(b),
+        hysteretic: terms(d),
+        S: rows(&model.sensors),
+        E: rows(&model.excitations),
+    })
+}
+
+fn dense_csc(A: &Mat<f64>) -> Csc {
+    let mut t = Vec::new();
+    Csc::dense_triplets(A, 0, &mut t);
+    Csc::from_triplets(A.nrows(), t)
 }

@@ -9,7 +9,7 @@
 
 use super::fe_body::{FeBody, FeNode};
 use super::model_file::SectionSpec;
-use faer::Mat;
+use super::sparse::Csc;
 
 /// Local element stiffness and mass (12×12) of length `l`.
 pub fn element_matrices(s: &SectionSpec, l: f64) -> ([[f64; 12]; 12], [[f64; 12]; 12]) {
@@ -139,17 +139,18 @@ pub fn assemble_beam(
         g
     };
     let (kg, mg) = (rot(&kl), rot(&ml));
-    let mut K = Mat::<f64>::zeros(n, n);
-    let mut M = Mat::<f64>::zeros(n, n);
+    let mut tk = Vec::with_capacity(144 * elements);
+    let mut tm = Vec::with_capacity(144 * elements);
     for e in 0..elements {
         let o = 6 * e;
         for i in 0..12 {
             for j in 0..12 {
-                K[(o + i, o + j)] += kg[i][j];
-                M[(o + i, o + j)] += mg[i][j];
+                tk.push((o + i, o + j, kg[i][j]));
+                tm.push((o + i, o + j, mg[i][j]));
             }
         }
     }
+    let (K, M) = (Csc::from_triplets(n, tk), Csc::from_triplets(n, tm));
     let nodes = (0..n_nodes)
         .map(|i| {
             let t = i as f64 / elements as f64;
@@ -171,6 +172,7 @@ pub fn assemble_beam(
 mod tests {
     use super::*;
     use crate::dynamics::eigen::generalized_eigen;
+    use faer::Mat;
 
     /// Cantilever bending frequencies vs Euler-Bernoulli:
     /// ω_n = (β_n L)² √(EI/(ρ A L⁴)), β_n L = 1.8751, 4.6941, 7.8548.
@@ -191,9 +193,10 @@ mod tests {
         let R = local_axes([0.0; 3], end, [0.0, 0.0, 1.0]).unwrap();
         let b = assemble_beam([0.0; 3], end, 20, R, &s);
         // Clamp node 0: drop its 6 DOFs.
-        let keep: Vec<usize> = (6..b.M.nrows()).collect();
-        let K = Mat::from_fn(keep.len(), keep.len(), |i, j| b.K[(keep[i], keep[j])]);
-        let M = Mat::from_fn(keep.len(), keep.len(), |i, j| b.M[(keep[i], keep[j])]);
+        let keep: Vec<usize> = (6..b.n()).collect();
+        let (Kd, Md) = (b.K.to_dense(), b.M.to_dense());
+        let K = Mat::from_fn(keep.len(), keep.len(), |i, j| Kd[(keep[i], keep[j])]);
+        let M = Mat::from_fn(keep.len(), keep.len(), |i, j| Md[(keep[i], keep[j])]);
         let (lambda, Phi) = generalized_eigen(&K, &M, 12).unwrap();
         crate::dynamics::eigen::tests::check_identities(&K, &M, &lambda, &Phi);
         let w: Vec<f64> = lambda.iter().map(|l| l.sqrt()).collect();

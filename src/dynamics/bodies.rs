@@ -113,17 +113,17 @@ pub(crate) fn body_kind(
         if bm.elements == 0 {
             return Err(inv(format!("{g}.elements"), "need at least one element"));
         }
-        // The beam is assembled as dense n × n mass and stiffness matrices
-        // (n = 6 per node) before any reduction: bound them by the memory
-        // limit before allocating (found by the fuzz harness).
+        // The beam is assembled sparse: 2 × 144 triplets per element (24
+        // bytes each) before compression; bound them by the memory limit
+        // before allocating (found by the fuzz harness).
         let n = 6.0 * (bm.elements as f64 + 1.0);
-        let bytes = 2.0 * 8.0 * n * n;
+        let bytes = 2.0 * 144.0 * 24.0 * bm.elements as f64;
         let limit = crate::resources::memory_limit() as f64;
         if bytes > limit {
             return Err(inv(
                 format!("{g}.elements"),
                 &format!(
-                    "{} elements make {n} DOF whose dense matrices need an estimated {}, more than \
+                    "{} elements make {n} DOF whose matrices need an estimated {}, more than \
                      the limit of {} (--max-memory); use fewer elements",
                     bm.elements,
                     crate::resources::human(bytes),

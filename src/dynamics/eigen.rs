@@ -18,7 +18,9 @@
 
 use super::error::DynamicsError;
 use faer::dyn_stack::{MemBuffer, MemStack};
-use faer::linalg::cholesky::llt::factor::{cholesky_in_place, cholesky_in_place_scratch};
+use faer::linalg::cholesky::llt::factor::{
+    cholesky_in_place as llt_in_place, cholesky_in_place_scratch,
+};
 use faer::linalg::evd::{self_adjoint_evd, self_adjoint_evd_scratch, ComputeEigenvectors};
 use faer::linalg::matmul::triangular::{self as tri, BlockStructure};
 use faer::linalg::triangular_solve::{
@@ -29,14 +31,20 @@ use faer::{Accum, Mat, Par};
 /// Cholesky factor L (lower, upper part zero) of a symmetric positive
 /// definite matrix; `Err(pivot)` gives the first non-positive pivot.
 pub fn cholesky(M: &Mat<f64>) -> Result<Mat<f64>, usize> {
-    let n = M.nrows();
     let mut L = M.clone();
+    cholesky_in_place(&mut L)?;
+    Ok(L)
+}
+
+/// [`cholesky`] in place (lower triangle read, upper zeroed).
+pub fn cholesky_in_place(L: &mut Mat<f64>) -> Result<(), usize> {
+    let n = L.nrows();
     let mut buf = MemBuffer::new(cholesky_in_place_scratch::<f64>(
         n,
         Par::Seq,
         Default::default(),
     ));
-    cholesky_in_place(
+    llt_in_place(
         L.as_mut(),
         Default::default(),
         Par::Seq,
@@ -51,7 +59,7 @@ pub fn cholesky(M: &Mat<f64>) -> Result<Mat<f64>, usize> {
             L[(i, j)] = 0.0;
         }
     }
-    Ok(L)
+    Ok(())
 }
 
 /// Replace A by (A + Aᵀ)/2.
@@ -148,7 +156,19 @@ pub fn shift_invert(
         pivot,
         dof: dof(pivot),
     })?;
-    let A = inverted_form(&L, C);
+    shift_invert_factored(&L, C, sigma, n_modes)
+}
+
+/// [`shift_invert`] with the Cholesky factor L of K_σ given: all
+/// eigenpairs of A = L⁻¹ M L⁻ᵀ by the full symmetric eigensolver, the
+/// `n_modes` largest μ kept.
+pub fn shift_invert_factored(
+    L: &Mat<f64>,
+    C: &Mat<f64>,
+    sigma: f64,
+    n_modes: usize,
+) -> Result<(Vec<f64>, Mat<f64>), DynamicsError> {
+    let A = inverted_form(L, C);
     let (mu, U) = symmetric_eigen(&A)?;
     let n = mu.len();
     let m = n_modes.min(n);
@@ -165,12 +185,14 @@ pub fn shift_invert(
         }
     }
     clamp_rigid_body(&mut lambda, sigma);
-    back_transform(&L, &mut Y);
+    back_transform(L, &mut Y);
     Ok((lambda, Y))
 }
 
 /// Lowest `n_modes` eigenpairs of K φ = λ M φ, mass-normalized (Φᵀ M Φ = I),
-/// with the default shift. Errors name the pivot when M is not positive
+/// with the default shift: shift-invert block Lanczos
+/// ([`super::lanczos`]) when the modes are at most a third of the DOFs,
+/// else the full eigensolver. Errors name the pivot when M is not positive
 /// definite, or when K is not positive semi-definite.
 pub fn generalized_eigen(
     K: &Mat<f64>,
@@ -181,8 +203,24 @@ pub fn generalized_eigen(
         pivot,
         dof: format!("row {pivot}"),
     })?;
-    let K_sigma = K + M * faer::Scale(DEFAULT_SHIFT);
-    shift_invert(&K_sigma, &C, DEFAULT_SHIFT, n_modes, |p| format!("row {p}"))
+    let mut L = K + M * faer::Scale(DEFAULT_SHIFT);
+    cholesky_in_place(&mut L).map_err(|pivot| DynamicsError::StiffnessIndefinite {
+        pivot,
+        dof: format!("row {pivot}"),
+    })?;
+    if 3 * n_modes <= K.nrows() {
+        use super::lanczos::{KrylovWorkspace, LanczosError, LanczosOptions};
+        let mut op = super::shift_invert::DenseShiftInvert { L: &L, M };
+        let options = LanczosOptions::default();
+        let mut ws = KrylovWorkspace::default();
+        match super::shift_invert::lowest_modes(&mut op, DEFAULT_SHIFT, n_modes, &options, &mut ws)
+        {
+            Err(LanczosError::TooSmall) => {}
+            Err(_) => return Err(DynamicsError::NoConvergence),
+            Ok(r) => return Ok(r),
+        }
+    }
+    shift_invert_factored(&L, &C, DEFAULT_SHIFT, n_modes)
 }
 
 #[cfg(test)]

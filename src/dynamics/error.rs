@@ -58,6 +58,11 @@ pub enum DynamicsError {
     #[error("configuration {index} does not exist (model has {count})")]
     Configuration { index: usize, count: usize },
 
+    /// The Lanczos eigensolver did not converge or a mode failed its
+    /// residual check ‖Kφ − λMφ‖.
+    #[error("eigensolver: {message}")]
+    Lanczos { message: String },
+
     /// The symmetric eigensolver did not converge.
     #[error("eigensolver did not converge")]
     NoConvergence,

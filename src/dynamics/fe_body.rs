@@ -4,6 +4,7 @@
 #![allow(non_snake_case)]
 
 use super::rigid::offset_map;
+use super::sparse::Csc;
 use faer::Mat;
 
 /// One FE node: an id, its position (m) and the matrix rows of its DOFs
@@ -15,15 +16,20 @@ pub struct FeNode {
     pub dofs: [Option<usize>; 6],
 }
 
-/// Full FE matrices of one body.
+/// Full FE matrices of one body, sparse (both triangles stored).
 #[derive(Debug, Clone)]
 pub struct FeBody {
-    pub M: Mat<f64>,
-    pub K: Mat<f64>,
+    pub M: Csc,
+    pub K: Csc,
     pub nodes: Vec<FeNode>,
 }
 
 impl FeBody {
+    /// Number of DOFs (matrix rows).
+    pub fn n(&self) -> usize {
+        self.M.n
+    }
+
     /// Index in `nodes` of the node with this id.
     pub fn node_index(&self, id: u64) -> Option<usize> {
         self.nodes.iter().position(|n| n.id == id)
@@ -50,7 +56,7 @@ impl FeBody {
     /// `index` (u_p = u_n + θ_n × offset). Rotational rows of a
     /// translational-only node are zero.
     pub fn point_rows(&self, index: usize, offset: [f64; 3]) -> Mat<f64> {
-        let n = self.M.nrows();
+        let n = self.n();
         let T = offset_map(offset);
         let dofs = self.nodes[index].dofs;
         Mat::from_fn(6, n, |i, col| {

@@ -46,6 +46,7 @@ pub mod eigen;
 pub mod error;
 pub mod fe_body;
 pub mod frf;
+pub mod lanczos;
 pub mod measurement;
 pub mod modal_damping;
 pub mod model;
@@ -53,7 +54,10 @@ pub mod model_file;
 pub mod model_writer;
 pub mod reference;
 pub mod rigid;
+pub mod shift_invert;
 pub mod solve;
+pub mod sparse;
+pub mod storage;
 pub mod superelement;
 pub mod templates;
 

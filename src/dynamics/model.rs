@@ -74,6 +74,8 @@ pub struct Model {
     pub(crate) axes: Vec<Axis>,
     pub(crate) sensors: Vec<PointDof>,
     pub(crate) excitations: Vec<PointDof>,
+    /// Eigensolver settings of the model file.
+    pub solver: model_file::SolverSpec,
 }
 
 impl Model {
@@ -96,9 +98,55 @@ impl Model {
             .iter()
             .map(|b| match &b.kind {
                 super::bodies::BodyKind::Rigid { dofs, .. } => dofs.len(),
-                super::bodies::BodyKind::Fe { fe, .. } => fe.M.nrows(),
+                super::bodies::BodyKind::Fe { fe, .. } => fe.n(),
             })
             .sum()
+    }
+
+    /// Estimated peak memory of preparing and evaluating the model, bytes,
+    /// and what dominates it: about six dense n × n matrices when the
+    /// solver is (or will be chosen) dense, O(nnz) when it is sparse (the
+    /// factor's fill, ~30× the bodies' non-zeros for beam-like bodies, and
+    /// a Krylov basis of a few hundred vectors); a Craig–Bampton body is
+    /// reduced with dense matrices of its full size.
+    pub fn memory_estimate(&self) -> (f64, String) {
+        let n = self.n_dofs() as f64;
+        let mut nnz = 0.0;
+        let mut reduced = 0.0f64;
+        for b in &self.bodies {
+            match &b.kind {
+                BodyKind::Fe { fe, modes, .. } => {
+                    if modes.is_some() {
+                        reduced = reduced.max(fe.n() as f64);
+                        nnz += (fe.n() as f64).powi(2);
+                    } else {
+                        nnz += (fe.K.nnz() + fe.M.nnz()) as f64;
+                    }
+                }
+                BodyKind::Rigid { dofs, .. } => nnz += (dofs.len() * dofs.len()) as f64,
+            }
+        }
+        let method = super::storage::choose(self.solver.method, n as usize, nnz as usize);
+        let solve = if method == model_file::SolverMethod::Dense {
+            (
+                8.0 * 6.0 * n * n,
+                format!("{n} DOF: the dense eigenproblem (6 n × n matrices)"),
+            )
+        } else {
+            (
+                8.0 * (30.0 * nnz + 300.0 * n),
+                format!("{n} DOF, {nnz} non-zeros: sparse factor and Krylov basis"),
+            )
+        };
+        let cb = 8.0 * 4.0 * reduced * reduced;
+        if cb > solve.0 {
+            (
+                cb,
+                format!("Craig–Bampton reduction of a {reduced}-DOF body (dense)"),
+            )
+        } else {
+            solve
+        }
     }
 
     /// Index of a parameter by name.
@@ -407,7 +455,16 @@ impl Model {
         };
         let sensors = point_dofs(&spec.sensors, "sensors")?;
         let excitations = point_dofs(&spec.excitations, "excitations")?;
+        if let Some(b) = spec.solver.block {
+            if !(1..=16).contains(&b) {
+                return Err(inv(
+                    "solver.block".into(),
+                    format!("Lanczos block size {b}: give 1..=16 (default 4)"),
+                ));
+            }
+        }
         Ok(Model {
+            solver: spec.solver,
             parameters,
             bodies,
             joints,

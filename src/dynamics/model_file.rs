@@ -24,6 +24,33 @@ pub struct ModelFile {
     pub sensors: Vec<PointDofSpec>,
     #[serde(default)]
     pub excitations: Vec<PointDofSpec>,
+    /// Eigensolver settings (default: chosen by size and fill).
+    #[serde(default)]
+    pub solver: SolverSpec,
+}
+
+/// Which eigensolver path a model uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(rename_all = "snake_case")]
+pub enum SolverMethod {
+    /// Dense below 1,500 DOF or above 5 % fill, sparse otherwise.
+    #[default]
+    Auto,
+    /// Dense Cholesky of K + σM (reduced models).
+    Dense,
+    /// Sparse Cholesky of K + σM, symbolic analysis once (unreduced FE).
+    Sparse,
+}
+
+/// `solver:` block of a model file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSpec {
+    #[serde(default)]
+    pub method: SolverMethod,
+    /// Lanczos block size, 1..=16 (default 4): eigenvalues of multiplicity
+    /// up to the block size are found.
+    pub block: Option<usize>,
 }
 
 impl ModelFile {
@@ -33,7 +60,14 @@ impl ModelFile {
         self.bodies
             .iter()
             .filter_map(|b| b.superelement.as_ref())
-            .flat_map(|s| [s.mass.clone(), s.stiffness.clone()])
+            .flat_map(|s| {
+                [
+                    Some(s.mass.clone()),
+                    Some(s.stiffness.clone()),
+                    s.mapping.clone(),
+                ]
+            })
+            .flatten()
             .collect()
     }
 }
@@ -160,14 +194,24 @@ pub struct ReductionSpec {
     pub modes: usize,
 }
 
-/// An FE body exported from other software: Matrix Market mass and
-/// stiffness matrices plus a node map.
+/// An FE body exported from other software: mass and stiffness matrices
+/// (Matrix Market, Harwell–Boeing/ANSYS HBMAT, Abaqus coordinate `.mtx`,
+/// Nastran DMIG punch) plus node positions; the DOF rows of each node come
+/// from the files' node/DOF labels where the format carries them.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SuperelementSpec {
     /// Paths relative to the model file.
     pub mass: String,
     pub stiffness: String,
+    /// File format (default: recognized from the content).
+    pub format: Option<FeFormat>,
+    /// DMIG matrix names in a punch file (default `MAAX`, `KAAX`).
+    pub mass_matrix: Option<String>,
+    pub stiffness_matrix: Option<String>,
+    /// ANSYS `.MAPPING` file of a Harwell–Boeing export (equation → node,
+    /// DOF), relative to the model file.
+    pub mapping: Option<String>,
     pub nodes: Vec<SuperNodeSpec>,
     #[serde(default)]
     pub points: BTreeMap<String, NodePointSpec>,
@@ -179,12 +223,25 @@ pub struct SuperelementSpec {
     pub loss_factor: f64,
 }
 
-/// One node of a super-element: 0-based matrix rows of its DOFs, either
-/// 6 (x, y, z, rx, ry, rz) or 3 translational.
+/// Formats of FE matrix exports ([`crate::io::fe`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FeFormat {
+    MatrixMarket,
+    HarwellBoeing,
+    Abaqus,
+    NastranDmig,
+}
+
+/// One node of a super-element: its id, position and the 0-based matrix
+/// rows of its DOFs, either 6 (x, y, z, rx, ry, rz) or 3 translational;
+/// `dofs` may be left out when the files label rows by node and DOF
+/// (Abaqus, DMIG, Harwell–Boeing with a mapping file).
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SuperNodeSpec {
     pub id: u64,
+    #[serde(default)]
     pub dofs: Vec<usize>,
     /// Node position, m.
     pub position: [f64; 3],

@@ -7,10 +7,11 @@
 //! and results are bit-identical for any thread count.
 #![allow(non_snake_case)]
 
+use super::assembly::Configuration;
 use super::assembly::PreparedModel;
-use super::eigen::shift_invert;
 use super::error::DynamicsError;
 use super::modal_damping::{damping_ratios, modal_diagonal};
+use super::shift_invert::Workspace;
 use crate::modal::{ModalModel, Mode};
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
@@ -124,6 +125,12 @@ pub enum ModeSelection {
     Below(f64),
 }
 
+/// Backward-error tolerance of the residual check of every mode:
+/// 1000 ε √n.
+pub fn residual_tolerance(n: usize) -> f64 {
+    1000.0 * f64::EPSILON * (n.max(1) as f64).sqrt()
+}
+
 /// A B with `Par::Seq` (the `*` operator would use faer's global parallelism).
 pub(crate) fn product(A: &Mat<f64>, B: &Mat<f64>) -> Mat<f64> {
     let mut C = Mat::zeros(A.nrows(), B.ncols());
@@ -140,23 +147,9 @@ pub(crate) fn product(A: &Mat<f64>, B: &Mat<f64>) -> Mat<f64> {
 
 impl PreparedModel {
     /// The stiffness matrix K = K₀ + Σ k_i g_i g_iᵀ of a configuration at
-    /// `values` (rank-one springs, see [`crate::dynamics::assembly`]).
+    /// `values` (rank-one springs, see [`crate::dynamics::assembly`]), dense.
     pub fn stiffness(&self, config: usize, values: &[f64]) -> Result<Mat<f64>, DynamicsError> {
-        self.check_values(values)?;
-        let mut K = self.K0.clone();
-        self.config(config)?.stiffness.add_to(&mut K, values);
-        Ok(K)
-    }
-
-    /// K + σ M at `values`, the matrix the shift-invert solver factors.
-    pub fn shifted_stiffness(
-        &self,
-        config: usize,
-        values: &[f64],
-    ) -> Result<Mat<f64>, DynamicsError> {
-        self.check_values(values)?;
-        let mut K = self.shifted_body_stiffness().clone();
-        self.config(config)?.stiffness.add_to(&mut K, values);
+        let [_, K, _, _] = self.matrices(config, values)?;
         Ok(K)
     }
 
@@ -170,37 +163,29 @@ impl PreparedModel {
         self.evaluate_modes(config, values, ModeSelection::Lowest(n_modes))
     }
 
-    /// Modes of configuration `config` at `values`, selected by `selection`.
+    /// Modes of configuration `config` at `values`, selected by `selection`:
+    /// factor K_σ into this thread's workspace, shift-invert Lanczos (or the
+    /// full eigensolver for many modes of a small dense model), a residual
+    /// check of every mode, modal damping and the shapes at the sensors.
     pub fn evaluate_modes(
         &self,
         config: usize,
         values: &[f64],
         selection: ModeSelection,
     ) -> Result<ModalSolution, DynamicsError> {
-        let K_sigma = self.shifted_stiffness(config, values)?;
+        self.check_values(values)?;
         let c = self.config(config)?;
-        let n = self.n_dofs();
-        let wanted = match selection {
-            ModeSelection::Lowest(m) => m.min(n),
-            ModeSelection::Below(_) => n,
-        };
-        let (mut lambda, mut Phi) =
-            shift_invert(&K_sigma, &self.M_chol, self.shift(), wanted, |p| {
-                self.dof_labels.get(p).cloned().unwrap_or_default()
-            })?;
-        if let ModeSelection::Below(f) = selection {
-            let w2 = (2.0 * std::f64::consts::PI * f).powi(2);
-            let m = lambda.iter().take_while(|&&l| l <= w2).count();
-            lambda.truncate(m);
-            Phi = Phi.subcols(0, m).to_owned();
-        }
+        let mut ws = self.scratch.take();
+        let modes = self.modes_in(&mut ws, config, values, selection);
+        self.scratch.put(ws);
+        let (lambda, Phi) = modes?;
+        self.check_residuals(c, values, &lambda, &Phi)?;
         let b = modal_diagonal(&c.viscous, values, &Phi);
         let mut d = modal_diagonal(&c.hysteretic, values, &Phi);
-        if let Some(D0) = &self.D0 {
-            // Material damping: diag(Φᵀ D₀ Φ) added to the joints' d_r.
-            let W = product(D0, &Phi);
-            for (r, dr) in d.iter_mut().enumerate() {
-                *dr += (0..n).map(|i| Phi[(i, r)] * W[(i, r)]).sum::<f64>();
+        // Material damping: diag(Φᵀ D₀ Φ) added to the joints' d_r.
+        if self.storage.has_material_damping() {
+            for (dr, m) in d.iter_mut().zip(self.storage.material_diagonal(&Phi)) {
+                *dr += m;
             }
         }
         let (zeta, eta) = damping_ratios(&lambda, &b, &d);
@@ -213,6 +198,92 @@ impl PreparedModel {
             zeta,
             eta,
         })
+    }
+
+    fn modes_in(
+        &self,
+        ws: &mut Workspace,
+        config: usize,
+        values: &[f64],
+        selection: ModeSelection,
+    ) -> Result<(Vec<f64>, Mat<f64>), DynamicsError> {
+        let c = self.config(config)?;
+        self.storage
+            .factor(config, &c.stiffness, values, ws, &self.dof_labels)?;
+        let n = self.n_dofs();
+        let limit = match selection {
+            ModeSelection::Lowest(m) => {
+                return self.storage.lowest(m, self.shift(), &self.lanczos, ws)
+            }
+            ModeSelection::Below(f) => (2.0 * std::f64::consts::PI * f).powi(2),
+        };
+        // Grow the count until a mode lies above the limit.
+        let mut nev = 16.min(n);
+        loop {
+            let (mut lambda, Phi) = self.storage.lowest(nev, self.shift(), &self.lanczos, ws)?;
+            if nev >= n || lambda.iter().any(|&l| l > limit) {
+                let m = lambda.iter().take_while(|&&l| l <= limit).count();
+                lambda.truncate(m);
+                return Ok((lambda, Phi.subcols(0, m).to_owned()));
+            }
+            nev = (2 * nev).min(n);
+        }
+    }
+
+    /// Every mode must satisfy ‖Kφ − λMφ‖ ≤ tol_r (‖K‖ + |λ| ‖M‖) ‖φ‖, a
+    /// backward error (Frobenius norms; Golub & Van Loan 8.7), with
+    /// tol_r = 1000 ε √n (λ_r + σ)/(λ_1 + σ): shift-invert resolves μ = 1/(λ+σ)
+    /// to ε μ_1, so modes far above the first are less accurate by that
+    /// ratio. A mode that fails is an error, never a result.
+    fn check_residuals(
+        &self,
+        c: &Configuration,
+        values: &[f64],
+        lambda: &[f64],
+        Phi: &Mat<f64>,
+    ) -> Result<(), DynamicsError> {
+        let (n, m) = (Phi.nrows(), Phi.ncols());
+        let mut KP = Mat::<f64>::zeros(n, m);
+        let mut MP = Mat::<f64>::zeros(n, m);
+        self.storage.stiffness_mul(Phi.as_ref(), KP.as_mut());
+        self.storage.mass_mul(Phi.as_ref(), MP.as_mut());
+        let P = c.stiffness.project(Phi);
+        let (mn, mut kn) = self.storage.norms();
+        for (ci, (g, &p)) in c
+            .stiffness
+            .columns
+            .iter()
+            .zip(&c.stiffness.params)
+            .enumerate()
+        {
+            kn += values[p] * g.iter().map(|(_, x)| x * x).sum::<f64>();
+            for r in 0..m {
+                let s = values[p] * P[(ci, r)];
+                for &(i, gi) in g {
+                    KP[(i, r)] += s * gi;
+                }
+            }
+        }
+        let first = lambda.first().copied().unwrap_or(0.0) + self.shift();
+        for (r, &l) in lambda.iter().enumerate() {
+            let tol = residual_tolerance(n) * (l + self.shift()) / first;
+            let res = (0..n)
+                .map(|i| (KP[(i, r)] - l * MP[(i, r)]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let scale = (kn + l.abs() * mn) * Phi.col(r).norm_l2();
+            if res.is_nan() || res > tol * scale {
+                return Err(DynamicsError::Lanczos {
+                    message: format!(
+                        "mode {} ({:.4} Hz) fails the residual check: ‖Kφ − λMφ‖ / ((‖K‖ + |λ|‖M‖)‖φ‖) = {:.1e} > {tol:.1e}; try `solver: {{method: dense}}` or a larger shift",
+                        r + 1,
+                        l.max(0.0).sqrt() / (2.0 * std::f64::consts::PI),
+                        res / scale
+                    ),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// The modes as a [`ModalModel`] at the sensor DOFs.

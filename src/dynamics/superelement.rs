@@ -1,14 +1,17 @@
 //! External super-elements: mass and stiffness matrices exported from FE
-//! software as Matrix Market files (read with `sprs`), plus a node map from
-//! node ids to matrix rows (6 DOFs x, y, z, rx, ry, rz, or 3 translations).
+//! software (Matrix Market read with `sprs`; Harwell–Boeing, Abaqus and
+//! Nastran DMIG by [`crate::io::fe`]), plus a node map from node ids to
+//! matrix rows (6 DOFs x, y, z, rx, ry, rz, or 3 translations), given or
+//! taken from the files' node/DOF labels.
 //! File paths are relative to the model file; the caller supplies a resolver
 //! that turns such a path into bytes, so the core never guesses directories.
 #![allow(non_snake_case)]
 
 use super::error::DynamicsError;
 use super::fe_body::{FeBody, FeNode};
-use super::model_file::SuperelementSpec;
-use faer::Mat;
+use super::model_file::{FeFormat, SuperelementSpec};
+use super::sparse::Csc;
+use crate::io::fe::{self, DofLabel, FeMatrix};
 
 /// Turns a path written in the model file into the file's bytes.
 pub type Resolver<'a> = &'a dyn Fn(&str) -> std::io::Result<Vec<u8>>;
@@ -20,12 +23,15 @@ pub fn directory_resolver(
     move |p: &str| std::fs::read(base.join(p))
 }
 
+/// One matrix file read in its format.
 fn read_matrix(
     path: &str,
+    spec: &SuperelementSpec,
+    dmig_name: &str,
     resolver: Resolver<'_>,
     file: &str,
     field: &str,
-) -> Result<Mat<f64>, DynamicsError> {
+) -> Result<FeMatrix, DynamicsError> {
     let fail = |message: String| DynamicsError::ExternalFile {
         file: file.to_string(),
         field: field.to_string(),
@@ -33,42 +39,98 @@ fn read_matrix(
         message,
     };
     let bytes = resolver(path).map_err(|e| fail(e.to_string()))?;
-    let mut reader = std::io::BufReader::new(bytes.as_slice());
-    let tri: sprs::TriMatI<f64, usize> = sprs::io::read_matrix_market_from_bufread(&mut reader)
-        .map_err(|e| fail(format!("not a real Matrix Market coordinate matrix: {e}")))?;
-    let (r, c) = (tri.rows(), tri.cols());
-    if r != c {
-        return Err(fail(format!("matrix is {r}×{c}, expected square")));
-    }
-    // Held dense: bound the declared size by the memory limit first.
-    let bytes = 8.0 * r as f64 * c as f64;
-    let limit = crate::resources::memory_limit() as f64;
-    if bytes > limit {
-        return Err(fail(format!(
-            "a {r}×{c} matrix needs an estimated {} held dense, more than the limit of {} \
-             (--max-memory)",
-            crate::resources::human(bytes),
-            crate::resources::human(limit)
-        )));
-    }
-    let mut A = Mat::<f64>::zeros(r, c);
-    for (v, (i, j)) in tri.triplet_iter() {
-        if !v.is_finite() {
-            return Err(fail(format!("entry ({}, {}) is not finite", i + 1, j + 1)));
-        }
-        A[(i, j)] += *v;
-    }
-    for i in 0..r {
-        for j in 0..i {
-            let (a, b) = (A[(i, j)], A[(j, i)]);
-            if (a - b).abs() > 1e-9 * (a.abs() + b.abs()) {
+    let text = std::str::from_utf8(&bytes).ok();
+    let format = match (spec.format, text) {
+        (Some(f), _) => f,
+        (None, Some(t)) => sniff(t).ok_or_else(|| {
+            fail("format not recognized: set `format:` to matrix_market, harwell_boeing, abaqus or nastran_dmig".into())
+        })?,
+        (None, None) => FeFormat::MatrixMarket,
+    };
+    let text_of = || text.ok_or_else(|| fail("not a text file (UTF-8)".into()));
+    let located = |e: fe::FeError| fail(e.to_string());
+    let m = match format {
+        FeFormat::MatrixMarket => {
+            let mut reader = std::io::BufReader::new(bytes.as_slice());
+            let tri: sprs::TriMatI<f64, usize> =
+                sprs::io::read_matrix_market_from_bufread(&mut reader).map_err(|e| {
+                    fail(format!("not a real Matrix Market coordinate matrix: {e}"))
+                })?;
+            if tri.rows() != tri.cols() {
                 return Err(fail(format!(
-                    "matrix is not symmetric at ({}, {}): {a} vs {b}",
-                    i + 1,
-                    j + 1
+                    "matrix is {}×{}, expected square",
+                    tri.rows(),
+                    tri.cols()
                 )));
             }
+            FeMatrix {
+                n: tri.rows(),
+                entries: tri.triplet_iter().map(|(v, (i, j))| (i, j, *v)).collect(),
+                labels: None,
+            }
         }
+        FeFormat::HarwellBoeing => fe::read_harwell_boeing(text_of()?).map_err(located)?,
+        FeFormat::Abaqus => fe::read_abaqus_mtx(text_of()?).map_err(located)?,
+        FeFormat::NastranDmig => fe::read_dmig(text_of()?, dmig_name).map_err(located)?,
+    };
+    if let Some((i, j, _)) = m.entries.iter().find(|e| !e.2.is_finite()) {
+        return Err(fail(format!("entry ({}, {}) is not finite", i + 1, j + 1)));
+    }
+    Ok(m)
+}
+
+/// The format of an FE export from its first lines.
+fn sniff(text: &str) -> Option<FeFormat> {
+    let lines: Vec<&str> = text.lines().take(5).collect();
+    let first = lines.iter().find(|l| {
+        let t = l.trim();
+        !t.is_empty() && !t.starts_with("**") && !t.starts_with('$')
+    })?;
+    if first.starts_with("%%MatrixMarket") {
+        return Some(FeFormat::MatrixMarket);
+    }
+    if text
+        .lines()
+        .any(|l| l.trim_start().to_ascii_uppercase().starts_with("DMIG"))
+    {
+        return Some(FeFormat::NastranDmig);
+    }
+    let commas = first.split(',').count();
+    if commas == 5 || commas == 3 {
+        return Some(FeFormat::Abaqus);
+    }
+    let mxtype = lines.get(2).and_then(|l| l.get(..3)).unwrap_or("");
+    if ["RSA", "RUA"].contains(&mxtype.to_ascii_uppercase().as_str()) {
+        return Some(FeFormat::HarwellBoeing);
+    }
+    None
+}
+
+/// Renumber `m` to the rows of `labels` (which contain all of its own).
+fn relabel(m: FeMatrix, labels: &[DofLabel]) -> Vec<(usize, usize, f64)> {
+    let own = m.labels.unwrap_or_default();
+    let map: Vec<usize> = own
+        .iter()
+        .map(|l| labels.binary_search(l).unwrap_or(0))
+        .collect();
+    m.entries
+        .into_iter()
+        .map(|(i, j, v)| (map[i], map[j], v))
+        .collect()
+}
+
+fn symmetric(
+    t: Vec<(usize, usize, f64)>,
+    n: usize,
+    fail: impl Fn(String) -> DynamicsError,
+) -> Result<Csc, DynamicsError> {
+    let A = Csc::from_triplets(n, t);
+    if let Some((i, j, a, b)) = A.asymmetry(1e-9) {
+        return Err(fail(format!(
+            "matrix is not symmetric at ({}, {}): {a} vs {b}",
+            i + 1,
+            j + 1
+        )));
     }
     Ok(A)
 }
@@ -80,45 +142,144 @@ pub fn load_superelement(
     file: &str,
     field: &str,
 ) -> Result<FeBody, DynamicsError> {
-    let M = read_matrix(&spec.mass, resolver, file, &format!("{field}.mass"))?;
-    let K = read_matrix(
-        &spec.stiffness,
-        resolver,
-        file,
-        &format!("{field}.stiffness"),
-    )?;
-    if M.nrows() != K.nrows() {
-        return Err(DynamicsError::invalid(
-            file,
-            field,
-            format!(
-                "mass is {0}×{0} but stiffness is {1}×{1}",
-                M.nrows(),
-                K.nrows()
-            ),
-        ));
+    let fm = format!("{field}.mass");
+    let fk = format!("{field}.stiffness");
+    let name_m = spec.mass_matrix.as_deref().unwrap_or("MAAX");
+    let name_k = spec.stiffness_matrix.as_deref().unwrap_or("KAAX");
+    let mut Mf = read_matrix(&spec.mass, spec, name_m, resolver, file, &fm)?;
+    let mut Kf = read_matrix(&spec.stiffness, spec, name_k, resolver, file, &fk)?;
+    if let Some(path) = &spec.mapping {
+        let fmap = format!("{field}.mapping");
+        let err = |message: String| DynamicsError::ExternalFile {
+            file: file.to_string(),
+            field: fmap.clone(),
+            path: path.clone(),
+            message,
+        };
+        let bytes = resolver(path).map_err(|e| err(e.to_string()))?;
+        let text = std::str::from_utf8(&bytes).map_err(|_| err("not a text file".into()))?;
+        let labels = fe::read_ansys_mapping(text).map_err(|e| err(e.to_string()))?;
+        for m in [&mut Mf, &mut Kf] {
+            if labels.len() != m.n {
+                return Err(err(format!(
+                    "maps {} equations, the matrices have {}",
+                    labels.len(),
+                    m.n
+                )));
+            }
+            m.labels = Some(labels.clone());
+        }
     }
-    let n = M.nrows();
+    // A common row numbering: the union of both files' labels, or the
+    // files' own numbering when they carry none.
+    let labels: Option<Vec<DofLabel>> = match (&Mf.labels, &Kf.labels) {
+        (Some(a), Some(b)) => {
+            let mut l: Vec<DofLabel> = a.iter().chain(b).copied().collect();
+            l.sort_unstable();
+            l.dedup();
+            Some(l)
+        }
+        (None, None) => None,
+        _ => {
+            return Err(DynamicsError::invalid(
+                file,
+                field,
+                "one matrix file labels its rows by node and DOF, the other does not; export both the same way",
+            ))
+        }
+    };
+    let (M, K) = match &labels {
+        Some(l) => {
+            let n = l.len();
+            let (tm, tk) = (relabel(Mf, l), relabel(Kf, l));
+            (
+                symmetric(tm, n, |m| matrix_error(file, &fm, &spec.mass, m))?,
+                symmetric(tk, n, |m| matrix_error(file, &fk, &spec.stiffness, m))?,
+            )
+        }
+        None => {
+            if Mf.n != Kf.n {
+                return Err(DynamicsError::invalid(
+                    file,
+                    field,
+                    format!("mass is {0}×{0} but stiffness is {1}×{1}", Mf.n, Kf.n),
+                ));
+            }
+            let n = Mf.n;
+            (
+                symmetric(Mf.entries, n, |m| matrix_error(file, &fm, &spec.mass, m))?,
+                symmetric(Kf.entries, n, |m| {
+                    matrix_error(file, &fk, &spec.stiffness, m)
+                })?,
+            )
+        }
+    };
+    let nodes = node_map(spec, labels.as_deref(), M.n, file, field)?;
+    Ok(FeBody { M, K, nodes })
+}
+
+fn matrix_error(file: &str, field: &str, path: &str, message: String) -> DynamicsError {
+    DynamicsError::ExternalFile {
+        file: file.to_string(),
+        field: field.to_string(),
+        path: path.to_string(),
+        message,
+    }
+}
+
+/// The nodes of the spec with their DOF rows, given or from the labels.
+fn node_map(
+    spec: &SuperelementSpec,
+    labels: Option<&[DofLabel]>,
+    n: usize,
+    file: &str,
+    field: &str,
+) -> Result<Vec<FeNode>, DynamicsError> {
     let mut nodes = Vec::with_capacity(spec.nodes.len());
     for (i, node) in spec.nodes.iter().enumerate() {
         let f = format!("{field}.nodes[{i}]");
-        if node.dofs.len() != 6 && node.dofs.len() != 3 {
-            return Err(DynamicsError::invalid(
-                file,
-                format!("{f}.dofs"),
-                format!(
-                    "has {} entries; give 6 (x y z rx ry rz) or 3 (x y z) 0-based matrix rows",
-                    node.dofs.len()
-                ),
-            ));
-        }
-        if let Some(&bad) = node.dofs.iter().find(|&&d| d >= n) {
-            return Err(DynamicsError::invalid(
-                file,
-                format!("{f}.dofs"),
-                format!("row {bad} is outside the {n}×{n} matrices (rows are 0-based)"),
-            ));
-        }
+        let dofs: Vec<Option<usize>> = if node.dofs.is_empty() {
+            let Some(labels) = labels else {
+                return Err(DynamicsError::invalid(
+                    file,
+                    format!("{f}.dofs"),
+                    "missing: the matrix files carry no node/DOF labels, so list the node's 6 (or 3) 0-based rows",
+                ));
+            };
+            let rows: Vec<Option<usize>> = (1..=6u8)
+                .map(|d| labels.binary_search(&(node.id, d)).ok())
+                .collect();
+            if rows[..3].iter().any(Option::is_none) {
+                return Err(DynamicsError::invalid(
+                    file,
+                    format!("{f}.id"),
+                    format!(
+                        "node {} has no x, y and z rows in the matrix files",
+                        node.id
+                    ),
+                ));
+            }
+            rows
+        } else {
+            if node.dofs.len() != 6 && node.dofs.len() != 3 {
+                return Err(DynamicsError::invalid(
+                    file,
+                    format!("{f}.dofs"),
+                    format!(
+                        "has {} entries; give 6 (x y z rx ry rz) or 3 (x y z) 0-based matrix rows",
+                        node.dofs.len()
+                    ),
+                ));
+            }
+            if let Some(&bad) = node.dofs.iter().find(|&&d| d >= n) {
+                return Err(DynamicsError::invalid(
+                    file,
+                    format!("{f}.dofs"),
+                    format!("row {bad} is outside the {n}×{n} matrices (rows are 0-based)"),
+                ));
+            }
+            (0..6).map(|j| node.dofs.get(j).copied()).collect()
+        };
         if node.position.iter().any(|x| !x.is_finite()) {
             return Err(DynamicsError::invalid(
                 file,
@@ -136,10 +297,10 @@ pub fn load_superelement(
         nodes.push(FeNode {
             id: node.id,
             position: node.position,
-            dofs: std::array::from_fn(|j| node.dofs.get(j).copied()),
+            dofs: std::array::from_fn(|j| dofs[j]),
         });
     }
-    Ok(FeBody { M, K, nodes })
+    Ok(nodes)
 }
 
 #[cfg(test)]
@@ -150,6 +311,10 @@ mod tests {
         SuperelementSpec {
             mass: "m.mtx".into(),
             stiffness: "k.mtx".into(),
+            format: None,
+            mass_matrix: None,
+            stiffness_matrix: None,
+            mapping: None,
             nodes: vec![crate::dynamics::model_file::SuperNodeSpec {
                 id: 7,
                 dofs: vec![0, 1, 2],
@@ -171,9 +336,9 @@ mod tests {
         };
         let b =
             load_superelement(&spec(), &resolver, "model.yaml", "bodies[0].superelement").unwrap();
-        assert_eq!(b.K[(0, 1)], -1.0);
-        assert_eq!(b.K[(1, 0)], -1.0);
-        assert_eq!(b.M[(2, 2)], 2.0);
+        assert_eq!(b.K.get(0, 1), -1.0);
+        assert_eq!(b.K.get(1, 0), -1.0);
+        assert_eq!(b.M.get(2, 2), 2.0);
         assert_eq!(b.nodes[0].dofs[3], None);
     }
 

@@ -71,6 +71,7 @@ pub mod csv_modal;
 mod csv_table;
 pub mod dof_text;
 pub mod error;
+pub mod fe;
 pub mod select;
 pub mod uff;
 

@@ -70,9 +70,9 @@ impl Kind for Identify {
     const NAME: &'static str = "identify";
 
     /// 8: the `updated_model` output (the identified values in the model
-    /// file).
+    /// file). 9: model modes by shift-invert block Lanczos (issue 16).
     fn version(&self) -> u32 {
-        8
+        9
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"

@@ -1,0 +1,328 @@
+//! Sparse symmetric matrices for unreduced FE models: compressed sparse
+//! columns with both triangles stored (products need the whole matrix, the
+//! Cholesky factorization reads the lower one), and the sparse Cholesky
+//! factorization K + σM = P L Lᵀ Pᵀ of faer with its fill-reducing (AMD)
+//! ordering and symbolic analysis computed once per sparsity pattern.
+//! Joint parameters change values, never the pattern, so every evaluation
+//! only refactors numerically into reused storage. Numeric factorization
+//! and solves run with `Par::Seq`: bit-identical for any thread count.
+#![allow(non_snake_case)]
+
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::cholesky::llt::factor::LltError;
+use faer::reborrow::ReborrowMut;
+use faer::sparse::linalg::cholesky::{
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    SymmetricOrdering,
+};
+use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
+use faer::{Conj, Mat, MatMut, MatRef, Par, Side};
+
+/// A square symmetric sparse matrix in compressed sparse columns (both
+/// triangles stored), rows sorted within each column, duplicates summed.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Csc {
+    pub n: usize,
+    pub col_ptr: Vec<usize>,
+    pub row_idx: Vec<usize>,
+    pub values: Vec<f64>,
+}
+
+impl Csc {
+    /// Build from (row, column, value) triplets; duplicates are summed in a
+    /// fixed order (sorted by position, then by input order).
+    pub fn from_triplets(n: usize, mut t: Vec<(usize, usize, f64)>) -> Csc {
+        t.sort_by_key(|a| (a.1, a.0));
+        let mut col_ptr = vec![0usize; n + 1];
+        let mut row_idx = Vec::with_capacity(t.len());
+        let mut values: Vec<f64> = Vec::with_capacity(t.len());
+        let mut last = None;
+        for (i, j, v) in t {
+            if last == Some((i, j)) {
+                if let Some(x) = values.last_mut() {
+                    *x += v;
+                }
+                continue;
+            }
+            last = Some((i, j));
+            row_idx.push(i);
+            values.push(v);
+            col_ptr[j + 1] += 1;
+        }
+        for j in 0..n {
+            col_ptr[j + 1] += col_ptr[j];
+        }
+        Csc {
+            n,
+            col_ptr,
+            row_idx,
+            values,
+        }
+    }
+
+    /// All non-zeros of a dense block placed at (offset, offset).
+    pub fn dense_triplets(A: &Mat<f64>, offset: usize, out: &mut Vec<(usize, usize, f64)>) {
+        for j in 0..A.ncols() {
+            for i in 0..A.nrows() {
+                let v = A[(i, j)];
+                if v != 0.0 {
+                    out.push((offset + i, offset + j, v));
+                }
+            }
+        }
+    }
+
+    /// The triplets of this matrix shifted by `offset`, scaled by `scale`.
+    pub fn triplets(&self, offset: usize, scale: f64, out: &mut Vec<(usize, usize, f64)>) {
+        for j in 0..self.n {
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                out.push((offset + self.row_idx[p], offset + j, scale * self.values[p]));
+            }
+        }
+    }
+
+    pub fn nnz(&self) -> usize {
+        self.values.len()
+    }
+
+    /// Index into `values` of entry (i, j), if it is in the pattern.
+    pub fn position(&self, i: usize, j: usize) -> Option<usize> {
+        let (a, b) = (self.col_ptr[j], self.col_ptr[j + 1]);
+        self.row_idx[a..b].binary_search(&i).ok().map(|p| a + p)
+    }
+
+    /// Entry (i, j) (0 outside the pattern).
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        self.position(i, j).map_or(0.0, |p| self.values[p])
+    }
+
+    /// The same pattern as `pattern` (which must contain this one) with
+    /// this matrix's values, zero elsewhere.
+    pub fn on_pattern(&self, pattern: &Csc) -> Csc {
+        let mut out = Csc {
+            values: vec![0.0; pattern.nnz()],
+            ..pattern.clone()
+        };
+        for j in 0..self.n {
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                if let Some(q) = pattern.position(self.row_idx[p], j) {
+                    out.values[q] += self.values[p];
+                }
+            }
+        }
+        out
+    }
+
+    /// Y = A X (Y overwritten) for symmetric A.
+    pub fn mul(&self, X: MatRef<'_, f64>, mut Y: MatMut<'_, f64>) {
+        for c in 0..X.ncols() {
+            let mut yc = Y.rb_mut().col_mut(c);
+            let xc = X.col(c);
+            match (
+                xc.try_as_col_major().map(|x| x.as_slice()),
+                yc.rb_mut().try_as_col_major_mut().map(|y| y.as_slice_mut()),
+            ) {
+                (Some(x), Some(y)) => self.mul_slice(x, y),
+                _ => {
+                    let x: Vec<f64> = (0..self.n).map(|i| xc[i]).collect();
+                    let mut y = vec![0.0; self.n];
+                    self.mul_slice(&x, &mut y);
+                    for (i, v) in y.into_iter().enumerate() {
+                        yc[i] = v;
+                    }
+                }
+            }
+        }
+    }
+
+    /// y = A x as a gather over the stored columns: column j of a symmetric
+    /// A is its row j, so y_j = Σ_p A_pj x_p accumulates in a register (no
+    /// scattered writes). Every matrix stored here is symmetric.
+    fn mul_slice(&self, x: &[f64], y: &mut [f64]) {
+        for (j, yj) in y.iter_mut().enumerate() {
+            let (a, b) = (self.col_ptr[j], self.col_ptr[j + 1]);
+            let mut s = 0.0;
+            for (&i, &v) in self.row_idx[a..b].iter().zip(&self.values[a..b]) {
+                s += v * x[i];
+            }
+            *yj = s;
+        }
+    }
+
+    pub fn to_dense(&self) -> Mat<f64> {
+        let mut A = Mat::zeros(self.n, self.n);
+        for j in 0..self.n {
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                A[(self.row_idx[p], j)] += self.values[p];
+            }
+        }
+        A
+    }
+
+    /// Frobenius norm.
+    pub fn norm_frobenius(&self) -> f64 {
+        self.values.iter().map(|v| v * v).sum::<f64>().sqrt()
+    }
+
+    /// First (i, j) where A and Aᵀ differ by more than `rel` relative.
+    pub fn asymmetry(&self, rel: f64) -> Option<(usize, usize, f64, f64)> {
+        for j in 0..self.n {
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                let i = self.row_idx[p];
+                let (a, b) = (self.values[p], self.get(j, i));
+                if (a - b).abs() > rel * (a.abs() + b.abs()) {
+                    return Some((i, j, a, b));
+                }
+            }
+        }
+        None
+    }
+
+    fn symbolic(&self) -> SymbolicSparseColMatRef<'_, usize> {
+        SymbolicSparseColMatRef::new_checked(self.n, self.n, &self.col_ptr, None, &self.row_idx)
+    }
+}
+
+/// Symbolic Cholesky analysis of one sparsity pattern (AMD ordering,
+/// elimination tree, supernodes), shared by every numeric factorization.
+#[derive(Debug)]
+pub struct SparseCholesky {
+    symbolic: SymbolicCholesky<usize>,
+}
+
+/// Numeric factor storage and solve workspace, reused across evaluations.
+#[derive(Default)]
+pub struct FactorWorkspace {
+    pub L: Vec<f64>,
+    mem: Option<MemBuffer>,
+    mem_bytes: usize,
+}
+
+impl std::fmt::Debug for FactorWorkspace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "FactorWorkspace({} bytes)", self.bytes())
+    }
+}
+
+impl FactorWorkspace {
+    fn stack(&mut self, req: faer::dyn_stack::StackReq) -> &mut MemStack {
+        let bytes = req.size_bytes();
+        if self.mem.is_none() || self.mem_bytes < bytes {
+            self.mem = Some(MemBuffer::new(req));
+            self.mem_bytes = bytes;
+        }
+        match self.mem.as_mut() {
+            Some(m) => MemStack::new(m),
+            None => unreachable!("allocated above"),
+        }
+    }
+
+    pub fn bytes(&self) -> usize {
+        8 * self.L.len() + self.mem_bytes
+    }
+}
+
+impl SparseCholesky {
+    /// Analyse the pattern of `A` (lower triangle used).
+    pub fn analyse(A: &Csc) -> Result<SparseCholesky, String> {
+        let symbolic = factorize_symbolic_cholesky(
+            A.symbolic(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams::default(),
+        )
+        .map_err(|e| format!("symbolic Cholesky analysis failed: {e:?}"))?;
+        Ok(SparseCholesky { symbolic })
+    }
+
+    /// Non-zeros of the factor L.
+    pub fn factor_nnz(&self) -> usize {
+        self.symbolic.len_val()
+    }
+
+    /// Numeric factorization of the pattern `A` (as analysed) with `values`
+    /// into `ws`.
+    /// `Err(row)` names the original row of the first non-positive pivot.
+    pub fn factor(&self, A: &Csc, values: &[f64], ws: &mut FactorWorkspace) -> Result<(), usize> {
+        ws.L.resize(self.symbolic.len_val(), 0.0);
+        let req = self
+            .symbolic
+            .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
+            .or(self.symbolic.solve_in_place_scratch::<f64>(8, Par::Seq));
+        let mut L = std::mem::take(&mut ws.L);
+        let stack = ws.stack(req);
+        let A = SparseColMatRef::new(A.symbolic(), values);
+        let r = self
+            .symbolic
+            .factorize_numeric_llt(
+                &mut L,
+                A,
+                Side::Lower,
+                Default::default(),
+                Par::Seq,
+                stack,
+                Default::default(),
+            )
+            .map(|_| ())
+            .map_err(|e| match e {
+                LltError::NonPositivePivot { index } => match self.symbolic.perm() {
+                    Some(p) => p.arrays().0.get(index).copied().unwrap_or(index),
+                    None => index,
+                },
+            });
+        ws.L = L;
+        r
+    }
+
+    /// X ← A⁻¹ X with the factor in `ws`.
+    pub fn solve(&self, X: MatMut<'_, f64>, ws: &mut FactorWorkspace) {
+        let req = self
+            .symbolic
+            .solve_in_place_scratch::<f64>(X.ncols(), Par::Seq);
+        let L = std::mem::take(&mut ws.L);
+        {
+            let stack = ws.stack(req);
+            LltRef::new(&self.symbolic, &L).solve_in_place_with_conj(Conj::No, X, Par::Seq, stack);
+        }
+        ws.L = L;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn triplets_sum_and_products_match_dense() {
+        let t = vec![
+            (0, 0, 4.0),
+            (1, 0, -1.0),
+            (0, 1, -1.0),
+            (1, 1, 4.0),
+            (2, 1, -1.0),
+            (1, 2, -1.0),
+            (2, 2, 2.0),
+            (2, 2, 2.0),
+        ];
+        let A = Csc::from_triplets(3, t);
+        assert_eq!(A.nnz(), 7);
+        assert_eq!(A.get(2, 2), 4.0);
+        let D = A.to_dense();
+        let X = Mat::from_fn(3, 2, |i, j| (i + 2 * j) as f64 - 1.0);
+        let mut Y = Mat::zeros(3, 2);
+        A.mul(X.as_ref(), Y.as_mut());
+        assert_eq!(Y, &D * &X);
+        let chol = SparseCholesky::analyse(&A).unwrap();
+        let mut ws = FactorWorkspace::default();
+        chol.factor(&A, &A.values, &mut ws).unwrap();
+        let mut Z = Y.clone();
+        chol.solve(Z.as_mut(), &mut ws);
+        assert!((&Z - &X).norm_max() < 1e-14, "{Z:?}");
+        let bad = Csc::from_triplets(2, vec![(0, 0, 1.0), (1, 1, -1.0)]);
+        let chol = SparseCholesky::analyse(&bad).unwrap();
+        assert!(chol.factor(&bad, &bad.values, &mut ws).is_err());
+        assert_eq!(A.asymmetry(1e-12), None);
+        let skew = Csc::from_triplets(2, vec![(0, 1, 1.0), (1, 0, 2.0)]);
+        assert!(skew.asymmetry(1e-12).is_some());
+    }
+}
