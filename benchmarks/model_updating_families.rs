@@ -100,7 +100,7 @@ fn main() {
     let mut md =
         String::from("# Guided identification on families (test bench, PUB3 scenario 1)\n\n");
     let mut csv = String::from(
-        "family,seed,mean_mac,median_error,identifiable,evaluations,verdict_ok,success\n",
+        "family,seed,mean_mac,median_error,identifiable,evaluations,frf_rms,verdict_ok,success\n",
     );
     for f in &FAMILIES {
         // With `--score`, seeds whose identification has not run yet are
@@ -172,11 +172,11 @@ not run yet.
         let _ = writeln!(md, "| mean MAC vs truth | {} |", quantiles(&macs));
         let _ = writeln!(md, "| median identifiable error | {} |", quantiles(&errs));
         let _ = writeln!(md, "| evaluations | {} |\n", quantiles(&evals));
-        let _ = writeln!(md, "| seed | mean MAC (start) | median error (start) | identifiable | evaluations | verdict |\n|---|---|---|---|---|---|");
+        let _ = writeln!(md, "| seed | mean MAC (start) | median error (start) | identifiable | evaluations | FRF RMS (σ) | verdict |\n|---|---|---|---|---|---|---|");
         for (k, (seed, s)) in scores.iter().enumerate() {
             let _ = writeln!(
                 md,
-                "| {} | {:.5} ({:.4}) | {:.4} ({:.3}) | {} | {} | {}{} |",
+                "| {} | {:.5} ({:.4}) | {:.4} ({:.3}) | {} | {} | {} | {}{} |",
                 seed,
                 s.mean_mac,
                 starts[k].mean_mac,
@@ -184,6 +184,11 @@ not run yet.
                 starts[k].median_error,
                 s.identifiable,
                 s.evaluations,
+                if s.frf_rms.is_finite() {
+                    format!("{:.2}", s.frf_rms)
+                } else {
+                    "–".into()
+                },
                 if s.ok { "ok" } else { "✗ " },
                 if s.ok {
                     String::new()
@@ -193,13 +198,14 @@ not run yet.
             );
             let _ = writeln!(
                 csv,
-                "{},{},{},{},{},{},{},{}",
+                "{},{},{},{},{},{},{},{},{}",
                 f.name,
                 seed,
                 s.mean_mac,
                 s.median_error,
                 s.identifiable,
                 s.evaluations,
+                s.frf_rms,
                 s.ok,
                 success(k, s)
             );

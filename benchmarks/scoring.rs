@@ -24,6 +24,8 @@ pub struct Score {
     pub evaluations: u64,
     pub ok: bool,
     pub message: String,
+    /// The FRF residual at the end (noise units), NaN without FRFs.
+    pub frf_rms: f64,
 }
 
 pub fn csv_rows(path: &Path) -> Vec<BTreeMap<String, String>> {
@@ -154,6 +156,7 @@ fn score_model(
         identifiable: errors.len(),
         evaluations: cost["evaluations"].as_u64().unwrap_or(0),
         ok: cost["verdict"]["ok"].as_bool().unwrap_or(false),
+        frf_rms: cost["frf"]["end"]["rms"].as_f64().unwrap_or(f64::NAN),
         message: cost["verdict"]["message"]
             .as_str()
             .unwrap_or("")

@@ -255,6 +255,16 @@ fn parallel_springs_are_named_as_undetermined_and_the_rest_is_identified() {
     );
 }
 
+/// `heavy.yaml`: the three-mass chain with other masses, a model error no
+/// stiffness can absorb.
+fn write_heavy(ws: &Workspace) {
+    let heavy = std::fs::read_to_string(format!("{MODELS}/three_mass.yaml"))
+        .unwrap()
+        .replace("mass: 1.0,", "mass: 2.6,")
+        .replace("mass: 0.8,", "mass: 0.3,");
+    ws.write("heavy.yaml", &heavy);
+}
+
 #[test]
 fn a_model_that_cannot_match_says_so() {
     // The reference comes from the three-mass chain with its masses changed
@@ -264,11 +274,7 @@ fn a_model_that_cannot_match_says_so() {
     let ws = setup(
         "name: bad\nstages:\n  truth:\n    kind: synthesize\n    params: {model: heavy.yaml, frequency: {min: 0, max: 400, step: 0.5}}\n  fit:\n    kind: identify\n    inputs: {reference: truth.modes}\n    params: {model: three_mass.yaml, strategy: black_box, optimizer: slsqp, budget: 1500}\n",
     );
-    let heavy = std::fs::read_to_string(format!("{MODELS}/three_mass.yaml"))
-        .unwrap()
-        .replace("mass: 1.0,", "mass: 2.6,")
-        .replace("mass: 0.8,", "mass: 0.3,");
-    ws.write("heavy.yaml", &heavy);
+    write_heavy(&ws);
     ws.run(&[], 0);
     let cost: serde_json::Value =
         serde_json::from_str(&ws.read("results/bad/fit/cost.json")).unwrap();
@@ -332,4 +338,40 @@ fn the_updated_model_file_reproduces_the_updated_modes() {
     for (a, b) in updated.iter().zip(&again) {
         assert!((a - b).abs() <= 1e-12 * a, "{a} vs {b}");
     }
+}
+
+/// The measured FRFs as the final reference (`frf` input): on the
+/// three-mass chain measured with 1 % noise the FRF refinement ends at the
+/// noise (RMS ≈ 1σ) and the verdict is ok; on a chain with other masses (a
+/// model error) it ends far above the noise with a smooth residual, and the
+/// verdict says so.
+#[test]
+fn measured_frfs_refine_the_update_and_judge_it() {
+    let values = "{k1.k_x: 2.4e6, k12.k_x: 1.3e6, k23.k_x: 1.15e6, k3.k_x: 4.2e5, k1.c_x: 48, k12.c_x: 25, k23.c_x: 23, k3.c_x: 12}";
+    let ws = setup(&format!(
+        "name: frf\nstages:\n  truth:\n    kind: synthesize\n    params: {{model: three_mass.yaml, frequency: {{min: 10, max: 400, step: 0.5}}, values: {values}, noise: {{relative: 0.01}}, seed: 2}}\n  heavy:\n    kind: synthesize\n    params: {{model: heavy.yaml, frequency: {{min: 10, max: 400, step: 0.5}}, noise: {{relative: 0.01}}, seed: 2}}\n  fit:\n    kind: identify\n    inputs: {{reference: truth.modes, frf: truth.frf}}\n    params: {{model: three_mass.yaml, strategy: black_box, optimizer: slsqp, budget: 3000}}\n  bad:\n    kind: identify\n    inputs: {{reference: heavy.modes, frf: heavy.frf}}\n    params: {{model: three_mass.yaml, strategy: black_box, optimizer: slsqp, budget: 3000}}\n"
+    ));
+    write_heavy(&ws);
+    ws.run(&[], 0);
+    let cost = |stage: &str| -> serde_json::Value {
+        serde_json::from_str(&ws.read(&format!("results/frf/{stage}/cost.json"))).unwrap()
+    };
+    let good = cost("fit");
+    let (frf, v) = (&good["frf"], &good["verdict"]);
+    let end = frf["end"]["rms"].as_f64().unwrap();
+    assert!((0.8..1.3).contains(&end), "{frf}");
+    assert!(frf["evaluations"].as_u64().unwrap() > 0, "{frf}");
+    assert!(good["evaluations"].as_u64().unwrap() <= 3000, "{good}");
+    assert_eq!(v["ok"], true, "{v}");
+    assert_eq!(v["frf"]["fit"], "within_noise", "{v}");
+    assert!(
+        v["message"].as_str().unwrap().contains("FRF residual"),
+        "{v}"
+    );
+    let bad = cost("bad");
+    let v = &bad["verdict"];
+    assert_eq!(v["ok"], false, "{v}");
+    assert_eq!(v["frf"]["fit"], "above_noise", "{v}");
+    assert!(v["frf"]["end"]["rms"].as_f64().unwrap() > 5.0, "{v}");
+    assert!(v["message"].as_str().unwrap().contains("systematic"), "{v}");
 }

@@ -31,32 +31,36 @@ pub const NOISE_FLOOR_RELATIVE: f64 = 1e-12;
 /// Noise variance σ_c² = E|n|² of every channel (`o · n_ref + i`), from the
 /// median of the normalized second differences.
 pub fn noise_variance(data: &FrfData) -> Vec<f64> {
-    let f = &data.frequencies_hz;
     let nf = data.n_lines();
     let n_ch = data.n_out() * data.n_ref();
     (0..n_ch)
-        .map(|c| {
-            let h = &data.h[c * nf..(c + 1) * nf];
-            let power = h.iter().map(Complex64::norm_sqr).sum::<f64>() / nf.max(1) as f64;
-            let mut r: Vec<f64> = (2..nf.saturating_sub(2))
-                .filter_map(|k| {
-                    let mut w = [0.0f64; 5];
-                    for (i, wi) in w.iter_mut().enumerate() {
-                        let p: f64 = (0..5)
-                            .filter(|&j| j != i)
-                            .map(|j| f[k + i - 2] - f[k + j - 2])
-                            .product();
-                        *wi = 1.0 / p;
-                    }
-                    let norm: f64 = w.iter().map(|v| v * v).sum();
-                    let d: Complex64 = (0..5).map(|i| h[k + i - 2] * w[i]).sum();
-                    (norm.is_finite() && norm > 0.0).then(|| d.norm_sqr() / norm)
-                })
-                .collect();
-            let med = median(&mut r);
-            (med / std::f64::consts::LN_2).max(NOISE_FLOOR_RELATIVE * power)
-        })
+        .map(|c| channel_noise_variance(&data.frequencies_hz, &data.h[c * nf..(c + 1) * nf]))
         .collect()
+}
+
+/// Noise variance σ² = E|n|² of one channel `h` on the lines `f` (module
+/// docs): the median of the normalized fourth divided differences over ln 2,
+/// floored at [`NOISE_FLOOR_RELATIVE`] of the channel's mean power.
+pub fn channel_noise_variance(f: &[f64], h: &[Complex64]) -> f64 {
+    let nf = h.len().min(f.len());
+    let power = h.iter().map(Complex64::norm_sqr).sum::<f64>() / nf.max(1) as f64;
+    let mut r: Vec<f64> = (2..nf.saturating_sub(2))
+        .filter_map(|k| {
+            let mut w = [0.0f64; 5];
+            for (i, wi) in w.iter_mut().enumerate() {
+                let p: f64 = (0..5)
+                    .filter(|&j| j != i)
+                    .map(|j| f[k + i - 2] - f[k + j - 2])
+                    .product();
+                *wi = 1.0 / p;
+            }
+            let norm: f64 = w.iter().map(|v| v * v).sum();
+            let d: Complex64 = (0..5).map(|i| h[k + i - 2] * w[i]).sum();
+            (norm.is_finite() && norm > 0.0).then(|| d.norm_sqr() / norm)
+        })
+        .collect();
+    let med = median(&mut r);
+    (med / std::f64::consts::LN_2).max(NOISE_FLOOR_RELATIVE * power)
 }
 
 fn median(v: &mut [f64]) -> f64 {

@@ -78,7 +78,7 @@ pub fn modal_superposition(
 }
 
 /// Standard normal draw by Box–Muller.
-fn gauss(rng: &mut ChaCha8Rng) -> f64 {
+pub(crate) fn gauss(rng: &mut ChaCha8Rng) -> f64 {
     let u = |r: &mut ChaCha8Rng| ((r.next_u64() >> 11) + 1) as f64 / (1u64 << 53) as f64;
     let (a, b) = (u(rng), u(rng));
     (-2.0 * a.ln()).sqrt() * (2.0 * PI * b).cos()

@@ -26,6 +26,8 @@ pub mod black_box;
 pub mod continuation;
 pub mod correspondence;
 pub mod damping;
+pub mod frf_objective;
+pub mod frf_refinement;
 pub mod guided;
 pub mod history;
 pub mod identifiability;

@@ -5,11 +5,13 @@
 //! evaluation of the assessment is counted with the strategy's.
 
 use super::correspondence::Correspondence;
+use super::frf_objective::FrfReference;
+use super::frf_refinement::{frf_refinement, FrfRefinement, FrfRefinementParams};
 use super::guided::{guided, GuidedParams, GuidedResult, Screening};
 use super::history::HistoryRow;
 use super::identifiability::{analyze, Identifiability};
 use super::objective::{Match, ModalObjective, SlotPairing};
-use super::verdict::{ModeCounts, Status, Verdict};
+use super::verdict::{FrfJudgement, ModeCounts, Status, Verdict};
 use super::{black_box, IdentifyError};
 use crate::optimize::jacobian;
 use crate::optimize::slsqp::SlsqpParams;
@@ -41,6 +43,9 @@ pub struct Plan<'a> {
     pub exclude: &'a [(u32, usize)],
     /// Largest a-priori relative standard error of an identifiable parameter.
     pub max_std_error: f64,
+    /// The measured FRFs, when given: the last step refines the identified
+    /// parameters on them ([`super::frf_refinement`]).
+    pub frf: Option<(&'a FrfReference, &'a FrfRefinementParams)>,
 }
 
 /// A reference mode and its partner at the result.
@@ -70,6 +75,7 @@ pub struct Update {
     pub verdict: Verdict,
     pub guided: Option<GuidedResult>,
     pub optimizer: Option<OptimizeResult>,
+    pub frf: Option<FrfRefinement>,
 }
 
 /// Update the model of `o` (exclusions are added to it) by `plan`.
@@ -121,7 +127,12 @@ pub fn update(
                 reserve + 1
             ))
         })?;
-    let (x, history, evaluations, identified, status, guided_result, optimizer) =
+    let frf_budget = match plan.frf {
+        Some((_, s)) if s.enabled => (budget as f64 * s.share) as usize,
+        _ => 0,
+    };
+    let budget = budget - frf_budget;
+    let (x, history, mut evaluations, identified, status, guided_result, optimizer) =
         match plan.strategy {
             Strategy::Guided {
                 screening,
@@ -167,6 +178,36 @@ pub fn update(
                 )
             }
         };
+    let mut frf_result = None;
+    let mut x = x;
+    if let (Some((reference, settings)), true) = (plan.frf, frf_budget > 0) {
+        // What the modes left undetermined is searched on the FRFs first.
+        let (modal, cost) =
+            identifiability_at(o, &x, &identified, plan.max_std_error, None, progress)?;
+        evaluations += cost;
+        let explore: Vec<usize> = identified
+            .iter()
+            .zip(&modal.parameters)
+            .filter(|(_, p)| !p.identifiable)
+            .map(|(&i, _)| i)
+            .collect();
+        let r = frf_refinement(
+            o.prepared(),
+            &o.bounds()?,
+            reference,
+            &identified,
+            &explore,
+            &x,
+            &start,
+            (frf_budget + budget).saturating_sub(evaluations),
+            settings,
+            plan.seed,
+            progress,
+        )?;
+        evaluations += r.summary.evaluations;
+        x = r.x.clone();
+        frf_result = Some(r);
+    }
     let (assessment, pairs, mut verdict_inputs, close_pairs) =
         assess(o, &start, &x, &identified, plan, progress)?;
     let mut warnings = bound_warnings(o, &x, &identified);
@@ -180,6 +221,12 @@ pub fn update(
             )
         }));
     }
+    let frf_judgement = frf_result
+        .as_ref()
+        .map(|r| FrfJudgement::new(r.summary.start, r.summary.end));
+    let status = frf_result
+        .as_ref()
+        .map_or(status, |r| Status::of(&r.status));
     let verdict = Verdict::judge(
         status,
         verdict_inputs.0,
@@ -192,6 +239,7 @@ pub fn update(
             .iter()
             .filter(|p| p.identifiable)
             .count(),
+        frf_judgement,
         warnings,
     );
     let objective = o.cost(&x);
@@ -212,6 +260,7 @@ pub fn update(
         verdict,
         guided: guided_result,
         optimizer,
+        frf: frf_result,
     })
 }
 
@@ -276,7 +325,8 @@ fn assess(
         close.extend(unresolved_pairs(p, &mf, &rf, &matched[p]));
         pairs.push(slot);
     }
-    let identifiability = identifiability_at(o, x, identified, plan.max_std_error, progress)?;
+    let frf = plan.frf.map(|(r, _)| r);
+    let identifiability = identifiability_at(o, x, identified, plan.max_std_error, frf, progress)?;
     Ok((
         identifiability,
         pairs,
@@ -332,13 +382,15 @@ fn unresolved_pairs(p: usize, mf: &[f64], rf: &[f64], matched: &[Option<Match>])
 
 /// The identifiability of `identified` at `x` from a forward-difference
 /// Jacobian (central differences) of the weighted residuals (frequencies,
-/// shapes and damping ratios of the usable modes) with respect to ln p: one
-/// batch of 2·`identified.len()` evaluations (+1 at `x`).
+/// shapes and damping ratios of the usable modes, and the FRF residuals of
+/// `frf` when given) with respect to ln p: one batch of
+/// 2·`identified.len()` evaluations (+1 at `x`).
 fn identifiability_at(
     o: &ModalObjective,
     x: &[f64],
     identified: &[usize],
     max_std_error: f64,
+    frf: Option<&FrfReference>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Identifiability, usize), IdentifyError> {
     let usable = o.usable();
@@ -352,11 +404,13 @@ fn identifiability_at(
                 for &i in identified {
                     p[i] = phys[i];
                 }
-                o.evaluate(&p, &usable).map(|e| {
-                    let mut r = e.residuals;
-                    r.extend(e.damping);
-                    r
-                })
+                let e = o.evaluate(&p, &usable)?;
+                let mut r = e.residuals;
+                r.extend(e.damping);
+                if let Some(frf) = frf {
+                    r.extend(frf.residuals(o.prepared(), &p)?);
+                }
+                Some(r)
             })
             .collect();
         progress(points.len() as u64);

@@ -16,8 +16,23 @@
 //! - `worse_than_start`: the result fits the reference worse than the start.
 //! - `ok`: converged, within the noise, not worse than the start, and every
 //!   usable mode paired.
+//!
+//! **With measured FRFs** (the `frf` input) the FRFs are the reference the
+//! verdict is about: `fit` is the FRF residual in units of each channel's
+//! noise ([`super::frf_objective`]; 1 at the truth), `worse_than_start`
+//! compares it with the modal fit's, and the modal bookkeeping (unpaired
+//! or outlier EMA modes, a modal residual above its uncertainty) becomes
+//! warnings: the FRFs hold every mode, so an EMA mode the updated model does
+//! not reproduce is the EMA's to explain. A residual above the noise whose
+//! lag-1 correlation along frequency exceeds [`SMOOTH_LAG1`] is named a
+//! systematic misfit (damping model, leakage of an impact test, model
+//! error), not noise.
 
+use super::frf_objective::FrfFit;
 use serde::{Deserialize, Serialize};
+
+/// Lag-1 correlation above which an FRF residual is called smooth.
+pub const SMOOTH_LAG1: f64 = 0.5;
 
 /// Weighted-residual RMS (σ units) up to which a fit is within the noise.
 pub const NOISE_RMS: f64 = 2.0;
@@ -95,15 +110,130 @@ pub struct Verdict {
     /// Parameters identified and how many of them the data determine.
     pub identified: usize,
     pub identifiable: usize,
+    /// The FRF fit at the modal result and at the end, when FRFs were given.
+    #[serde(default)]
+    pub frf: Option<FrfJudgement>,
     /// One line a person reads first.
     pub message: String,
     /// Everything else worth a look.
     pub warnings: Vec<String>,
 }
 
+/// The FRF part of a verdict.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FrfJudgement {
+    /// At the modal fit (where the FRF refinement started).
+    pub start: FrfFit,
+    /// At the result.
+    pub end: FrfFit,
+    pub fit: Fit,
+    /// The residual above the noise is smooth along frequency.
+    pub systematic: bool,
+}
+
+impl FrfJudgement {
+    /// Judge the FRF fit from its start and end.
+    pub fn new(start: FrfFit, end: FrfFit) -> FrfJudgement {
+        let fit = if end.rms <= NOISE_RMS {
+            Fit::WithinNoise
+        } else {
+            Fit::AboveNoise
+        };
+        FrfJudgement {
+            start,
+            end,
+            fit,
+            systematic: fit == Fit::AboveNoise && end.lag1 > SMOOTH_LAG1,
+        }
+    }
+
+    fn worse(&self) -> bool {
+        self.end
+            .rms
+            .partial_cmp(&self.start.rms)
+            .is_none_or(|o| o.is_gt())
+    }
+
+    fn sentence(&self) -> String {
+        let (s, e) = (self.start.rms, self.end.rms);
+        match (self.fit, self.systematic) {
+            (Fit::WithinNoise, _) => format!(
+                "FRF residual {e:.2}σ RMS (from {s:.1}σ), FRAC {:.3}: the model reproduces the measured FRFs within their noise",
+                self.end.mean_frac
+            ),
+            (Fit::AboveNoise, true) => format!(
+                "FRF residual {e:.1}σ RMS (from {s:.1}σ) is above the noise and smooth along frequency (lag-1 correlation {:.2}): a systematic misfit — model error, damping model or leakage of the test",
+                self.end.lag1
+            ),
+            (Fit::AboveNoise, false) => format!(
+                "FRF residual {e:.1}σ RMS (from {s:.1}σ) is above the measured noise: model error or a local minimum"
+            ),
+        }
+    }
+}
+
 impl Verdict {
-    /// Judge a result: `start_rms`/`end_rms` are weighted-residual RMS values.
+    /// Judge a result: `start_rms`/`end_rms` are the modal weighted-residual
+    /// RMS values, `frf` the FRF fit when FRFs were the final reference.
+    #[allow(clippy::too_many_arguments)]
     pub fn judge(
+        status: Status,
+        start_rms: f64,
+        end_rms: f64,
+        modes: ModeCounts,
+        identified: usize,
+        identifiable: usize,
+        frf: Option<FrfJudgement>,
+        warnings: Vec<String>,
+    ) -> Verdict {
+        // With FRFs the caller's warnings follow the FRF verdict's message.
+        let (own, later) = if frf.is_some() {
+            (vec![], warnings)
+        } else {
+            (warnings, vec![])
+        };
+        let modal = Self::judge_modal(
+            status,
+            start_rms,
+            end_rms,
+            modes,
+            identified,
+            identifiable,
+            own,
+        );
+        let Some(f) = frf else {
+            return modal;
+        };
+        let status = if status == Status::Stalled && f.fit == Fit::WithinNoise {
+            Status::Converged
+        } else {
+            status
+        };
+        let worse = f.worse();
+        let ok = status == Status::Converged && f.fit == Fit::WithinNoise && !worse;
+        let mut parts = vec![status_text(status).to_string(), f.sentence()];
+        if worse {
+            parts.push("the FRFs fit WORSE than at the modal result".into());
+        }
+        let mut all = later;
+        if !modal.ok {
+            all.push(format!("modal reference: {}", modal.message));
+        }
+        all.extend(modal.warnings.iter().cloned());
+        Verdict {
+            ok,
+            status,
+            fit: f.fit,
+            worse_than_start: worse,
+            frf: Some(f),
+            message: parts.join("; "),
+            warnings: all,
+            ..modal
+        }
+    }
+
+    /// The verdict against the reference modes alone.
+    fn judge_modal(
         status: Status,
         start_rms: f64,
         end_rms: f64,
@@ -131,11 +261,7 @@ impl Verdict {
         // the verdict from being ok and are named in the message.
         let lost = modes.unpaired + modes.outliers;
         let ok = status == Status::Converged && fit == Fit::WithinNoise && !worse && lost == 0;
-        let mut parts = vec![match status {
-            Status::Converged => "converged".to_string(),
-            Status::Stalled => "stalled before converging".to_string(),
-            Status::BudgetExhausted => "stopped by the budget before converging".to_string(),
-        }];
+        let mut parts = vec![status_text(status).to_string()];
         parts.push(match fit {
             Fit::WithinNoise => format!(
                 "residual {end_rms:.2}σ RMS: the model reproduces the reference within its uncertainty"
@@ -181,9 +307,18 @@ impl Verdict {
             modes,
             identified,
             identifiable,
+            frf: None,
             message: parts.join("; "),
             warnings,
         }
+    }
+}
+
+fn status_text(status: Status) -> &'static str {
+    match status {
+        Status::Converged => "converged",
+        Status::Stalled => "stalled before converging",
+        Status::BudgetExhausted => "stopped by the budget before converging",
     }
 }
 
@@ -204,34 +339,102 @@ mod tests {
 
     #[test]
     fn a_converged_fit_within_noise_is_ok_and_anything_else_is_not() {
-        let v = Verdict::judge(Status::Converged, 40.0, 0.3, counts(), 20, 18, vec![]);
+        let v = Verdict::judge(Status::Converged, 40.0, 0.3, counts(), 20, 18, None, vec![]);
         assert!(v.ok && v.fit == Fit::WithinNoise && !v.worse_than_start);
         assert_eq!(v.warnings.len(), 1, "{:?}", v.warnings);
-        let above = Verdict::judge(Status::Converged, 40.0, 7.5, counts(), 20, 20, vec![]);
+        let above = Verdict::judge(Status::Converged, 40.0, 7.5, counts(), 20, 20, None, vec![]);
         assert!(!above.ok && above.fit == Fit::AboveNoise);
         assert!(above.message.contains("7.5σ"), "{}", above.message);
-        let floor = Verdict::judge(Status::Stalled, 9.0, 0.5, counts(), 20, 20, vec![]);
+        let floor = Verdict::judge(Status::Stalled, 9.0, 0.5, counts(), 20, 20, None, vec![]);
         assert_eq!(floor.status, Status::Converged);
-        let worse = Verdict::judge(Status::Stalled, 3.0, 4.0, counts(), 20, 20, vec![]);
+        let worse = Verdict::judge(Status::Stalled, 3.0, 4.0, counts(), 20, 20, None, vec![]);
         assert_eq!(worse.status, Status::Stalled);
         assert!(!worse.ok && worse.worse_than_start);
         assert!(worse.message.contains("WORSE"), "{}", worse.message);
-        let budget = Verdict::judge(Status::BudgetExhausted, 9.0, 1.0, counts(), 5, 5, vec![]);
+        let budget = Verdict::judge(
+            Status::BudgetExhausted,
+            9.0,
+            1.0,
+            counts(),
+            5,
+            5,
+            None,
+            vec![],
+        );
         assert!(!budget.ok);
         let lost = ModeCounts {
             unpaired: 2,
             ..counts()
         };
-        assert!(!Verdict::judge(Status::Converged, 9.0, 1.0, lost, 5, 5, vec![]).ok);
+        assert!(!Verdict::judge(Status::Converged, 9.0, 1.0, lost, 5, 5, None, vec![]).ok);
         let outlier = ModeCounts {
             outliers: 1,
             ..counts()
         };
-        let v = Verdict::judge(Status::Converged, 9.0, 1.0, outlier, 5, 5, vec![]);
+        let v = Verdict::judge(Status::Converged, 9.0, 1.0, outlier, 5, 5, None, vec![]);
         assert!(!v.ok && v.message.contains("1 outliers"), "{}", v.message);
         // NaN residuals (model unsolvable) are never within the noise.
-        let nan = Verdict::judge(Status::Converged, 9.0, f64::NAN, counts(), 5, 5, vec![]);
+        let nan = Verdict::judge(
+            Status::Converged,
+            9.0,
+            f64::NAN,
+            counts(),
+            5,
+            5,
+            None,
+            vec![],
+        );
         assert!(!nan.ok && nan.worse_than_start);
+    }
+
+    fn fit(rms: f64, lag1: f64) -> FrfFit {
+        FrfFit {
+            rms,
+            robust_cost: rms * rms,
+            mean_frac: 0.9,
+            lag1,
+        }
+    }
+
+    #[test]
+    fn with_frfs_the_frf_fit_decides_and_modal_losses_are_warnings() {
+        let lost = ModeCounts {
+            unpaired: 1,
+            outliers: 1,
+            ..counts()
+        };
+        // FRFs at the noise: ok although the EMA had a mode the model lacks.
+        let f = FrfJudgement::new(fit(9.0, 0.9), fit(1.03, 0.02));
+        let v = Verdict::judge(
+            Status::Stalled,
+            9.0,
+            1.0,
+            lost.clone(),
+            5,
+            5,
+            Some(f),
+            vec![],
+        );
+        assert!(v.ok && v.status == Status::Converged, "{}", v.message);
+        assert!(v.message.contains("1.03σ"), "{}", v.message);
+        assert!(
+            v.warnings.iter().any(|w| w.starts_with("modal reference")),
+            "{:?}",
+            v.warnings
+        );
+        // Above the noise and smooth: named a systematic misfit, not ok,
+        // even with the modal fit within its noise.
+        let f = FrfJudgement::new(fit(30.0, 0.9), fit(6.5, 0.94));
+        let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, Some(f), vec![]);
+        assert!(!v.ok && f.systematic && v.fit == Fit::AboveNoise);
+        assert!(v.message.contains("systematic"), "{}", v.message);
+        // Above the noise and rough: not called systematic.
+        let f = FrfJudgement::new(fit(30.0, 0.9), fit(3.0, 0.1));
+        assert!(!f.systematic);
+        // Worse than the modal result.
+        let f = FrfJudgement::new(fit(1.5, 0.1), fit(1.8, 0.1));
+        let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, Some(f), vec![]);
+        assert!(!v.ok && v.worse_than_start && v.message.contains("WORSE"));
     }
 
     #[test]

@@ -13,6 +13,9 @@ pub struct Phases {
     pub subproblems: usize,
     pub refine: usize,
     pub damping: usize,
+    /// The FRF refinement (0 without the `frf` input).
+    #[serde(default)]
+    pub frf: usize,
     pub assessment: usize,
 }
 
@@ -30,6 +33,9 @@ pub struct Cost {
     /// The match at the result over the used modes.
     pub modes: ModeSummary,
     pub phase_evaluations: Phases,
+    /// The FRF refinement, when the `frf` input was given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub frf: Option<crate::identify::frf_refinement::FrfSummary>,
     pub verdict: Verdict,
 }
 

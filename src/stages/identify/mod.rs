@@ -28,6 +28,7 @@ use super::{
     StageOutputs,
 };
 use crate::dynamics::{self, directory_resolver};
+use crate::identify::frf_objective::FrfReference;
 use crate::identify::updating::{update, Plan, Strategy, Update};
 use crate::identify::{ModalObjective, NamedMode, Screening, SubproblemSpec};
 use crate::optimize::Optimizer;
@@ -63,6 +64,13 @@ const INPUTS: &[InputSpec] = &[
         artifact: Artifact::Subproblems,
         doc: "sensitivity_guided: a gsa `subproblems` artifact",
     },
+    InputSpec {
+        name: "frf",
+        required: false,
+        list: false,
+        artifact: Artifact::Frf,
+        doc: "the measured FRFs the reference modes came from: the last step refines the identified parameters on them",
+    },
 ];
 
 impl Kind for Identify {
@@ -71,8 +79,9 @@ impl Kind for Identify {
 
     /// 8: the `updated_model` output (the identified values in the model
     /// file). 9: model modes by shift-invert block Lanczos (issue 16).
+    /// 10: the `frf` input and the FRF refinement.
     fn version(&self) -> u32 {
-        9
+        10
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -223,7 +232,26 @@ impl Kind for Identify {
                 optimizer: &spec.optimizer,
             },
         };
+        let frf_reference = match ctx.inputs.get("frf").and_then(|v| v.first()) {
+            Some(path) => {
+                let sets = artifacts::read_frf(path, "frf")?;
+                Some(
+                    FrfReference::new(
+                        objective.prepared(),
+                        &sets,
+                        spec.positions.as_deref(),
+                        spec.frf_band,
+                    )
+                    .map_err(|e| StageError::InvalidInput {
+                        input: "frf".into(),
+                        message: e.to_string(),
+                    })?,
+                )
+            }
+            None => None,
+        };
         let plan = Plan {
+            frf: frf_reference.as_ref().map(|r| (r, &spec.frf_refinement)),
             strategy,
             budget: spec.budget,
             seed: ctx.seed,
@@ -289,6 +317,7 @@ fn write_outputs(
     )?;
     let mut phases = Phases {
         assessment: u.assessment_evaluations,
+        frf: u.frf.as_ref().map_or(0, |r| r.summary.evaluations),
         ..Phases::default()
     };
     if let Some(g) = &u.guided {
@@ -335,6 +364,7 @@ fn write_outputs(
         },
         modes: o.summary(&u.x).map_err(failed)?,
         phase_evaluations: phases,
+        frf: u.frf.as_ref().map(|r| r.summary.clone()),
         verdict: u.verdict.clone(),
     };
     let path = ctx.scratch.join("cost.json");

@@ -2,6 +2,7 @@
 //! settings of the identification they make ([`Spec`]); [`spec`] checks
 //! what the types cannot say, every problem located by its param path.
 
+use crate::identify::frf_refinement::FrfRefinementParams;
 use crate::identify::{GuidedParams, Uncertainty, Weights};
 use crate::optimize::Optimizer;
 use crate::pairing::Pairing;
@@ -114,6 +115,7 @@ macro_rules! settings_type_name {
 settings_type_name!(
     Weights => "mapping {mac, nfd, ndd}",
     Uncertainty => "mapping {frequency, shape, damping, from_complexity, from_estimate}",
+    FrfRefinementParams => "mapping {enabled, share, regularization, max_step, samples, starts}",
     Mapping => "mapping"
 );
 
@@ -174,6 +176,14 @@ crate::params! {
         pub seed: Option<u64> = None,
         /// reference position indices to use, e.g. [0, 2] (default all)
         pub positions: Option<Vec<u32>> = None,
+        /// with the `frf` input: the last step refines the identified
+        /// parameters on the measured FRFs: {enabled: true, share: 0.4
+        /// (of the budget), regularization: 0.25, max_step: 0.05,
+        /// samples: 128 (search over what the modes left open), starts: 7}
+        pub frf_refinement: FrfRefinementParams = FrfRefinementParams::default(),
+        /// with the `frf` input: the band [low, high] Hz of the FRF lines
+        /// fitted (default: every line of the input)
+        pub frf_band: Option<(f64, f64)> = None; range Range::at_least(0.0),
     }
 }
 
@@ -189,6 +199,8 @@ pub struct Spec {
     pub observability: f64,
     pub max_std_error: f64,
     pub positions: Option<Vec<u32>>,
+    pub frf_refinement: FrfRefinementParams,
+    pub frf_band: (f64, f64),
     /// Nominal-model modes to leave out: (position, number).
     pub exclude: Vec<(u32, usize)>,
 }
@@ -296,6 +308,24 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
             "e.g. positions: [0, 2]",
         ));
     }
+    if let Err(m) = p.frf_refinement.check() {
+        out.push(problem(
+            &["frf_refinement"],
+            m,
+            "see the FRF refinement in the README",
+        ));
+    }
+    let frf_band = p.frf_band.unwrap_or((0.0, f64::INFINITY));
+    if frf_band.0 >= frf_band.1 {
+        out.push(problem(
+            &["frf_band"],
+            format!(
+                "frf_band [{}, {}] is not [low, high]",
+                frf_band.0, frf_band.1
+            ),
+            "e.g. frf_band: [10, 200]",
+        ));
+    }
     match optimizer {
         Some(optimizer) if out.is_empty() => Ok(Spec {
             guided,
@@ -308,6 +338,8 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
             observability: p.observability,
             max_std_error: p.max_std_error,
             positions: p.positions.clone(),
+            frf_refinement: p.frf_refinement.clone(),
+            frf_band,
             exclude: p
                 .exclude_modes
                 .iter()

@@ -25,9 +25,14 @@ pub fn status_cell(v: &Verdict) -> String {
 
 /// The fit with its end residual (σ units), marked ✗ above the noise or
 /// when worse than the start.
+/// With FRFs the residual shown is the FRF one (noise units), marked as such.
 pub fn fit_cell(v: &Verdict) -> String {
-    let rms = if v.end_rms.is_finite() {
-        format!("{:.2}σ", v.end_rms)
+    let (end, start, what) = match &v.frf {
+        Some(f) => (f.end.rms, f.start.rms, "FRF "),
+        None => (v.end_rms, v.start_rms, ""),
+    };
+    let rms = if end.is_finite() {
+        format!("{what}{end:.2}σ")
     } else {
         "model unsolvable".into()
     };
@@ -39,7 +44,7 @@ pub fn fit_cell(v: &Verdict) -> String {
         if !s.starts_with('✗') {
             s.insert_str(0, "✗ ");
         }
-        s.push_str(&format!(", worse than start ({:.2}σ)", v.start_rms));
+        s.push_str(&format!(", worse than start ({start:.2}σ)"));
     }
     s
 }
@@ -124,7 +129,8 @@ pub fn costs(doc: &mut Document, costs: &[(String, Cost)]) {
     doc.paragraph(
         "The verdict is ok when the optimizer converged, the weighted residual at the result is within \
          the reference's noise (RMS ≤ 2σ), the result fits no worse than the start, and every used \
-         reference mode has a model partner.",
+         reference mode has a model partner. When the measured FRFs were given, their residual (in units \
+         of each channel's noise) decides instead, and the modal bookkeeping becomes warnings.",
     );
     doc.table(
         [

@@ -1,0 +1,309 @@
+//! The measured FRFs as an identification reference: the residuals of the
+//! model's FRFs against them, line by line, in units of each channel's noise
+//! (FRF-based model updating; Friswell & Mottershead 1995, ch. 8; Lin &
+//! Ewins 1994, "Analytical model improvement using frequency response
+//! functions", MSSP 8(4), doi:10.1006/mssp.1994.1032).
+//!
+//! Why, when the modal objective exists: an EMA's modes are an incomplete
+//! summary of the FRFs. A heavily damped mode (the test bench's axial drive
+//! mode, ζ 0.11–0.19, 1–3 % from a lightly damped neighbour) is in the FRFs
+//! but almost never in the AutoEMA modes (2 of 15 found over ten seeds), so
+//! the modal objective cannot see the parameters that place it; the updated
+//! model then has that mode anywhere, and its neighbours' shapes with it.
+//! The FRFs hold every mode, however damped or close, with its residue.
+//!
+//! Per position, measured channel c (response j, reference k, matched to a
+//! model sensor and excitation by node and axis; an opposite direction
+//! flips the sign) and line ω inside the band:
+//!
+//! r_c(ω) = (H_jk^model(ω) − H_jk^meas(ω)) / σ_c,  real and imaginary parts,
+//!
+//! with H^model by modal superposition (eq. 2.42/2.45) of every model mode
+//! below twice the band's top (the modes above it act as the residual
+//! stiffness term in the band) in the measurement's quantity, and σ_c² the
+//! channel's noise variance estimated from the data themselves
+//! ([`crate::ema::noise::channel_noise_variance`]: fourth divided
+//! differences, robust to the peaks). At the truth ½‖r‖²/count ≈ ½.
+//!
+//! **Robust loss.** A line whose misfit exceeds [`HUBER`] σ counts linearly
+//! (Huber): a lightly damped peak a hair off in frequency (ζ = 0.1 % is
+//! 0.17 Hz wide at 84 Hz, narrower than a line), leakage of an impact test
+//! at such a peak, or a local model error cannot dominate the thousands of
+//! lines the fit is about.
+//!
+//! The stiffness parameters are not identified from the FRFs alone: the
+//! FRF misfit is a landscape of narrow valleys far from the truth (a peak
+//! 10 % off overlaps its measured twin nowhere). It refines a modal fit
+//! that is already close ([`super::frf_refinement`]).
+
+use super::IdentifyError;
+use crate::dynamics::frf::superposition;
+use crate::dynamics::solve::ModeSelection;
+use crate::dynamics::PreparedModel;
+use crate::ema::noise::channel_noise_variance;
+use crate::frf::{FrfQuantity, FrfSet};
+use num_complex::Complex64;
+
+/// Misfit (σ units, per line and channel) above which a line counts
+/// linearly.
+pub const HUBER: f64 = 3.0;
+
+/// The measured FRFs of one position, matched to the model's sensors and
+/// excitations.
+struct FrfSlot {
+    config: usize,
+    position: u32,
+    quantity: FrfQuantity,
+    lines_hz: Vec<f64>,
+    /// (model sensor row, model excitation row) per channel.
+    pairs: Vec<(usize, usize)>,
+    /// Sign of each channel (response sign × reference sign).
+    signs: Vec<f64>,
+    measured: Vec<Vec<Complex64>>,
+    /// Noise standard deviation of each channel.
+    sigma: Vec<f64>,
+}
+
+/// Measured FRFs prepared as a reference for a model.
+pub struct FrfReference {
+    slots: Vec<FrfSlot>,
+    /// Modes up to this frequency (Hz) enter the superposition.
+    modes_below_hz: f64,
+}
+
+/// How well a model's FRFs fit the measured ones.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FrfFit {
+    /// RMS of the residuals in noise units (1: the fit is at the noise).
+    pub rms: f64,
+    /// The robust cost (Huber) over all residuals.
+    pub robust_cost: f64,
+    /// Mean FRAC over the channels (eq. 2.66).
+    pub mean_frac: f64,
+    /// Lag-1 autocorrelation of the residuals along frequency, pooled over
+    /// channels and real/imaginary parts: ≈ 0 for noise, near 1 for a
+    /// smooth, systematic misfit (damping model, leakage, model error).
+    #[serde(default)]
+    pub lag1: f64,
+}
+
+impl FrfReference {
+    /// Match `sets` (by position index; only `positions` when given) to the
+    /// model's sensor × excitation channels, keeping the lines inside
+    /// `band_hz`. A position the model lacks, a set sharing no channel with
+    /// it, or non-finite values are errors naming the position.
+    pub fn new(
+        model: &PreparedModel,
+        sets: &[FrfSet],
+        positions: Option<&[u32]>,
+        band_hz: (f64, f64),
+    ) -> Result<FrfReference, IdentifyError> {
+        let mut slots = Vec::new();
+        for set in sets {
+            let index = set.position.index;
+            if positions.is_some_and(|p| !p.contains(&index)) {
+                continue;
+            }
+            slots.push(slot(model, set, band_hz)?);
+        }
+        if slots.is_empty() {
+            return Err(IdentifyError::Invalid(
+                "the `frf` input has no position among the identified ones".into(),
+            ));
+        }
+        let top = slots
+            .iter()
+            .filter_map(|s| s.lines_hz.last().copied())
+            .fold(0.0, f64::max);
+        Ok(FrfReference {
+            slots,
+            modes_below_hz: 2.0 * top,
+        })
+    }
+
+    /// Number of residuals (2 per channel and line).
+    pub fn count(&self) -> usize {
+        self.slots
+            .iter()
+            .map(|s| 2 * s.pairs.len() * s.lines_hz.len())
+            .sum()
+    }
+
+    /// Positions (indices) of the FRFs.
+    pub fn positions(&self) -> Vec<u32> {
+        self.slots.iter().map(|s| s.position).collect()
+    }
+
+    /// The model's FRFs at `x` for slot `s`, per channel, signed as measured.
+    fn model_frfs(
+        &self,
+        model: &PreparedModel,
+        s: &FrfSlot,
+        x: &[f64],
+    ) -> Option<Vec<Vec<Complex64>>> {
+        let sol = model
+            .evaluate_modes(s.config, x, ModeSelection::Below(self.modes_below_hz))
+            .ok()?;
+        let mut h = superposition(&sol, s.quantity, &s.lines_hz, &s.pairs);
+        for (v, &sign) in h.iter_mut().zip(&s.signs) {
+            v.iter_mut().for_each(|z| *z *= sign);
+        }
+        Some(h)
+    }
+
+    /// Per slot and channel, the noise-scaled misfit d = (H^model −
+    /// H^meas)·√2/σ_c at every line (σ_c² = E|n|² is split evenly between
+    /// the real and imaginary parts, so each part of d has unit variance),
+    /// and the channel's FRAC.
+    fn misfits(&self, model: &PreparedModel, x: &[f64]) -> Option<Vec<(Vec<Complex64>, f64)>> {
+        let mut out = Vec::new();
+        for s in &self.slots {
+            let h = self.model_frfs(model, s, x)?;
+            for ((m, meas), &sigma) in h.iter().zip(&s.measured).zip(&s.sigma) {
+                let k = std::f64::consts::SQRT_2 / sigma;
+                let d: Vec<Complex64> = m.iter().zip(meas).map(|(p, q)| (p - q) * k).collect();
+                out.push((d, crate::metrics::frac(meas, m)));
+            }
+        }
+        Some(out)
+    }
+
+    /// The noise-scaled residuals at `x`, Huber-transformed per line and
+    /// channel (½‖r‖² is the robust cost), or `None` when the model cannot
+    /// be solved there.
+    pub fn residuals(&self, model: &PreparedModel, x: &[f64]) -> Option<Vec<f64>> {
+        let mut out = Vec::with_capacity(self.count());
+        for (d, _) in self.misfits(model, x)? {
+            for v in d {
+                let w = huber_factor(v.norm());
+                out.extend([w * v.re, w * v.im]);
+            }
+        }
+        out.iter().all(|v| v.is_finite()).then_some(out)
+    }
+
+    /// The fit at `x`: noise-unit RMS, robust cost and mean FRAC.
+    pub fn fit(&self, model: &PreparedModel, x: &[f64]) -> Option<FrfFit> {
+        let (mut sum2, mut count, mut robust) = (0.0, 0usize, 0.0);
+        let (mut frac, mut channels, mut lagged) = (0.0, 0usize, 0.0);
+        for (d, f) in self.misfits(model, x)? {
+            for v in &d {
+                let n = v.norm();
+                sum2 += n * n;
+                count += 2;
+                let w = huber_factor(n);
+                robust += 0.5 * w * w * n * n;
+            }
+            lagged += d
+                .windows(2)
+                .map(|w| w[0].re * w[1].re + w[0].im * w[1].im)
+                .sum::<f64>();
+            frac += f;
+            channels += 1;
+        }
+        let rms = (sum2 / count.max(1) as f64).sqrt();
+        rms.is_finite().then_some(FrfFit {
+            rms,
+            robust_cost: robust,
+            mean_frac: frac / channels.max(1) as f64,
+            lag1: lagged / sum2.max(f64::MIN_POSITIVE),
+        })
+    }
+}
+
+/// The factor w with ½(w·d)² = Huber(d): 1 up to [`HUBER`], then
+/// √(2c/d − c²/d²) so that ½w²d² = c·d − ½c².
+fn huber_factor(d: f64) -> f64 {
+    if d <= HUBER {
+        1.0
+    } else {
+        (2.0 * HUBER / d - HUBER * HUBER / (d * d)).sqrt()
+    }
+}
+
+/// One position's FRFs matched to the model.
+fn slot(model: &PreparedModel, set: &FrfSet, band: (f64, f64)) -> Result<FrfSlot, IdentifyError> {
+    let index = set.position.index;
+    let config = model
+        .configurations
+        .iter()
+        .position(|c| c.position.index == index)
+        .ok_or_else(|| {
+            IdentifyError::Invalid(format!(
+                "frf: position {index} is not a configuration of the model, which has {}",
+                model.configurations.len()
+            ))
+        })?;
+    let find = |list: &[(String, crate::frf::Dof)], d: crate::frf::Dof| {
+        list.iter()
+            .position(|(_, s)| s.node == d.node && s.direction.abs() == d.direction.abs())
+            .map(|i| {
+                (
+                    i,
+                    if list[i].1.direction == d.direction {
+                        1.0
+                    } else {
+                        -1.0
+                    },
+                )
+            })
+    };
+    let lines: Vec<usize> = (0..set.frequencies_hz.len())
+        .filter(|&f| (band.0..=band.1).contains(&set.frequencies_hz[f]))
+        .collect();
+    if lines.len() < 8 {
+        return Err(IdentifyError::Invalid(format!(
+            "frf: position {index} has {} lines in the band [{}, {}] Hz; at least 8 are needed",
+            lines.len(),
+            band.0,
+            band.1
+        )));
+    }
+    let lines_hz: Vec<f64> = lines.iter().map(|&f| set.frequencies_hz[f]).collect();
+    let (mut pairs, mut signs, mut measured, mut sigma) = (vec![], vec![], vec![], vec![]);
+    for c in &set.channels {
+        let (Some((j, sj)), Some((k, sk))) = (
+            find(&model.sensors, c.response),
+            find(&model.excitations, c.reference),
+        ) else {
+            continue;
+        };
+        let values: Vec<Complex64> = lines.iter().map(|&f| c.values[f]).collect();
+        if values
+            .iter()
+            .any(|v| !v.re.is_finite() || !v.im.is_finite())
+        {
+            return Err(IdentifyError::Invalid(format!(
+                "frf: position {index}, channel {}/{} has non-finite values",
+                c.response, c.reference
+            )));
+        }
+        // Noise-free data (synthesized without noise) estimate σ ≈ 0: a floor
+        // of 1e-9 of the channel's RMS keeps the residuals finite; an
+        // all-zero channel carries nothing and is left out.
+        let power = values.iter().map(|v| v.norm_sqr()).sum::<f64>() / values.len() as f64;
+        if power == 0.0 {
+            continue;
+        }
+        let var = channel_noise_variance(&lines_hz, &values).max(1e-18 * power);
+        pairs.push((j, k));
+        signs.push(sj * sk);
+        sigma.push(var.sqrt());
+        measured.push(values);
+    }
+    if pairs.is_empty() {
+        return Err(IdentifyError::Invalid(format!(
+            "frf: position {index} shares no channel (response and reference node and axis) with the model's sensors and excitations"
+        )));
+    }
+    Ok(FrfSlot {
+        config,
+        position: index,
+        quantity: set.quantity,
+        lines_hz,
+        pairs,
+        signs,
+        measured,
+        sigma,
+    })
+}
