@@ -15,6 +15,7 @@
 //! lines × channels × modes complex products on top of the eigensolution.
 
 use super::EvalError;
+use crate::dynamics::reference::dof_row;
 use crate::dynamics::{frf::superposition, ModalSolution, PreparedModel};
 use crate::frf::{FrfQuantity, FrfSet};
 use crate::metrics::{csf, frac};
@@ -132,19 +133,14 @@ impl FrfBands {
         let mut positions = Vec::new();
         for set in reference {
             let index = set.position.index;
-            let config = prepared
-                .configurations
-                .iter()
-                .position(|c| c.position.index == index)
-                .ok_or_else(|| {
-                    EvalError::Domain(format!(
-                        "reference FRFs of position {index} have no model configuration"
-                    ))
-                })?;
-            let row = |dofs: &[(String, crate::frf::Dof)], d: crate::frf::Dof| {
-                dofs.iter()
-                    .position(|(_, s)| s.node == d.node && s.direction.abs() == d.direction.abs())
-            };
+            let config = prepared.config_of_position(index).ok_or_else(|| {
+                EvalError::Domain(format!(
+                    "reference FRFs of position {index} have no model configuration"
+                ))
+            })?;
+            // FRAC and CSF compare magnitudes of correlations: the sign of a
+            // channel does not enter, so only the rows are kept.
+            let row = |dofs, d| dof_row(dofs, d).map(|(i, _)| i);
             let mut pairs = Vec::new();
             let mut channels = Vec::new();
             for (c, ch) in set.channels.iter().enumerate() {

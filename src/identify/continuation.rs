@@ -467,12 +467,9 @@ pub fn continuation(
 ) -> Result<ContinuationResult, IdentifyError> {
     settings.check().map_err(IdentifyError::Invalid)?;
     let full = o.bounds()?;
-    let bounds = Bounds::new(
-        free.iter().map(|&i| full.lower()[i]).collect(),
-        free.iter().map(|&i| full.upper()[i]).collect(),
-        free.iter().map(|&i| full.scale()[i]).collect(),
-    )
-    .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
+    let bounds = full
+        .select(free)
+        .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
     let n = free.len();
     let stages = schedule(o, settings);
     let mut runner = Runner {

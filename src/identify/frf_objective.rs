@@ -38,6 +38,7 @@
 
 use super::IdentifyError;
 use crate::dynamics::frf::superposition;
+use crate::dynamics::reference::dof_row;
 use crate::dynamics::solve::ModeSelection;
 use crate::dynamics::PreparedModel;
 use crate::ema::noise::channel_noise_variance;
@@ -52,7 +53,6 @@ pub const HUBER: f64 = 3.0;
 /// excitations.
 struct FrfSlot {
     config: usize,
-    position: u32,
     quantity: FrfQuantity,
     lines_hz: Vec<f64>,
     /// (model sensor row, model excitation row) per channel.
@@ -127,11 +127,6 @@ impl FrfReference {
             .iter()
             .map(|s| 2 * s.pairs.len() * s.lines_hz.len())
             .sum()
-    }
-
-    /// Positions (indices) of the FRFs.
-    pub fn positions(&self) -> Vec<u32> {
-        self.slots.iter().map(|s| s.position).collect()
     }
 
     /// The model's FRFs at `x` for slot `s`, per channel, signed as measured.
@@ -224,30 +219,12 @@ fn huber_factor(d: f64) -> f64 {
 /// One position's FRFs matched to the model.
 fn slot(model: &PreparedModel, set: &FrfSet, band: (f64, f64)) -> Result<FrfSlot, IdentifyError> {
     let index = set.position.index;
-    let config = model
-        .configurations
-        .iter()
-        .position(|c| c.position.index == index)
-        .ok_or_else(|| {
-            IdentifyError::Invalid(format!(
-                "frf: position {index} is not a configuration of the model, which has {}",
-                model.configurations.len()
-            ))
-        })?;
-    let find = |list: &[(String, crate::frf::Dof)], d: crate::frf::Dof| {
-        list.iter()
-            .position(|(_, s)| s.node == d.node && s.direction.abs() == d.direction.abs())
-            .map(|i| {
-                (
-                    i,
-                    if list[i].1.direction == d.direction {
-                        1.0
-                    } else {
-                        -1.0
-                    },
-                )
-            })
-    };
+    let config = model.config_of_position(index).ok_or_else(|| {
+        IdentifyError::Invalid(format!(
+            "frf: position {index} is not a configuration of the model, which has {}",
+            model.configurations.len()
+        ))
+    })?;
     let lines: Vec<usize> = (0..set.frequencies_hz.len())
         .filter(|&f| (band.0..=band.1).contains(&set.frequencies_hz[f]))
         .collect();
@@ -263,8 +240,8 @@ fn slot(model: &PreparedModel, set: &FrfSet, band: (f64, f64)) -> Result<FrfSlot
     let (mut pairs, mut signs, mut measured, mut sigma) = (vec![], vec![], vec![], vec![]);
     for c in &set.channels {
         let (Some((j, sj)), Some((k, sk))) = (
-            find(&model.sensors, c.response),
-            find(&model.excitations, c.reference),
+            dof_row(&model.sensors, c.response),
+            dof_row(&model.excitations, c.reference),
         ) else {
             continue;
         };
@@ -298,7 +275,6 @@ fn slot(model: &PreparedModel, set: &FrfSet, band: (f64, f64)) -> Result<FrfSlot
     }
     Ok(FrfSlot {
         config,
-        position: index,
         quantity: set.quantity,
         lines_hz,
         pairs,

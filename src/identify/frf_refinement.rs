@@ -100,8 +100,6 @@ pub struct FrfSummary {
 #[derive(Clone, Debug)]
 pub struct FrfRefinement {
     pub x: Vec<f64>,
-    /// Every Levenberg–Marquardt run: its end point and cost.
-    pub runs: Vec<(Vec<f64>, f64)>,
     pub summary: FrfSummary,
     pub status: Termination,
 }
@@ -127,12 +125,9 @@ pub fn frf_refinement(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<FrfRefinement, IdentifyError> {
     settings.check().map_err(IdentifyError::Invalid)?;
-    let bounds = Bounds::new(
-        free.iter().map(|&i| bounds_all.lower()[i]).collect(),
-        free.iter().map(|&i| bounds_all.upper()[i]).collect(),
-        free.iter().map(|&i| bounds_all.scale()[i]).collect(),
-    )
-    .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
+    let bounds = bounds_all
+        .select(free)
+        .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
     let centre = bounds.to_unit(&free.iter().map(|&i| prior[i]).collect::<Vec<_>>());
     let point = |values: &[f64]| {
         let mut p = x0.to_vec();
@@ -180,16 +175,9 @@ pub fn frf_refinement(
     };
     let mut starts: Vec<Vec<f64>> = vec![free.iter().map(|&i| x0[i]).collect()];
     if samples > 0 {
+        let scramble = (seed ^ (seed >> 32)) as u32 ^ 0x5eed;
         let points: Vec<Vec<f64>> = (0..samples)
-            .map(|k| {
-                let mut u = bounds_all.to_unit(x0);
-                for (d, &i) in explore.iter().enumerate() {
-                    let dim = d as u32 % sobol_burley::NUM_DIMENSIONS;
-                    let seed = (seed ^ (seed >> 32)) as u32 ^ 0x5eed;
-                    u[i] = f64::from(sobol_burley::sample(k as u32, dim, seed));
-                }
-                bounds_all.to_physical(&u)
-            })
+            .map(|k| bounds_all.sobol_point(x0, explore, k as u32, scramble))
             .collect();
         let costs: Vec<f64> = points
             .par_iter()
@@ -213,20 +201,15 @@ pub fn frf_refinement(
         &params,
     )?;
     let used = 1 + samples + race.evaluations;
-    let Some(best) = race.runs.first() else {
-        return Err(IdentifyError::Invalid(format!(
-            "budget {budget} cannot pay the FRF refinement over {} parameters",
-            free.len()
-        )));
-    };
+    // The starts always hold x0; a budget too small for a run leaves it
+    // there with the termination "budget exhausted".
+    let best = &race.runs[0];
     let x = point(&best.x);
-    let runs = race.runs.iter().map(|r| (point(&r.x), r.cost)).collect();
     let (termination, iterations) = (best.termination.clone(), race.iterations);
     let end = fit(&x)?;
     progress(1);
     Ok(FrfRefinement {
         x,
-        runs,
         summary: FrfSummary {
             start,
             end,
@@ -291,7 +274,7 @@ fn race(
             iterations += m.iterations;
             r.finished = m.termination != Termination::BudgetExhausted;
             r.termination = m.termination;
-            if m.cost <= r.cost || !r.cost.is_finite() {
+            if m.cost <= r.cost {
                 r.x = m.x_best;
                 r.cost = m.cost;
             }

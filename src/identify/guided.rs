@@ -361,13 +361,8 @@ fn refine(
     }
     let bounds = o.bounds()?;
     for k in 1..=settings.restarts {
-        let mut u = bounds.to_unit(start);
-        for (d, &i) in free.iter().enumerate() {
-            let dim = d as u32 % sobol_burley::NUM_DIMENSIONS;
-            let s = sobol_burley::sample(k as u32, dim, seed as u32 ^ (seed >> 32) as u32);
-            u[i] = s as f64;
-        }
-        candidates.push((format!("sobol {k}"), bounds.to_physical(&u)));
+        let point = bounds.sobol_point(start, free, k as u32, seed as u32 ^ (seed >> 32) as u32);
+        candidates.push((format!("sobol {k}"), point));
     }
     candidates.truncate(settings.restarts + 1);
     let residual_count = o

@@ -32,7 +32,7 @@ use super::correspondence::{Correspondence, NamedMode};
 use super::{IdentifyError, ModalObjective};
 use crate::dynamics::{ParameterKind, Scale};
 use crate::optimize::slsqp::{self, SlsqpParams};
-use crate::optimize::{Bounds, Problem};
+use crate::optimize::Problem;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -327,12 +327,9 @@ pub fn solve(
     let params = o.parameters();
     let full = o.bounds()?;
     let idx = &sub.parameters;
-    let bounds = Bounds::new(
-        idx.iter().map(|&i| full.lower()[i]).collect(),
-        idx.iter().map(|&i| full.upper()[i]).collect(),
-        idx.iter().map(|&i| full.scale()[i]).collect(),
-    )
-    .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
+    let bounds = full
+        .select(idx)
+        .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
     let mut run = SubproblemRun {
         name: sub.name.clone(),
         outputs: sub.outputs.clone(),

@@ -132,7 +132,7 @@ pub fn update(
         _ => 0,
     };
     let budget = budget - frf_budget;
-    let (x, history, mut evaluations, identified, status, guided_result, optimizer) =
+    let (mut x, history, mut evaluations, identified, status, guided_result, optimizer) =
         match plan.strategy {
             Strategy::Guided {
                 screening,
@@ -179,8 +179,7 @@ pub fn update(
             }
         };
     let mut frf_result = None;
-    let mut x = x;
-    if let (Some((reference, settings)), true) = (plan.frf, frf_budget > 0) {
+    if let Some((reference, settings)) = plan.frf.filter(|_| frf_budget > 0) {
         // What the modes left undetermined is searched on the FRFs first.
         let (modal, cost) =
             identifiability_at(o, &x, &identified, plan.max_std_error, None, progress)?;
@@ -221,12 +220,6 @@ pub fn update(
             )
         }));
     }
-    let frf_judgement = frf_result
-        .as_ref()
-        .map(|r| FrfJudgement::new(r.summary.start, r.summary.end));
-    let status = frf_result
-        .as_ref()
-        .map_or(status, |r| Status::of(&r.status));
     let verdict = Verdict::judge(
         status,
         verdict_inputs.0,
@@ -239,9 +232,16 @@ pub fn update(
             .iter()
             .filter(|p| p.identifiable)
             .count(),
-        frf_judgement,
         warnings,
     );
+    // With FRFs they are the reference the verdict is about.
+    let verdict = match &frf_result {
+        Some(r) => verdict.with_frf(
+            Status::of(&r.status),
+            FrfJudgement::new(r.summary.start, r.summary.end),
+        ),
+        None => verdict,
+    };
     let objective = o.cost(&x);
     progress(1);
     // Correspondence (1), final pairing (3), Jacobian (2n + 1), J (1).

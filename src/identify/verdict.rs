@@ -173,67 +173,9 @@ impl FrfJudgement {
 }
 
 impl Verdict {
-    /// Judge a result: `start_rms`/`end_rms` are the modal weighted-residual
-    /// RMS values, `frf` the FRF fit when FRFs were the final reference.
-    #[allow(clippy::too_many_arguments)]
+    /// Judge a result against the reference modes: `start_rms`/`end_rms` are
+    /// weighted-residual RMS values.
     pub fn judge(
-        status: Status,
-        start_rms: f64,
-        end_rms: f64,
-        modes: ModeCounts,
-        identified: usize,
-        identifiable: usize,
-        frf: Option<FrfJudgement>,
-        warnings: Vec<String>,
-    ) -> Verdict {
-        // With FRFs the caller's warnings follow the FRF verdict's message.
-        let (own, later) = if frf.is_some() {
-            (vec![], warnings)
-        } else {
-            (warnings, vec![])
-        };
-        let modal = Self::judge_modal(
-            status,
-            start_rms,
-            end_rms,
-            modes,
-            identified,
-            identifiable,
-            own,
-        );
-        let Some(f) = frf else {
-            return modal;
-        };
-        let status = if status == Status::Stalled && f.fit == Fit::WithinNoise {
-            Status::Converged
-        } else {
-            status
-        };
-        let worse = f.worse();
-        let ok = status == Status::Converged && f.fit == Fit::WithinNoise && !worse;
-        let mut parts = vec![status_text(status).to_string(), f.sentence()];
-        if worse {
-            parts.push("the FRFs fit WORSE than at the modal result".into());
-        }
-        let mut all = later;
-        if !modal.ok {
-            all.push(format!("modal reference: {}", modal.message));
-        }
-        all.extend(modal.warnings.iter().cloned());
-        Verdict {
-            ok,
-            status,
-            fit: f.fit,
-            worse_than_start: worse,
-            frf: Some(f),
-            message: parts.join("; "),
-            warnings: all,
-            ..modal
-        }
-    }
-
-    /// The verdict against the reference modes alone.
-    fn judge_modal(
         status: Status,
         start_rms: f64,
         end_rms: f64,
@@ -314,6 +256,39 @@ impl Verdict {
     }
 }
 
+impl Verdict {
+    /// Judge again with the measured FRFs as the reference (module docs):
+    /// `status` is how the FRF refinement ended; the modal verdict's message
+    /// and warnings become warnings.
+    pub fn with_frf(self, status: Status, f: FrfJudgement) -> Verdict {
+        let status = if status == Status::Stalled && f.fit == Fit::WithinNoise {
+            Status::Converged
+        } else {
+            status
+        };
+        let worse = f.worse();
+        let ok = status == Status::Converged && f.fit == Fit::WithinNoise && !worse;
+        let mut parts = vec![status_text(status).to_string(), f.sentence()];
+        if worse {
+            parts.push("the FRFs fit WORSE than at the modal result".into());
+        }
+        let mut warnings = self.warnings;
+        if !self.ok {
+            warnings.insert(0, format!("modal reference: {}", self.message));
+        }
+        Verdict {
+            ok,
+            status,
+            fit: f.fit,
+            worse_than_start: worse,
+            frf: Some(f),
+            message: parts.join("; "),
+            warnings,
+            ..self
+        }
+    }
+}
+
 fn status_text(status: Status) -> &'static str {
     match status {
         Status::Converged => "converged",
@@ -339,51 +314,33 @@ mod tests {
 
     #[test]
     fn a_converged_fit_within_noise_is_ok_and_anything_else_is_not() {
-        let v = Verdict::judge(Status::Converged, 40.0, 0.3, counts(), 20, 18, None, vec![]);
+        let v = Verdict::judge(Status::Converged, 40.0, 0.3, counts(), 20, 18, vec![]);
         assert!(v.ok && v.fit == Fit::WithinNoise && !v.worse_than_start);
         assert_eq!(v.warnings.len(), 1, "{:?}", v.warnings);
-        let above = Verdict::judge(Status::Converged, 40.0, 7.5, counts(), 20, 20, None, vec![]);
+        let above = Verdict::judge(Status::Converged, 40.0, 7.5, counts(), 20, 20, vec![]);
         assert!(!above.ok && above.fit == Fit::AboveNoise);
         assert!(above.message.contains("7.5σ"), "{}", above.message);
-        let floor = Verdict::judge(Status::Stalled, 9.0, 0.5, counts(), 20, 20, None, vec![]);
+        let floor = Verdict::judge(Status::Stalled, 9.0, 0.5, counts(), 20, 20, vec![]);
         assert_eq!(floor.status, Status::Converged);
-        let worse = Verdict::judge(Status::Stalled, 3.0, 4.0, counts(), 20, 20, None, vec![]);
+        let worse = Verdict::judge(Status::Stalled, 3.0, 4.0, counts(), 20, 20, vec![]);
         assert_eq!(worse.status, Status::Stalled);
         assert!(!worse.ok && worse.worse_than_start);
         assert!(worse.message.contains("WORSE"), "{}", worse.message);
-        let budget = Verdict::judge(
-            Status::BudgetExhausted,
-            9.0,
-            1.0,
-            counts(),
-            5,
-            5,
-            None,
-            vec![],
-        );
+        let budget = Verdict::judge(Status::BudgetExhausted, 9.0, 1.0, counts(), 5, 5, vec![]);
         assert!(!budget.ok);
         let lost = ModeCounts {
             unpaired: 2,
             ..counts()
         };
-        assert!(!Verdict::judge(Status::Converged, 9.0, 1.0, lost, 5, 5, None, vec![]).ok);
+        assert!(!Verdict::judge(Status::Converged, 9.0, 1.0, lost, 5, 5, vec![]).ok);
         let outlier = ModeCounts {
             outliers: 1,
             ..counts()
         };
-        let v = Verdict::judge(Status::Converged, 9.0, 1.0, outlier, 5, 5, None, vec![]);
+        let v = Verdict::judge(Status::Converged, 9.0, 1.0, outlier, 5, 5, vec![]);
         assert!(!v.ok && v.message.contains("1 outliers"), "{}", v.message);
         // NaN residuals (model unsolvable) are never within the noise.
-        let nan = Verdict::judge(
-            Status::Converged,
-            9.0,
-            f64::NAN,
-            counts(),
-            5,
-            5,
-            None,
-            vec![],
-        );
+        let nan = Verdict::judge(Status::Converged, 9.0, f64::NAN, counts(), 5, 5, vec![]);
         assert!(!nan.ok && nan.worse_than_start);
     }
 
@@ -405,16 +362,8 @@ mod tests {
         };
         // FRFs at the noise: ok although the EMA had a mode the model lacks.
         let f = FrfJudgement::new(fit(9.0, 0.9), fit(1.03, 0.02));
-        let v = Verdict::judge(
-            Status::Stalled,
-            9.0,
-            1.0,
-            lost.clone(),
-            5,
-            5,
-            Some(f),
-            vec![],
-        );
+        let v = Verdict::judge(Status::Stalled, 9.0, 1.0, lost.clone(), 5, 5, vec![])
+            .with_frf(Status::Stalled, f);
         assert!(v.ok && v.status == Status::Converged, "{}", v.message);
         assert!(v.message.contains("1.03σ"), "{}", v.message);
         assert!(
@@ -425,7 +374,8 @@ mod tests {
         // Above the noise and smooth: named a systematic misfit, not ok,
         // even with the modal fit within its noise.
         let f = FrfJudgement::new(fit(30.0, 0.9), fit(6.5, 0.94));
-        let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, Some(f), vec![]);
+        let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+            .with_frf(Status::Converged, f);
         assert!(!v.ok && f.systematic && v.fit == Fit::AboveNoise);
         assert!(v.message.contains("systematic"), "{}", v.message);
         // Above the noise and rough: not called systematic.
@@ -433,7 +383,8 @@ mod tests {
         assert!(!f.systematic);
         // Worse than the modal result.
         let f = FrfJudgement::new(fit(1.5, 0.1), fit(1.8, 0.1));
-        let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, Some(f), vec![]);
+        let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+            .with_frf(Status::Converged, f);
         assert!(!v.ok && v.worse_than_start && v.message.contains("WORSE"));
     }
 

@@ -129,6 +129,28 @@ impl Bounds {
             })
             .collect()
     }
+
+    /// The bounds of the coordinates `idx` (a subproblem's or a refinement's
+    /// free parameters); an empty `idx` is an error, as in [`Bounds::new`].
+    pub fn select(&self, idx: &[usize]) -> Result<Bounds, OptimizeError> {
+        Bounds::new(
+            idx.iter().map(|&i| self.lower[i]).collect(),
+            idx.iter().map(|&i| self.upper[i]).collect(),
+            idx.iter().map(|&i| self.scale[i]).collect(),
+        )
+    }
+
+    /// Point `k` of the scrambled Sobol sequence (scramble `seed`) over the
+    /// coordinates `free` of the box, the others at `x0`: a space-filling
+    /// start for a multi-start over a subset of the parameters.
+    pub fn sobol_point(&self, x0: &[f64], free: &[usize], k: u32, seed: u32) -> Vec<f64> {
+        let mut u = self.to_unit(x0);
+        for (d, &i) in free.iter().enumerate() {
+            let dim = d as u32 % sobol_burley::NUM_DIMENSIONS;
+            u[i] = f64::from(sobol_burley::sample(k, dim, seed));
+        }
+        self.to_physical(&u)
+    }
 }
 
 /// An objective g(x) evaluated on a batch of PHYSICAL points; returns one
@@ -507,6 +529,36 @@ mod tests {
         assert!((u[0] - 1.0 / 3.0).abs() < 1e-12 && (u[1] - 0.25).abs() < 1e-15);
         assert_eq!(b.to_physical(&[0.0, 1.0]), vec![1e6, 1.0]);
         assert_eq!(b.to_physical(&[1.0, 0.0]), vec![1e9, -1.0]);
+    }
+
+    #[test]
+    fn selected_coordinates_and_sobol_points_over_a_subset() {
+        let b = Bounds::new(
+            vec![1e6, -1.0, 0.0],
+            vec![1e9, 1.0, 2.0],
+            vec![Scale::Log10, Scale::Linear, Scale::Linear],
+        )
+        .unwrap();
+        let s = b.select(&[2, 0]).unwrap();
+        assert_eq!(s.lower(), &[0.0, 1e6]);
+        assert_eq!(s.upper(), &[2.0, 1e9]);
+        assert_eq!(s.scale(), &[Scale::Linear, Scale::Log10]);
+        assert!(b.select(&[]).is_err());
+        // Coordinates outside `free` stay at x0; the scramble seed changes
+        // the points, the same seed repeats them.
+        let x0 = [1e7, 0.5, 1.0];
+        let p = b.sobol_point(&x0, &[0, 2], 0, 0);
+        assert!(p[1] == 0.5 && (1e6..=1e9).contains(&p[0]) && (0.0..=2.0).contains(&p[2]));
+        assert_eq!(p, b.sobol_point(&x0, &[0, 2], 0, 0));
+        assert_ne!(p, b.sobol_point(&x0, &[0, 2], 0, 1));
+        let points: Vec<Vec<f64>> = (1..64).map(|k| b.sobol_point(&x0, &[1], k, 7)).collect();
+        assert!(points.iter().all(|p| p[0] == 1e7 && p[2] == 1.0));
+        assert!(points.iter().all(|p| (-1.0..=1.0).contains(&p[1])));
+        let below = points.iter().filter(|p| p[1] < 0.0).count();
+        assert!(
+            (28..=35).contains(&below),
+            "{below} of 63 in the lower half"
+        );
     }
 
     #[test]

@@ -232,24 +232,20 @@ impl Kind for Identify {
                 optimizer: &spec.optimizer,
             },
         };
-        let frf_reference = match ctx.inputs.get("frf").and_then(|v| v.first()) {
-            Some(path) => {
+        let frf_reference = ctx
+            .inputs
+            .get("frf")
+            .and_then(|v| v.first())
+            .map(|path| {
                 let sets = artifacts::read_frf(path, "frf")?;
-                Some(
-                    FrfReference::new(
-                        objective.prepared(),
-                        &sets,
-                        spec.positions.as_deref(),
-                        spec.frf_band,
-                    )
+                let prepared = objective.prepared();
+                FrfReference::new(prepared, &sets, spec.positions.as_deref(), spec.frf_band)
                     .map_err(|e| StageError::InvalidInput {
                         input: "frf".into(),
                         message: e.to_string(),
-                    })?,
-                )
-            }
-            None => None,
-        };
+                    })
+            })
+            .transpose()?;
         let plan = Plan {
             frf: frf_reference.as_ref().map(|r| (r, &spec.frf_refinement)),
             strategy,
