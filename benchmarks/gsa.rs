@@ -11,8 +11,8 @@ mod timing;
 use timing::{best, pool};
 
 use modalflow::dynamics::{directory_resolver, Model as Dynamics};
-use modalflow::evaluation::{BandOptions, FrfBands, Model, StructuralModel, StructuralOptions};
 use modalflow::sensitivity::sobol::{self, AnalyzeParams, Layout, Problem};
+use modalflow::simulator::{BandOptions, FrfBands, Model, StructuralModel, StructuralOptions};
 use std::path::Path;
 
 fn test_bench() -> Dynamics {

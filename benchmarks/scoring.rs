@@ -12,6 +12,7 @@
 use modalflow::metrics::mac;
 use modalflow::pairing::{pair_modes, Pairing};
 use modalflow::stages::artifacts::read_modes;
+use modalflow::stages::identify::cost::Cost;
 use num_complex::Complex64;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -144,8 +145,9 @@ fn score_model(
         })
         .collect();
     errors.sort_by(f64::total_cmp);
-    let cost: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(id_dir.join("cost.json")).unwrap()).unwrap();
+    // Read through the schema the identify stage writes: a renamed field
+    // fails here instead of scoring as a silent default.
+    let cost = Cost::read(&id_dir.join("cost.json")).unwrap_or_else(|e| panic!("{e}"));
     Score {
         mean_mac: macs.iter().sum::<f64>() / macs.len().max(1) as f64,
         median_error: if errors.is_empty() {
@@ -154,13 +156,11 @@ fn score_model(
             errors[errors.len() / 2]
         },
         identifiable: errors.len(),
-        evaluations: cost["evaluations"].as_u64().unwrap_or(0),
-        ok: cost["verdict"]["ok"].as_bool().unwrap_or(false),
-        frf_rms: cost["frf"]["end"]["rms"].as_f64().unwrap_or(f64::NAN),
-        message: cost["verdict"]["message"]
-            .as_str()
-            .unwrap_or("")
-            .to_string(),
+        evaluations: cost.evaluations as u64,
+        ok: cost.verdict.ok,
+        // NaN: identified from modes only (no `frf` input).
+        frf_rms: cost.frf.map_or(f64::NAN, |f| f.end.rms),
+        message: cost.verdict.message,
     }
 }
 

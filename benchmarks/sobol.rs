@@ -8,8 +8,8 @@ mod timing;
 
 use timing::{best, pool};
 
-use modalflow::evaluation::{evaluate_all, EvalError, Ishigami, Model, Parameter, Scale, SobolG};
 use modalflow::sensitivity::sobol::{self, AnalyzeParams, Problem, SobolParams};
+use modalflow::simulator::{evaluate_all, EvalError, Ishigami, Model, Parameter, Scale, SobolG};
 
 /// A moderately expensive model (~20 µs per point): a damped oscillator chain
 /// integrated with 2000 explicit steps; outputs the final displacement.

@@ -8,7 +8,6 @@
 pub mod dense;
 pub mod dynamics;
 pub mod ema;
-pub mod evaluation;
 pub mod frf;
 pub mod geometry;
 pub mod identify;
@@ -17,8 +16,10 @@ pub mod metrics;
 pub mod modal;
 pub mod optimize;
 pub mod pairing;
+pub mod parameter;
 pub mod pipeline;
 pub mod report;
 pub mod resources;
 pub mod sensitivity;
+pub mod simulator;
 pub mod stages;

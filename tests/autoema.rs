@@ -2,7 +2,7 @@
 //! system is imported and analysed; the modes, poles, fitted FRFs,
 //! stabilization diagram and metrics land in the results directory.
 
-mod util;
+use crate::util;
 
 use modalflow::ema::synthetic::{four_mode_system, lines, modal_superposition};
 use modalflow::io::{read_frf_artifact, write_frf_artifact};

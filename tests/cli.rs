@@ -2,7 +2,7 @@
 //! object, exit codes as documented, common flags accepted, and
 //! `run FILE [STAGE]...` running only the upstream closure.
 
-mod util;
+use crate::util;
 
 use serde_json::Value;
 use util::{Workspace, DIAMOND};

@@ -2,7 +2,7 @@
 //! reruns after edits, early cut-off, restore, corruption, kills,
 //! concurrency.
 
-mod util;
+use crate::util;
 
 use std::time::{Duration, Instant};
 use util::{Workspace, DIAMOND};

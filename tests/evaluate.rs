@@ -5,7 +5,7 @@
 //! modes at nearly one frequency) listed in metrics.json, pairs.csv and the
 //! report.
 
-mod util;
+use crate::util;
 
 use modalflow::stages::evaluate::{Metrics, ModeRef};
 use util::Workspace;

@@ -2,7 +2,7 @@
 //! a user's simulator as a JSON-lines command, ANOVA of a factorial table,
 //! and validation of its params.
 
-mod util;
+use crate::util;
 
 use serde_json::Value;
 use util::{text, Workspace};

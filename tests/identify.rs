@@ -5,7 +5,8 @@
 //! pipelines/identification_comparison.yaml); bad params rejected before
 //! anything runs.
 
-mod util;
+use crate::util;
+use modalflow::identify::verdict::{Fit, Verdict};
 
 use util::Workspace;
 
@@ -75,11 +76,10 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
         serde_json::from_str(&ws.read("results/id/check/metrics.json")).unwrap();
     assert_eq!(metrics["modes"]["paired"], 3);
     assert!(metrics["modes"]["mean_mac"].as_f64().unwrap() > 0.9999);
-    let cost: serde_json::Value =
-        serde_json::from_str(&ws.read("results/id/fit/cost.json")).unwrap();
-    assert!(cost["evaluations"].as_u64().unwrap() <= 3000);
-    assert!(cost["best_objective"].as_f64().unwrap() < 1e-4);
-    assert_eq!(cost["optimizer"], "slsqp");
+    let cost = ws.cost("results/id/fit");
+    assert!(cost.evaluations <= 3000);
+    assert!(cost.best_objective < 1e-4);
+    assert_eq!(cost.optimizer, "slsqp");
     let params = ws.read("results/id/fit/parameters.csv");
     assert!(params.starts_with(
         "parameter,value,lower,upper,initial,identified,identifiable,std_error,ci_low,ci_high\n"
@@ -96,8 +96,8 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
     );
     assert!(lo <= v && v <= hi && (hi - lo) < 0.01 * v, "{k1:?}");
     // The verdict: converged, within the noise, every mode paired.
-    assert_eq!(cost["verdict"]["ok"], true, "{}", cost["verdict"]);
-    assert_eq!(cost["verdict"]["modes"]["unpaired"], 0);
+    assert!(cost.verdict.ok, "{:?}", cost.verdict);
+    assert_eq!(cost.verdict.modes.unpaired, 0);
     let correlation = ws.read("results/id/fit/correlation.csv");
     assert_eq!(correlation.lines().count(), 4, "{correlation}");
     assert!(
@@ -121,13 +121,12 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
         serde_json::from_str(&ws.read("results/id/guided/subproblems.json")).unwrap();
     assert!(!detail["subproblems"].as_array().unwrap().is_empty());
     assert!(detail["refinement"][0]["end"].as_f64().unwrap() < 1e-12);
-    let guided: serde_json::Value =
-        serde_json::from_str(&ws.read("results/id/guided/cost.json")).unwrap();
-    assert_eq!(guided["strategy"], "sensitivity_guided");
-    assert!(guided["evaluations"].as_u64().unwrap() <= 600);
-    assert!(guided["modes"]["mean_mac"].as_f64().unwrap() > 1.0 - 1e-9);
-    assert!(guided["modes"]["mean_nfd"].as_f64().unwrap() < 1e-6);
-    assert_eq!(guided["verdict"]["ok"], true, "{}", guided["verdict"]);
+    let guided = ws.cost("results/id/guided");
+    assert_eq!(guided.strategy, "sensitivity_guided");
+    assert!(guided.evaluations <= 600);
+    assert!(guided.modes.mean_mac > 1.0 - 1e-9);
+    assert!(guided.modes.mean_nfd < 1e-6);
+    assert!(guided.verdict.ok, "{:?}", guided.verdict);
     let history = ws.read("results/id/guided/history.csv");
     assert!(history.starts_with("evaluation,best_objective,mean_mac\n"));
     // Cached: a second run executes nothing.
@@ -245,13 +244,10 @@ fn parallel_springs_are_named_as_undetermined_and_the_rest_is_identified() {
     );
     let sum = row("ka.k_x")[1].parse::<f64>().unwrap() + row("kb.k_x")[1].parse::<f64>().unwrap();
     assert!((sum / 1.9e6 - 1.0).abs() < 1e-4, "{sum}");
-    let cost: serde_json::Value =
-        serde_json::from_str(&ws.read("results/par/fit/cost.json")).unwrap();
+    let warnings = ws.cost("results/par/fit").verdict.warnings;
     assert!(
-        cost["verdict"]["warnings"]
-            .to_string()
-            .contains("not determined"),
-        "{cost}"
+        warnings.iter().any(|w| w.contains("not determined")),
+        "{warnings:?}"
     );
 }
 
@@ -276,18 +272,13 @@ fn a_model_that_cannot_match_says_so() {
     );
     write_heavy(&ws);
     ws.run(&[], 0);
-    let cost: serde_json::Value =
-        serde_json::from_str(&ws.read("results/bad/fit/cost.json")).unwrap();
-    let v = &cost["verdict"];
-    assert_eq!(v["ok"], false, "{v}");
-    assert_eq!(v["fit"], "above_noise", "{v}");
-    assert!(v["end_rms"].as_f64().unwrap() > 2.0, "{v}");
+    let v = ws.cost("results/bad/fit").verdict;
+    assert!(!v.ok, "{v:?}");
+    assert_eq!(v.fit, Fit::AboveNoise, "{v:?}");
+    assert!(v.end_rms > 2.0, "{v:?}");
     assert!(
-        v["message"]
-            .as_str()
-            .unwrap()
-            .contains("above the reference's uncertainty"),
-        "{v}"
+        v.message.contains("above the reference's uncertainty"),
+        "{v:?}"
     );
 }
 
@@ -353,25 +344,22 @@ fn measured_frfs_refine_the_update_and_judge_it() {
     ));
     write_heavy(&ws);
     ws.run(&[], 0);
-    let cost = |stage: &str| -> serde_json::Value {
-        serde_json::from_str(&ws.read(&format!("results/frf/{stage}/cost.json"))).unwrap()
-    };
-    let good = cost("fit");
-    let (frf, v) = (&good["frf"], &good["verdict"]);
-    let end = frf["end"]["rms"].as_f64().unwrap();
-    assert!((0.8..1.3).contains(&end), "{frf}");
-    assert!(frf["evaluations"].as_u64().unwrap() > 0, "{frf}");
-    assert!(good["evaluations"].as_u64().unwrap() <= 3000, "{good}");
-    assert_eq!(v["ok"], true, "{v}");
-    assert_eq!(v["frf"]["fit"], "within_noise", "{v}");
-    assert!(
-        v["message"].as_str().unwrap().contains("FRF residual"),
-        "{v}"
-    );
-    let bad = cost("bad");
-    let v = &bad["verdict"];
-    assert_eq!(v["ok"], false, "{v}");
-    assert_eq!(v["frf"]["fit"], "above_noise", "{v}");
-    assert!(v["frf"]["end"]["rms"].as_f64().unwrap() > 5.0, "{v}");
-    assert!(v["message"].as_str().unwrap().contains("systematic"), "{v}");
+    let good = ws.cost("results/frf/fit");
+    let frf = good
+        .frf
+        .as_ref()
+        .expect("an FRF summary with the frf input");
+    assert!((0.8..1.3).contains(&frf.end.rms), "{frf:?}");
+    assert!(frf.evaluations > 0, "{frf:?}");
+    assert!(good.evaluations <= 3000, "{good:?}");
+    let v = &good.verdict;
+    assert!(v.ok, "{v:?}");
+    let judged = |v: &Verdict| v.frf.expect("an FRF judgement");
+    assert_eq!(judged(v).fit, Fit::WithinNoise, "{v:?}");
+    assert!(v.message.contains("FRF residual"), "{v:?}");
+    let v = ws.cost("results/frf/bad").verdict;
+    assert!(!v.ok, "{v:?}");
+    assert_eq!(judged(&v).fit, Fit::AboveNoise, "{v:?}");
+    assert!(judged(&v).end.rms > 5.0, "{v:?}");
+    assert!(v.message.contains("systematic"), "{v:?}");
 }

@@ -1,7 +1,7 @@
 //! The `import` stage through the CLI: UFF and CSV measurements become the
 //! `frf` artifact; selections, bands, globs and bad files.
 
-mod util;
+use crate::util;
 
 use modalflow::io::read_frf_artifact;
 use util::Workspace;

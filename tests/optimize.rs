@@ -7,9 +7,8 @@ use modalflow::optimize::ga::{self, GaParams};
 use modalflow::optimize::problem::{parallel, sequential};
 use modalflow::optimize::pso::{self, PsoParams};
 use modalflow::optimize::slsqp::{self, Difference, SlsqpParams};
-use modalflow::optimize::{
-    Bounds, Constraint, OptimizeResult, Optimizer, Problem, Scale, Termination,
-};
+use modalflow::optimize::{Bounds, Constraint, OptimizeResult, Optimizer, Problem, Termination};
+use modalflow::parameter::Scale;
 use std::f64::consts::PI;
 
 fn rosenbrock(x: &[f64]) -> f64 {
@@ -264,7 +263,7 @@ fn log_scaled_parameters_are_searched_in_decades() {
     // Minimum at k = 3.7e7 in [1e5, 1e10]: a log10 objective that SLSQP
     // solves in the unit box.
     let f = sequential(|x: &[f64]| (x[0].log10() - 3.7e7f64.log10()).powi(2));
-    let b = Bounds::new(vec![1e5], vec![1e10], vec![Scale::Log10]).unwrap();
+    let b = Bounds::new(vec![1e5], vec![1e10], vec![Scale::Log]).unwrap();
     let p = Problem::new(b, &f, 200);
     let r = slsqp::minimize(&p, &SlsqpParams::default(), &[1e6]).unwrap();
     assert!((r.x_best[0] / 3.7e7 - 1.0).abs() < 1e-6, "{:?}", r.x_best);

@@ -1,7 +1,7 @@
 //! Every pipeline shipped in `pipelines/` validates: the studies stay in
 //! step with the stage kinds and the model files.
 
-mod util;
+use crate::util;
 
 #[test]
 fn every_shipped_pipeline_validates() {

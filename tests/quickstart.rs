@@ -2,7 +2,7 @@
 //! temp copy: every stage runs, the report is self-contained, and a rerun
 //! is fully cached.
 
-mod util;
+use crate::util;
 
 use util::study;
 

@@ -5,7 +5,7 @@
 //! namespace made with `unshare`), a read-only cache serving cached runs,
 //! and run records bound to their key by a checksum.
 
-mod util;
+use crate::util;
 
 use serde_json::Value;
 use std::process::Output;

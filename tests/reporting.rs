@@ -6,7 +6,7 @@
 //! parameter combinations the data do not determine, the identified
 //! parameters with their uncertainty and the mode correlation.
 
-mod util;
+use crate::util;
 
 use modalflow::identify::verdict::Fit;
 use modalflow::report::svg::esc;
@@ -63,7 +63,7 @@ fn setup() -> Workspace {
 }
 
 fn cost(ws: &Workspace, stage: &str) -> Cost {
-    serde_json::from_str(&ws.read(&format!("results/verdicts/{stage}/cost.json"))).unwrap()
+    ws.cost(&format!("results/verdicts/{stage}"))
 }
 
 #[test]

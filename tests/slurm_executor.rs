@@ -5,7 +5,7 @@
 //! four-task job array and merged. Results must be bit-identical to a local
 //! run; failures, timeouts, interrupts and resumption behave as locally.
 
-mod util;
+use crate::util;
 
 use std::path::Path;
 use std::process::Command;
@@ -190,22 +190,22 @@ fn an_interrupted_run_cancels_its_jobs() {
     );
     let mut child = command(&ws, &[], &[]).spawn().expect("spawn run");
     let start = Instant::now();
-    let running = |ws: &Workspace| -> Option<String> {
+    // The stand-in scheduler writes the job's state before its task's pid:
+    // wait for both (a busy machine shows the gap).
+    let running = |ws: &Workspace| -> Option<(String, String)> {
         let (id, _) = submissions(ws).into_iter().next()?;
         let state = std::fs::read_to_string(ws.path().join(format!("fake/{id}.state"))).ok()?;
-        state.starts_with("RUNNING").then_some(id)
+        let pid = std::fs::read_to_string(ws.path().join(format!("fake/{id}.pid"))).ok()?;
+        let pid = pid.trim().to_string();
+        (state.starts_with("RUNNING") && !pid.is_empty()).then_some((id, pid))
     };
-    let id = loop {
-        if let Some(id) = running(&ws) {
-            break id;
+    let (id, pid) = loop {
+        if let Some(running) = running(&ws) {
+            break running;
         }
         assert!(start.elapsed() < Duration::from_secs(20), "job never ran");
         std::thread::sleep(Duration::from_millis(50));
     };
-    let pid = std::fs::read_to_string(ws.path().join(format!("fake/{id}.pid")))
-        .expect("task pid")
-        .trim()
-        .to_string();
     let kill = Command::new("kill")
         .args(["-INT", &child.id().to_string()])
         .status()

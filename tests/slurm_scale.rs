@@ -5,7 +5,7 @@
 //! group jobs in the generated `sbatch` lines, the run's trace, validation
 //! of `binary` and per-stage overrides, node-local scratch.
 
-mod util;
+use crate::util;
 
 use serde_json::Value;
 use std::time::{Duration, Instant};

@@ -4,7 +4,7 @@
 //! here rather than silently running full size) and run end to end; the
 //! assertions check the study's headline result, not only that it ran.
 
-mod util;
+use crate::util;
 
 use serde_json::Value;
 use util::study;
@@ -141,15 +141,14 @@ fn identification_comparison_runs_end_to_end_within_budgets() {
         ("black_box[optimizer=pso,seed=1]", 400),
         ("black_box_slsqp", 400),
     ] {
-        let c: Value = serde_json::from_str(&ws.read(&format!(
-            "results/identification_comparison/{stage}/cost.json"
-        )))
-        .unwrap();
-        let used = c["evaluations"].as_u64().unwrap();
+        let c = ws.cost(&format!("results/identification_comparison/{stage}"));
         // Every evaluation counts, the assessment of the result included.
-        assert!(used > 0 && used <= budget, "{stage}: {c}");
-        // A verdict is always written; a cut budget is never "ok".
-        assert!(c["verdict"]["message"].as_str().is_some(), "{stage}: {c}");
+        assert!(
+            c.evaluations > 0 && c.evaluations <= budget,
+            "{stage}: {c:?}"
+        );
+        // A verdict is always written.
+        assert!(!c.verdict.message.is_empty(), "{stage}: {c:?}");
     }
     let md = ws.read("results/identification_comparison/report/report/report.md");
     assert!(md.contains("guided[scenario=disturbed]"), "{md}");

@@ -1,7 +1,7 @@
 //! The `synthesize` stage through the CLI: reference data with a known
 //! truth from the model files in pipelines/models/.
 
-mod util;
+use crate::util;
 
 use modalflow::io::read_frf_artifact;
 use util::Workspace;

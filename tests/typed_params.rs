@@ -2,7 +2,7 @@
 //! value ranges and artifact types checked at validation, and the `kinds`
 //! listing read from the params structs. One module per topic.
 
-mod util;
+use crate::util;
 
 use util::Workspace;
 

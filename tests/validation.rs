@@ -1,7 +1,7 @@
 //! Every class of bad pipeline file gives a located error that says how to
 //! fix it, a non-zero exit, and leaves no cache entry.
 
-mod util;
+use crate::util;
 
 use util::Workspace;
 

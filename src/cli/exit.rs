@@ -1,7 +1,7 @@
 //! Exit codes, documented in the README; scripts rely on them.
 
 use modalflow::pipeline::plan::PlanError;
-use modalflow::pipeline::run::RunError;
+use modalflow::pipeline::scheduler::RunError;
 
 /// Everything succeeded (or, for `status`, the question was answered).
 pub const SUCCESS: u8 = 0;

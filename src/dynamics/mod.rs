@@ -64,6 +64,6 @@ pub mod templates;
 pub use assembly::{Configuration, JointTerms, PreparedModel};
 pub use error::DynamicsError;
 pub use model::{Model, Parameter};
-pub use model_file::{ParameterKind, Scale};
+pub use model_file::ParameterKind;
 pub use solve::{ModalSolution, ModeSelection};
 pub use superelement::{directory_resolver, Resolver};

@@ -6,12 +6,14 @@
 use super::bodies::{body_kind, finite};
 pub(crate) use super::bodies::{Body, BodyKind};
 use super::error::DynamicsError;
-use super::model_file::{self, DampingModel, ModelFile, ParameterKind, Scale};
+use super::model_file::{self, DampingModel, ModelFile, ParameterKind};
 use super::superelement::Resolver;
 use super::templates::{unit, ScalarConnection, Template};
 use crate::frf::Dof;
+use crate::parameter::{ParameterError, Scale};
 
-/// An identifiable model parameter.
+/// An identifiable model parameter: a bounded [`crate::parameter::Parameter`]
+/// with its physical kind and the true value synthesis uses.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Parameter {
     pub name: String,
@@ -21,6 +23,15 @@ pub struct Parameter {
     pub upper: f64,
     pub scale: Scale,
     pub kind: ParameterKind,
+}
+
+impl Parameter {
+    /// The bounded parameter samplers and optimizers see, its nominal value
+    /// the true value (clamped into the bounds).
+    pub fn bounded(&self) -> Result<crate::parameter::Parameter, ParameterError> {
+        crate::parameter::Parameter::new(self.name.clone(), self.lower, self.upper, self.scale)?
+            .with_nominal(self.value.clamp(self.lower, self.upper))
+    }
 }
 
 /// A joint end after validation: body index and point name (checked to exist).

@@ -6,6 +6,7 @@
 
 use super::error::DynamicsError;
 use super::templates::Template;
+use crate::parameter::Scale;
 use serde::Deserialize;
 use std::collections::BTreeMap;
 
@@ -70,15 +71,6 @@ impl ModelFile {
             .flatten()
             .collect()
     }
-}
-
-/// How an optimizer or sampler should treat a parameter's range.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Scale {
-    /// Sample/optimize log10(value); bounds must be positive.
-    Log,
-    Linear,
 }
 
 /// Physical meaning of a parameter.

@@ -37,7 +37,7 @@ use super::IdentifyError;
 use crate::dynamics::{self, PreparedModel};
 use crate::metrics::nfd;
 use crate::modal::{ModalModel, Mode};
-use crate::optimize::{Bounds, Scale};
+use crate::optimize::Bounds;
 use crate::pairing::{cost_matrix, margins, pair_modes, Pair, Pairing};
 use num_complex::Complex64;
 
@@ -264,12 +264,7 @@ impl ModalObjective {
         Bounds::new(
             p.iter().map(|p| p.lower).collect(),
             p.iter().map(|p| p.upper).collect(),
-            p.iter()
-                .map(|p| match p.scale {
-                    dynamics::Scale::Log => Scale::Log10,
-                    dynamics::Scale::Linear => Scale::Linear,
-                })
-                .collect(),
+            p.iter().map(|p| p.scale).collect(),
         )
         .map_err(|e| IdentifyError::Invalid(e.to_string()))
     }

@@ -30,9 +30,10 @@
 
 use super::correspondence::{Correspondence, NamedMode};
 use super::{IdentifyError, ModalObjective};
-use crate::dynamics::{ParameterKind, Scale};
+use crate::dynamics::ParameterKind;
 use crate::optimize::slsqp::{self, SlsqpParams};
 use crate::optimize::Problem;
+use crate::parameter::Scale;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;

@@ -15,7 +15,7 @@ use super::verdict::{FrfJudgement, ModeCounts, Status, Verdict};
 use super::{black_box, IdentifyError};
 use crate::optimize::jacobian;
 use crate::optimize::slsqp::SlsqpParams;
-use crate::optimize::{OptimizeResult, Optimizer, Scale};
+use crate::optimize::{OptimizeResult, Optimizer};
 use rayon::prelude::*;
 
 /// The strategy and its settings.
@@ -444,10 +444,7 @@ fn identifiability_at(
         .zip(identified)
         .map(|(col, &i)| {
             let (l, h) = (full.lower()[i], full.upper()[i]);
-            let du_dlnp = match full.scale()[i] {
-                Scale::Log10 => 1.0 / (std::f64::consts::LN_10 * (h.log10() - l.log10())),
-                Scale::Linear => x[i] / (h - l),
-            };
+            let du_dlnp = full.scale()[i].du_dln_x(x[i], l, h);
             col.into_iter().map(|v| v * du_dlnp).collect()
         })
         .collect();

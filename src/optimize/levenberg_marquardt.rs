@@ -277,7 +277,7 @@ pub fn minimize(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::optimize::Scale;
+    use crate::parameter::Scale;
 
     fn batch<'a>(
         f: impl Fn(&[f64]) -> Option<Vec<f64>> + Sync + 'a,
@@ -312,7 +312,7 @@ mod tests {
         let b = Bounds::new(
             vec![0.1, 0.01],
             vec![10.0, 10.0],
-            vec![Scale::Linear, Scale::Log10],
+            vec![Scale::Linear, Scale::Log],
         )
         .unwrap();
         let r = minimize(&b, &f, &[1.0, 2.0], 500, &LmParams::default()).unwrap();

@@ -27,6 +27,5 @@ pub mod slsqp;
 pub use error::OptimizeError;
 pub use optimizer::Optimizer;
 pub use problem::{
-    Bounds, Constraint, Evaluator, HistoryPoint, Objective, OptimizeResult, Problem, Scale,
-    Termination,
+    Bounds, Constraint, Evaluator, HistoryPoint, Objective, OptimizeResult, Problem, Termination,
 };

@@ -15,19 +15,10 @@
 //! the objective is a deterministic function of its point.
 
 use super::error::OptimizeError;
+use crate::parameter::Scale;
 use rayon::prelude::*;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use std::time::Instant;
-
-/// How a coordinate of the unit box maps onto a physical parameter.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Scale {
-    /// x = lower + u (upper − lower).
-    Linear,
-    /// log10 x = log10 lower + u (log10 upper − log10 lower); bounds > 0.
-    Log10,
-}
 
 /// Box bounds `x_l ≤ x ≤ x_u` (eq. 2.16) with a scale per dimension.
 #[derive(Debug, Clone, PartialEq)]
@@ -61,10 +52,10 @@ impl Bounds {
                     message: format!("need finite lower < upper, got [{l}, {u}]"),
                 });
             }
-            if scale[i] == Scale::Log10 && l <= 0.0 {
+            if scale[i] == Scale::Log && l <= 0.0 {
                 return Err(OptimizeError::Bounds {
                     index: i,
-                    message: format!("log10 scale needs lower > 0, got {l}; use a linear scale"),
+                    message: format!("log scale needs lower > 0, got {l}; use a linear scale"),
                 });
             }
         }
@@ -105,11 +96,7 @@ impl Bounds {
             .map(|(i, &ui)| {
                 let t = ui.clamp(0.0, 1.0);
                 let (l, h) = (self.lower[i], self.upper[i]);
-                match self.scale[i] {
-                    Scale::Linear => l + t * (h - l),
-                    Scale::Log10 => 10f64.powf(l.log10() + t * (h.log10() - l.log10())),
-                }
-                .clamp(l, h)
+                self.scale[i].from_unit(t, l, h).clamp(l, h)
             })
             .collect()
     }
@@ -121,11 +108,7 @@ impl Bounds {
             .map(|(i, &xi)| {
                 let (l, h) = (self.lower[i], self.upper[i]);
                 let x = xi.clamp(l, h);
-                match self.scale[i] {
-                    Scale::Linear => (x - l) / (h - l),
-                    Scale::Log10 => (x.log10() - l.log10()) / (h.log10() - l.log10()),
-                }
-                .clamp(0.0, 1.0)
+                self.scale[i].to_unit(x, l, h).clamp(0.0, 1.0)
             })
             .collect()
     }
@@ -519,7 +502,7 @@ mod tests {
         let b = Bounds::new(
             vec![1e6, -1.0],
             vec![1e9, 1.0],
-            vec![Scale::Log10, Scale::Linear],
+            vec![Scale::Log, Scale::Linear],
         )
         .unwrap();
         let x = b.to_physical(&[1.0 / 3.0, 0.25]);
@@ -536,13 +519,13 @@ mod tests {
         let b = Bounds::new(
             vec![1e6, -1.0, 0.0],
             vec![1e9, 1.0, 2.0],
-            vec![Scale::Log10, Scale::Linear, Scale::Linear],
+            vec![Scale::Log, Scale::Linear, Scale::Linear],
         )
         .unwrap();
         let s = b.select(&[2, 0]).unwrap();
         assert_eq!(s.lower(), &[0.0, 1e6]);
         assert_eq!(s.upper(), &[2.0, 1e9]);
-        assert_eq!(s.scale(), &[Scale::Linear, Scale::Log10]);
+        assert_eq!(s.scale(), &[Scale::Linear, Scale::Log]);
         assert!(b.select(&[]).is_err());
         // Coordinates outside `free` stay at x0; the scramble seed changes
         // the points, the same seed repeats them.
@@ -566,7 +549,7 @@ mod tests {
         assert!(Bounds::linear(vec![1.0], vec![1.0]).is_err());
         assert!(Bounds::linear(vec![0.0], vec![f64::NAN]).is_err());
         assert!(Bounds::linear(vec![], vec![]).is_err());
-        let e = Bounds::new(vec![0.0], vec![1.0], vec![Scale::Log10]).unwrap_err();
+        let e = Bounds::new(vec![0.0], vec![1.0], vec![Scale::Log]).unwrap_err();
         assert!(e.to_string().contains("lower > 0"), "{e}");
     }
 

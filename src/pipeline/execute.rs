@@ -9,7 +9,7 @@ use super::key::{canonical_params, KeyMaterial};
 use super::plan::{Node, Plan};
 use super::provenance::{self, LastRun, StageProvenance};
 use super::results::{self, InputOrigin, Manifest};
-use super::run::RunError;
+use super::scheduler::RunError;
 use super::store::{self, OutputRecord, RunRecord, Store, StoreError};
 use crate::stages::Progress;
 use serde_yaml_ng::Value;

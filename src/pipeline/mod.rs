@@ -1,6 +1,6 @@
 //! The pipeline engine: a YAML file of stages becomes a validated DAG
 //! ([`plan`]), each stage's result is cached under a content hash of what
-//! determines it ([`key`], [`store`]), and the scheduler ([`run`]) reruns
+//! determines it ([`key`], [`store`]), and the [`scheduler`] reruns
 //! only what an edit touched.
 
 pub mod diagnostic;
@@ -16,7 +16,7 @@ pub mod progress;
 pub mod provenance;
 pub mod record;
 pub mod results;
-pub mod run;
+pub mod scheduler;
 pub mod span;
 pub mod spec;
 pub mod store;

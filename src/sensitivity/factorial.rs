@@ -10,7 +10,8 @@
 //! table: use `interactions: 1` for two factors, or three or more factors.
 
 use super::{anova, AnovaRow, Design, Factor, SensitivityError};
-use crate::evaluation::{evaluate_all, parameter::nominal, Model};
+use crate::parameter::nominal;
+use crate::simulator::{evaluate_all, Model};
 
 /// The design and its results.
 #[derive(Clone, Debug)]
@@ -122,7 +123,7 @@ pub fn factorial_anova(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::evaluation::{EvalError, Parameter, Scale};
+    use crate::simulator::{EvalError, Parameter, Scale};
 
     /// y = 2a + 3b + c·(a·b) with c = 0 or 1 (an interaction on demand),
     /// and a third parameter that is no factor.

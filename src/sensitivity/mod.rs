@@ -3,7 +3,7 @@
 //! - [`sobol`]: variance-based Sobol indices — Saltelli sampling on a
 //!   scrambled Sobol sequence, Saltelli-2010 first-order and Jansen total
 //!   estimators, bootstrap confidence intervals (`sobol::{sample, analyze}`
-//!   as in SALib, and `sobol::run` over a [`crate::evaluation::Model`]);
+//!   as in SALib, and `sobol::run` over a [`crate::simulator::Model`]);
 //! - [`aggregate`](mod@aggregate): weighted combination of total indices over outputs and a
 //!   threshold → significant parameters and per-output subproblems (PUB2);
 //! - [`anova`](mod@anova): ANOVA tables for factorial designs (section 2.1.1, PUB1).
@@ -19,7 +19,7 @@ pub use anova::{anova, AnovaRow, Design, Factor};
 pub use factorial::{factorial_anova, FactorialResult};
 pub use validation::{validate, ConformityKind, OutputConformity, Validation};
 
-use crate::evaluation::EvalError;
+use crate::simulator::EvalError;
 
 /// Why a sensitivity analysis cannot be carried out.
 #[derive(Debug, thiserror::Error)]

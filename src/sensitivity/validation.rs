@@ -16,7 +16,7 @@
 //! outcomes (89 % and 98.9 % for 22 of 71 parameters kept).
 
 use super::SensitivityError;
-use crate::evaluation::{evaluate_all, Model};
+use crate::simulator::{evaluate_all, Model};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::Serialize;
@@ -197,7 +197,7 @@ pub fn validate(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::evaluation::SobolG;
+    use crate::simulator::SobolG;
 
     /// Sobol-G with a = 0 for x1 (dominant) and a = 99 for the rest: y ≈ G1(x1).
     fn model() -> SobolG {

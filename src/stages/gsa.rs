@@ -14,7 +14,7 @@
 //! The model is a built-in test function, a user's simulator (JSON-lines
 //! command) or a modalflow model file whose outputs are eigenfrequency,
 //! damping ratio and MAC per position and reference mode, and optionally
-//! FRAC and CSF per frequency band ([`crate::evaluation::structural`]).
+//! FRAC and CSF per frequency band ([`crate::simulator::structural`]).
 //! Results are bit-identical for a seed whatever the thread count.
 
 mod anova;
@@ -28,7 +28,7 @@ use super::{
     StageOutputs,
 };
 use crate::dynamics::{self, directory_resolver};
-use crate::evaluation::{BandOptions, FrfBands, Model, StructuralModel, StructuralOptions};
+use crate::simulator::{BandOptions, FrfBands, Model, StructuralModel, StructuralOptions};
 use model_spec::{ModelParam, ModelSpec};
 pub use spec::Params;
 use spec::{GsaSpec, Method};
@@ -79,8 +79,10 @@ impl Kind for Gsa {
     /// frequencies and damping (hysteretic modes at |λ|); subproblems.json
     /// names its modes' frequencies.
     /// 4: model modes by shift-invert block Lanczos (issue 16).
+    /// 5: log-scale samples through the one unit-box map of `parameter::Scale`
+    ///    (log10 form; round-off different from the former `lower·(upper/lower)^u`).
     fn version(&self) -> u32 {
-        4
+        5
     }
 
     fn summary(&self) -> &'static str {

@@ -20,7 +20,7 @@
 //! Only a run's first batch is sharded; later batches (if a stage has any)
 //! are evaluated whole by the merge.
 
-use crate::evaluation::{evaluate_all, EvalError, Model};
+use crate::simulator::{evaluate_all, EvalError, Model};
 use std::io::Write;
 use std::ops::Range;
 use std::path::{Path, PathBuf};
@@ -255,7 +255,7 @@ fn merge(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::evaluation::Ishigami;
+    use crate::simulator::Ishigami;
 
     fn points(n: usize) -> Vec<Vec<f64>> {
         (0..n)

@@ -11,7 +11,7 @@
 
 use super::params::{Field, ParamProblem, ParamSet};
 use super::shard;
-use crate::evaluation::{EvalError, Model};
+use crate::simulator::{EvalError, Model};
 use serde_yaml_ng::Mapping;
 use std::any::Any;
 use std::collections::BTreeMap;

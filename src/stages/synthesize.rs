@@ -16,7 +16,7 @@ use super::{
     Artifact, FileRef, InputSpec, Kind, ParamProblem, StageContext, StageError, StageOutputs,
 };
 use crate::dynamics::measurement;
-use crate::dynamics::model_file::{self, ParameterKind, Scale};
+use crate::dynamics::model_file::{self, ParameterKind};
 use crate::dynamics::solve::ModeSelection;
 use crate::dynamics::superelement::directory_resolver;
 use crate::dynamics::{Model, PreparedModel};
@@ -446,13 +446,6 @@ fn modal_model_at(
     }
 }
 
-fn scale_text(s: Scale) -> &'static str {
-    match s {
-        Scale::Log => "log",
-        Scale::Linear => "linear",
-    }
-}
-
 fn kind_text(k: ParameterKind) -> &'static str {
     match k {
         ParameterKind::Stiffness => "stiffness",
@@ -483,7 +476,7 @@ fn write_model_json(
         "external": external,
         "parameters": model.parameters.iter().zip(x).map(|(p, v)| serde_json::json!({
             "name": p.name, "value": v, "lower": p.lower, "upper": p.upper,
-            "scale": scale_text(p.scale), "kind": kind_text(p.kind),
+            "scale": p.scale.as_str(), "kind": kind_text(p.kind),
         })).collect::<Vec<_>>(),
         "positions": prepared.configurations.iter().map(|c| serde_json::json!({"index": c.position.index, "label": c.position.label})).collect::<Vec<_>>(),
         "dofs": prepared.n_dofs(),
@@ -501,7 +494,7 @@ fn write_truth_csv(ctx: &StageContext, model: &Model, x: &[f64]) -> Result<(), S
             p.name,
             p.lower,
             p.upper,
-            scale_text(p.scale),
+            p.scale.as_str(),
             kind_text(p.kind)
         ));
     }

@@ -5,6 +5,7 @@
 
 pub mod slurm;
 
+use modalflow::stages::identify::cost::Cost;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -35,6 +36,12 @@ impl Workspace {
 
     pub fn read(&self, rel: &str) -> String {
         std::fs::read_to_string(self.path().join(rel)).unwrap_or_else(|e| panic!("read {rel}: {e}"))
+    }
+
+    /// The `cost.json` of the identify stage whose results are in `dir`,
+    /// read through the schema the stage writes it with.
+    pub fn cost(&self, dir: &str) -> Cost {
+        Cost::read(&self.path().join(dir).join("cost.json")).unwrap_or_else(|e| panic!("{e}"))
     }
 
     /// Run `modalflow ARGS` in the workspace.

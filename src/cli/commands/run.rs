@@ -6,7 +6,7 @@ use modalflow::pipeline::execute::Status;
 use modalflow::pipeline::executor::ExecutorKind;
 use modalflow::pipeline::plan;
 use modalflow::pipeline::progress::ProgressMode;
-use modalflow::pipeline::run::{self, RunOptions, RunReport};
+use modalflow::pipeline::scheduler::{self, RunOptions, RunReport};
 use std::path::PathBuf;
 
 /// Run a pipeline: stages whose key is cached are reused, the rest run in
@@ -127,9 +127,9 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
     opts.executor = Some(executor);
     opts.targets = args.stages;
     let report = if args.dry_run {
-        run::status(&plan, &opts)?
+        scheduler::status(&plan, &opts)?
     } else {
-        run::run(&plan, &opts)?
+        scheduler::run(&plan, &opts)?
     };
     if args.json {
         print_json(&report)?;

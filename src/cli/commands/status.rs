@@ -4,7 +4,7 @@ use crate::cli::output::{print_json, print_text, Locations};
 use modalflow::pipeline::execute::Status;
 use modalflow::pipeline::plan;
 use modalflow::pipeline::progress::ProgressMode;
-use modalflow::pipeline::run::{self, RunReport};
+use modalflow::pipeline::scheduler::{self, RunReport};
 use std::path::PathBuf;
 
 /// Show each stage as cached or will-run, with the reason (which param,
@@ -31,7 +31,7 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
         Vec::new(),
         ProgressMode::Quiet,
     );
-    let report = run::status(&plan, &opts)?;
+    let report = scheduler::status(&plan, &opts)?;
     if args.json {
         print_json(&report)?;
     } else {

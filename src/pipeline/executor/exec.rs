@@ -221,7 +221,7 @@ fn run_in(
 type RunResult = std::thread::Result<Result<stages::StageOutputs, StageError>>;
 
 /// A shard succeeded when it wrote its partial, whatever the stage returned
-/// after that (it stops with [`crate::evaluation::EvalError::Sharded`]).
+/// after that (it stops with [`crate::simulator::EvalError::Sharded`]).
 fn commit_shard(
     store: &Store,
     job: &Job,

@@ -12,7 +12,7 @@ pub use analyze::{analyze, AnalyzeParams, SobolIndices};
 pub use sample::{sample, Layout, Problem, Samples, MAX_SAMPLES, MAX_VARIED};
 
 use super::SensitivityError;
-use crate::evaluation::{evaluate_all, EvalError, Model};
+use crate::simulator::{evaluate_all, EvalError, Model};
 
 /// Settings of a full Sobol study.
 #[derive(Clone, Debug)]
@@ -121,7 +121,7 @@ pub fn run_with(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::evaluation::{Ishigami, Parameter, Scale, SobolG};
+    use crate::simulator::{Ishigami, Parameter, Scale, SobolG};
 
     fn study(n: usize, seed: u64) -> SobolParams {
         SobolParams {
@@ -193,7 +193,7 @@ mod tests {
         // The acceptance bar of the GSA issue: |error| ≤ 0.01 for every S1 and
         // ST of Ishigami (a = 7, b = 0.1) and of a G-function at N = 8192.
         let check =
-            |m: &dyn Model, exact: &crate::evaluation::builtin::AnalyticIndices, name: &str| {
+            |m: &dyn Model, exact: &crate::simulator::builtin::AnalyticIndices, name: &str| {
                 let r = run(m, &study(8192, 11), &|_| {}).unwrap();
                 let idx = &r.outputs[0].1;
                 for i in 0..exact.S1.len() {
@@ -286,7 +286,7 @@ mod tests {
             fn outputs(&self) -> &[String] {
                 &self.1
             }
-            fn evaluate(&self, x: &[f64]) -> Result<Vec<f64>, crate::evaluation::EvalError> {
+            fn evaluate(&self, x: &[f64]) -> Result<Vec<f64>, crate::simulator::EvalError> {
                 assert_eq!(x[1], 5.0, "c must stay at its nominal value");
                 Ok(vec![x[0].log10(), 4.0])
             }

@@ -16,7 +16,7 @@
 //! Parameters outside the varied subset stay at their nominal value.
 
 use super::super::SensitivityError;
-use crate::evaluation::Parameter;
+use crate::simulator::Parameter;
 
 /// Largest base sample supported by the scrambled sequence (2^16).
 pub const MAX_SAMPLES: usize = 1 << 16;
@@ -196,7 +196,7 @@ pub fn sample(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::evaluation::Scale;
+    use crate::simulator::Scale;
 
     fn params() -> Vec<Parameter> {
         vec![

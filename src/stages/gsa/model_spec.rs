@@ -4,7 +4,7 @@
 //! every problem located.
 
 use super::spec::{problem, Params};
-use crate::evaluation::{
+use crate::simulator::{
     CommandModel, CommandOptions, EvalError, Ishigami, Model, Parameter, Scale, SobolG,
 };
 use crate::stages::params::TypeName;
@@ -42,14 +42,6 @@ pub struct ModelTable {
     pub batch: Option<usize>,
 }
 
-crate::string_enum! {
-    /// How a command model's parameter is sampled.
-    pub enum ScaleName {
-        Linear = "linear",
-        Log = "log",
-    }
-}
-
 /// One parameter of a command model.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(deny_unknown_fields)]
@@ -57,7 +49,7 @@ pub struct ParameterParam {
     pub lower: f64,
     pub upper: f64,
     #[serde(default)]
-    pub scale: Option<ScaleName>,
+    pub scale: Option<Scale>,
     #[serde(default)]
     pub nominal: Option<f64>,
 }
@@ -172,11 +164,8 @@ fn parameter(name: &str, p: &ParameterParam) -> Result<Parameter, ParamProblem> 
             ));
         }
     }
-    let scale = match p.scale {
-        None | Some(ScaleName::Linear) => Scale::Linear,
-        Some(ScaleName::Log) => Scale::Log,
-    };
-    let invalid = |e: crate::evaluation::ParameterError, field: &'static str| {
+    let scale = p.scale.unwrap_or_default();
+    let invalid = |e: crate::simulator::ParameterError, field: &'static str| {
         located(field, e.to_string(), "fix the bounds")
     };
     let param = Parameter::new(name, p.lower, p.upper, scale).map_err(|e| invalid(e, "lower"))?;

@@ -4,8 +4,9 @@
 
 use super::spec::{self, SobolSpec};
 use super::{build_model, num, write};
-use crate::evaluation::{parameter::nominal, Model};
+use crate::parameter::nominal;
 use crate::sensitivity::{self, sobol};
+use crate::simulator::Model;
 use crate::stages::{StageContext, StageError, StageOutputs};
 use std::fmt::Write;
 use std::path::PathBuf;

@@ -398,6 +398,13 @@ macro_rules! string_enum {
     };
 }
 
+impl TypeName for crate::parameter::Scale {
+    fn type_name() -> String {
+        let names: Vec<&str> = Self::ALL.iter().map(|s| s.as_str()).collect();
+        format!("one of: {}", names.join(", "))
+    }
+}
+
 /// Closest candidate to `word` by edit distance, for "did you mean" hints.
 pub fn closest<'a>(word: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
     candidates

@@ -20,7 +20,7 @@
 //! and `.csf`.
 
 use super::frf_bands::FrfBands;
-use super::{check_dimension, EvalError, Model, Parameter, Scale};
+use super::{check_dimension, EvalError, Model, Parameter};
 use crate::dynamics::{self, DynamicsError, ModalSolution, PreparedModel};
 use crate::metrics::mac;
 use crate::modal::ModalModel;
@@ -90,15 +90,7 @@ impl StructuralModel {
         let parameters = model
             .parameters
             .iter()
-            .map(|p| {
-                let scale = match p.scale {
-                    dynamics::Scale::Log => Scale::Log,
-                    dynamics::Scale::Linear => Scale::Linear,
-                };
-                Parameter::new(p.name.clone(), p.lower, p.upper, scale)
-                    .and_then(|q| q.with_nominal(p.value.clamp(p.lower, p.upper)))
-                    .map_err(|e| EvalError::Domain(e.to_string()))
-            })
+            .map(|p| p.bounded().map_err(|e| EvalError::Domain(e.to_string())))
             .collect::<Result<Vec<_>, _>>()?;
         let own: Vec<ModalModel>;
         let reference = match reference {

@@ -18,13 +18,12 @@
 pub mod builtin;
 pub mod command;
 pub mod frf_bands;
-pub mod parameter;
 pub mod structural;
 
+pub use crate::parameter::{Parameter, ParameterError, Scale};
 pub use builtin::{Ishigami, SobolG};
 pub use command::{CommandModel, CommandOptions};
 pub use frf_bands::{BandOptions, FrfBands};
-pub use parameter::{Parameter, ParameterError, Scale};
 pub use structural::{StructuralModel, StructuralOptions};
 
 use rayon::prelude::*;

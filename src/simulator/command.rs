@@ -346,7 +346,7 @@ fn short(line: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::evaluation::{evaluate_all, Scale};
+    use crate::simulator::{evaluate_all, Scale};
 
     fn model(script: &str, outputs: &[&str], batch: usize, timeout: Option<f64>) -> CommandModel {
         let params = ["a", "b"]

@@ -1,23 +1,71 @@
-//! Bounded model parameters and their mapping to and from the unit interval.
+//! Bounded parameters, their scale, and the one map between a parameter's
+//! range and the unit interval.
 //!
-//! Samplers (Sobol, Latin hypercube) and optimizers (PSO, GA, SLSQP) work on
-//! the unit hypercube; a [`Parameter`] maps a unit coordinate `u ∈ [0, 1]` to
-//! its physical value, linearly or logarithmically:
+//! Samplers (Sobol, Latin hypercube) and optimizers (PSO, GA, SLSQP,
+//! Levenberg–Marquardt) work on the unit hypercube; a [`Scale`] maps a unit
+//! coordinate `u ∈ [0, 1]` to its physical value, linearly or in decades:
 //!
 //! - linear: `x = lower + u (upper − lower)`
-//! - log:    `x = lower (upper / lower)^u`, so every decade of a stiffness
-//!   range gets the same share of the samples (lower > 0 required).
+//! - log:    `log10 x = log10 lower + u (log10 upper − log10 lower)`, so every
+//!   decade of a stiffness range gets the same share of the samples
+//!   (`lower > 0` required).
+//!
+//! Every user of a scale — model files, the GSA's command models, the
+//! optimizers' [`crate::optimize::Bounds`], the simulators' [`Parameter`] —
+//! goes through [`Scale::from_unit`] / [`Scale::to_unit`], so a point means
+//! the same physical value in a GSA sample and in an identification.
 
 use serde::{Deserialize, Serialize};
 
-/// How a parameter's range is sampled.
+/// How a parameter's range maps onto the unit interval.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Scale {
+    /// `x = lower + u (upper − lower)`.
     #[default]
     Linear,
     /// Uniform in log10(x); needs `0 < lower`.
     Log,
+}
+
+impl Scale {
+    /// Every scale, in the order pipeline and model files list them.
+    pub const ALL: [Scale; 2] = [Scale::Linear, Scale::Log];
+
+    /// The name as written in model and pipeline files.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Scale::Linear => "linear",
+            Scale::Log => "log",
+        }
+    }
+
+    /// Physical value of the unit coordinate `u` on `[lower, upper]` (not
+    /// clamped: `u` outside [0, 1] extrapolates in the scale).
+    pub fn from_unit(self, u: f64, lower: f64, upper: f64) -> f64 {
+        match self {
+            Scale::Linear => lower + u * (upper - lower),
+            Scale::Log => 10f64.powf(lower.log10() + u * (upper.log10() - lower.log10())),
+        }
+    }
+
+    /// Unit coordinate of the physical value `x` on `[lower, upper]`
+    /// (inverse of [`Scale::from_unit`], not clamped).
+    pub fn to_unit(self, x: f64, lower: f64, upper: f64) -> f64 {
+        match self {
+            Scale::Linear => (x - lower) / (upper - lower),
+            Scale::Log => (x.log10() - lower.log10()) / (upper.log10() - lower.log10()),
+        }
+    }
+
+    /// `du / d ln x` at `x`: turns a sensitivity in unit coordinates into
+    /// one per relative change of the parameter (∂r/∂ln x = ∂r/∂u · du/d ln x).
+    pub fn du_dln_x(self, x: f64, lower: f64, upper: f64) -> f64 {
+        match self {
+            Scale::Linear => x / (upper - lower),
+            Scale::Log => 1.0 / (std::f64::consts::LN_10 * (upper.log10() - lower.log10())),
+        }
+    }
 }
 
 /// A named parameter with bounds, scale and the nominal value it takes when it
@@ -147,18 +195,12 @@ impl Parameter {
     /// Physical value of the unit coordinate `u` (not clamped: `u` outside
     /// [0, 1] extrapolates in the parameter's scale).
     pub fn from_unit(&self, u: f64) -> f64 {
-        match self.scale {
-            Scale::Linear => self.lower + u * (self.upper - self.lower),
-            Scale::Log => self.lower * (self.upper / self.lower).powf(u),
-        }
+        self.scale.from_unit(u, self.lower, self.upper)
     }
 
     /// Unit coordinate of the physical value `x` (inverse of [`Parameter::from_unit`]).
     pub fn to_unit(&self, x: f64) -> f64 {
-        match self.scale {
-            Scale::Linear => (x - self.lower) / (self.upper - self.lower),
-            Scale::Log => (x / self.lower).ln() / (self.upper / self.lower).ln(),
-        }
+        self.scale.to_unit(x, self.lower, self.upper)
     }
 
     /// `x` clamped into the bounds.
@@ -214,6 +256,36 @@ mod tests {
         for u in [0.0, 0.25, 0.5, 1.0] {
             assert!((p.to_unit(p.from_unit(u)) - u).abs() < 1e-12);
         }
+    }
+
+    #[test]
+    fn scale_maps_are_inverse_and_their_derivative_matches_a_difference() {
+        for (scale, lo, hi) in [(Scale::Linear, -3.0, 5.0), (Scale::Log, 2e5, 7e8)] {
+            for u in [0.0, 0.2, 0.5, 0.9, 1.0] {
+                let x = scale.from_unit(u, lo, hi);
+                assert!(
+                    (scale.to_unit(x, lo, hi) - u).abs() < 1e-12,
+                    "{scale:?} {u}"
+                );
+                // d u / d ln x by a central difference in ln x.
+                if x > 0.0 {
+                    let h: f64 = 1e-6;
+                    let up = scale.to_unit(x * h.exp(), lo, hi);
+                    let down = scale.to_unit(x * (-h).exp(), lo, hi);
+                    let fd = (up - down) / (2.0 * h);
+                    let exact = scale.du_dln_x(x, lo, hi);
+                    assert!(
+                        (fd - exact).abs() < 1e-6 * exact.abs(),
+                        "{scale:?} {fd} {exact}"
+                    );
+                }
+            }
+        }
+        assert_eq!(Scale::Log.from_unit(0.0, 1e3, 1e6), 1e3);
+        assert!((Scale::Log.from_unit(2.0 / 3.0, 1e3, 1e6) - 1e5).abs() < 1e-9);
+        let names: Vec<&str> = Scale::ALL.iter().map(|s| s.as_str()).collect();
+        assert_eq!(names, ["linear", "log"]);
+        assert_eq!(serde_json::to_string(&Scale::Log).unwrap(), "\"log\"");
     }
 
     #[test]

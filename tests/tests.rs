@@ -1,0 +1,31 @@
+//! The integration tests, one binary with a module per topic (the layout of
+//! ripgrep's `tests/tests.rs`): the crate is linked once instead of once per
+//! topic, which is most of a cold `cargo test --release` on a small machine.
+//! Each module's file sits beside this one and says what it covers.
+
+mod util;
+
+mod autoema;
+mod cli;
+mod dynamics;
+mod eigensolvers;
+mod engine;
+mod evaluate;
+mod fe_formats;
+mod gsa;
+mod identify;
+mod import;
+mod metrics_properties;
+mod optimize;
+mod pipelines;
+mod quickstart;
+mod reliability;
+mod reporting;
+mod slurm_executor;
+mod slurm_scale;
+mod studies;
+mod synthesize;
+mod typed_params;
+mod uff_fixtures;
+mod uff_robustness;
+mod validation;
