@@ -363,3 +363,46 @@ fn measured_frfs_refine_the_update_and_judge_it() {
     assert!(judged(&v).end.rms > 5.0, "{v:?}");
     assert!(v.message.contains("systematic"), "{v:?}");
 }
+
+/// An impact test's FRFs carry coherence: with `frf_averages` each line's
+/// noise comes from it (cost.json says so, and the truth's own model fits
+/// at the noise); without, the coherence left unused is a warning.
+#[test]
+fn impact_test_frfs_are_weighted_by_their_coherence() {
+    let fit = |name: &str, extra: &str| {
+        format!("  {name}:\n    kind: identify\n    inputs: {{reference: truth.modes, frf: truth.frf}}\n    params: {{model: three_mass.yaml, strategy: black_box, optimizer: slsqp, budget: 1500{extra}}}\n")
+    };
+    let ws = setup(&format!(
+        "name: hammer\nstages:\n  truth:\n    kind: synthesize\n    params: {{model: three_mass.yaml, frequency: {{min: 10, max: 400, step: 0.25}}, impact_test: {{averages: 5, response_noise: 0.002, force_noise: 0.01}}, seed: 3}}\n{}{}",
+        fit("coherent", ", frf_averages: 5"),
+        fit("lines", "")
+    ));
+    ws.run(&[], 0);
+    let coherent = ws.cost("results/hammer/coherent");
+    let frf = coherent.frf.as_ref().expect("an FRF summary");
+    assert!(frf.noise.starts_with("coherence (n = 5)"), "{frf:?}");
+    assert!(
+        !coherent
+            .verdict
+            .warnings
+            .iter()
+            .any(|w| w.contains("frf_averages")),
+        "{:?}",
+        coherent.verdict.warnings
+    );
+    let lines = ws.cost("results/hammer/lines");
+    let unused = lines.frf.as_ref().expect("an FRF summary");
+    assert!(unused.noise.starts_with("fourth differences"), "{unused:?}");
+    assert!(
+        lines
+            .verdict
+            .warnings
+            .iter()
+            .any(|w| w.contains("frf_averages")),
+        "{:?}",
+        lines.verdict.warnings
+    );
+    // The coherence's σ is the larger (it holds the noise smooth along
+    // frequency), so the same data give a smaller residual in σ units.
+    assert!(frf.end.rms < unused.end.rms, "{frf:?} vs {unused:?}");
+}

@@ -25,6 +25,21 @@
 //! ([`crate::ema::noise::channel_noise_variance`]: fourth divided
 //! differences, robust to the peaks). At the truth ½‖r‖²/count ≈ ½.
 //!
+//! **Noise of averaged estimates.** Fourth differences see only the noise
+//! that changes from line to line. An impact test's H1 also carries noise
+//! that is smooth across lines: force noise confined by the force window to
+//! a few milliseconds has a smooth spectrum. On the test bench's simulated
+//! hammer tests, two noise realizations of one truth differ with lag-1
+//! correlation 0.7–0.97 and by 2–6× the fourth-difference σ. When the FRFs
+//! carry coherence and the number of averages n is given
+//! ([`FrfNoise::averages`]), each line's σ comes from the random error of a
+//! frequency-response estimate (Bendat & Piersol, *Random Data*, 4th ed.,
+//! eq. 9.73/9.90: gain and phase each (1 − γ²)/(2nγ²)):
+//!
+//! σ²(ω) = |H(ω)|² (1 − γ²(ω)) / (n γ²(ω)),
+//!
+//! never below the channel's fourth-difference σ.
+//!
 //! **Robust loss.** A line whose misfit exceeds [`HUBER`] σ counts linearly
 //! (Huber): a lightly damped peak a hair off in frequency (ζ = 0.1 % is
 //! 0.17 Hz wide at 84 Hz, narrower than a line), leakage of an impact test
@@ -60,8 +75,21 @@ struct FrfSlot {
     /// Sign of each channel (response sign × reference sign).
     signs: Vec<f64>,
     measured: Vec<Vec<Complex64>>,
-    /// Noise standard deviation of each channel.
-    sigma: Vec<f64>,
+    /// Noise standard deviation of each channel at each line.
+    sigma: Vec<Vec<f64>>,
+    /// Channels whose σ came from their coherence.
+    from_coherence: usize,
+    /// Channels with coherence but no `averages` to use it with.
+    coherence_unused: usize,
+}
+
+/// How the noise of the measured FRFs is estimated.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrfNoise {
+    /// Averages n behind each FRF estimate: with coherence on a channel,
+    /// σ² = |H|²(1 − γ²)/(nγ²) per line (module docs); `None`: fourth
+    /// differences only.
+    pub averages: Option<usize>,
 }
 
 /// Measured FRFs prepared as a reference for a model.
@@ -69,6 +97,7 @@ pub struct FrfReference {
     slots: Vec<FrfSlot>,
     /// Modes up to this frequency (Hz) enter the superposition.
     modes_below_hz: f64,
+    noise: FrfNoise,
 }
 
 /// How well a model's FRFs fit the measured ones.
@@ -97,6 +126,7 @@ impl FrfReference {
         sets: &[FrfSet],
         positions: Option<&[u32]>,
         band_hz: (f64, f64),
+        noise: FrfNoise,
     ) -> Result<FrfReference, IdentifyError> {
         let mut slots = Vec::new();
         for set in sets {
@@ -104,7 +134,7 @@ impl FrfReference {
             if positions.is_some_and(|p| !p.contains(&index)) {
                 continue;
             }
-            slots.push(slot(model, set, band_hz)?);
+            slots.push(slot(model, set, band_hz, noise)?);
         }
         if slots.is_empty() {
             return Err(IdentifyError::Invalid(
@@ -118,6 +148,30 @@ impl FrfReference {
         Ok(FrfReference {
             slots,
             modes_below_hz: 2.0 * top,
+            noise,
+        })
+    }
+
+    /// What the noise of the residuals is, in words (cost.json, report).
+    pub fn noise_model(&self) -> String {
+        let channels: usize = self.slots.iter().map(|s| s.pairs.len()).sum();
+        let coherent: usize = self.slots.iter().map(|s| s.from_coherence).sum();
+        match self.noise.averages {
+            Some(n) if coherent > 0 => format!(
+                "coherence (n = {n}) on {coherent} of {channels} channels, fourth differences on the rest"
+            ),
+            _ => format!("fourth differences on {channels} channels"),
+        }
+    }
+
+    /// A warning when the data carry coherence that could not be used
+    /// because the number of averages was not given.
+    pub fn noise_warning(&self) -> Option<String> {
+        let unused: usize = self.slots.iter().map(|s| s.coherence_unused).sum();
+        (unused > 0).then(|| {
+            format!(
+                "{unused} FRF channels carry coherence but `frf_averages` is not given: their noise comes from differences of neighbouring lines, which miss noise correlated across lines (force noise of impact tests), so the FRF residual may overstate the misfit; give frf_averages: <averages of the test>"
+            )
         })
     }
 
@@ -154,9 +208,13 @@ impl FrfReference {
         let mut out = Vec::new();
         for s in &self.slots {
             let h = self.model_frfs(model, s, x)?;
-            for ((m, meas), &sigma) in h.iter().zip(&s.measured).zip(&s.sigma) {
-                let k = std::f64::consts::SQRT_2 / sigma;
-                let d: Vec<Complex64> = m.iter().zip(meas).map(|(p, q)| (p - q) * k).collect();
+            for ((m, meas), sigma) in h.iter().zip(&s.measured).zip(&s.sigma) {
+                let d: Vec<Complex64> = m
+                    .iter()
+                    .zip(meas)
+                    .zip(sigma)
+                    .map(|((p, q), s)| (p - q) * (std::f64::consts::SQRT_2 / s))
+                    .collect();
                 out.push((d, crate::metrics::frac(meas, m)));
             }
         }
@@ -217,7 +275,12 @@ fn huber_factor(d: f64) -> f64 {
 }
 
 /// One position's FRFs matched to the model.
-fn slot(model: &PreparedModel, set: &FrfSet, band: (f64, f64)) -> Result<FrfSlot, IdentifyError> {
+fn slot(
+    model: &PreparedModel,
+    set: &FrfSet,
+    band: (f64, f64),
+    noise: FrfNoise,
+) -> Result<FrfSlot, IdentifyError> {
     let index = set.position.index;
     let config = model.config_of_position(index).ok_or_else(|| {
         IdentifyError::Invalid(format!(
@@ -238,6 +301,7 @@ fn slot(model: &PreparedModel, set: &FrfSet, band: (f64, f64)) -> Result<FrfSlot
     }
     let lines_hz: Vec<f64> = lines.iter().map(|&f| set.frequencies_hz[f]).collect();
     let (mut pairs, mut signs, mut measured, mut sigma) = (vec![], vec![], vec![], vec![]);
+    let (mut from_coherence, mut coherence_unused) = (0, 0);
     for c in &set.channels {
         let (Some((j, sj)), Some((k, sk))) = (
             dof_row(&model.sensors, c.response),
@@ -262,10 +326,32 @@ fn slot(model: &PreparedModel, set: &FrfSet, band: (f64, f64)) -> Result<FrfSlot
         if power == 0.0 {
             continue;
         }
-        let var = channel_noise_variance(&lines_hz, &values).max(1e-18 * power);
+        let white = channel_noise_variance(&lines_hz, &values)
+            .max(1e-18 * power)
+            .sqrt();
+        let coherence: Option<Vec<f64>> = c.coherence.as_ref().map(|g| {
+            lines
+                .iter()
+                .map(|&f| g.get(f).copied().unwrap_or(f64::NAN))
+                .collect()
+        });
+        let line_sigma = match (coherence, noise.averages) {
+            (Some(g), Some(n)) => {
+                from_coherence += 1;
+                values
+                    .iter()
+                    .zip(&g)
+                    .map(|(h, &g)| coherence_sigma(h.norm(), g, n).max(white))
+                    .collect()
+            }
+            (g, _) => {
+                coherence_unused += usize::from(g.is_some());
+                vec![white; values.len()]
+            }
+        };
         pairs.push((j, k));
         signs.push(sj * sk);
-        sigma.push(var.sqrt());
+        sigma.push(line_sigma);
         measured.push(values);
     }
     if pairs.is_empty() {
@@ -281,5 +367,19 @@ fn slot(model: &PreparedModel, set: &FrfSet, band: (f64, f64)) -> Result<FrfSlot
         signs,
         measured,
         sigma,
+        from_coherence,
+        coherence_unused,
     })
+}
+
+/// Random error σ of an FRF estimate |H| from n averages with coherence γ²
+/// (module docs; Bendat & Piersol eq. 9.73/9.90): √((1 − γ²)/(nγ²))·|H|.
+/// A coherence at or below 0 (no signal) or not finite gives an infinite σ,
+/// so the line does not count.
+pub fn coherence_sigma(h_abs: f64, gamma2: f64, averages: usize) -> f64 {
+    if !(gamma2.is_finite() && gamma2 > 0.0) {
+        return f64::INFINITY;
+    }
+    let g = gamma2.min(1.0);
+    h_abs * ((1.0 - g) / (averages as f64 * g)).sqrt()
 }

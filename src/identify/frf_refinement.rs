@@ -94,6 +94,9 @@ pub struct FrfSummary {
     pub evaluations: usize,
     pub iterations: usize,
     pub termination: String,
+    /// How the residuals' noise was estimated ([`FrfReference::noise_model`]).
+    #[serde(default)]
+    pub noise: String,
 }
 
 /// The FRF refinement's result.
@@ -216,6 +219,7 @@ pub fn frf_refinement(
             evaluations: used + 1,
             iterations,
             termination: super::continuation::termination_text(&termination),
+            noise: frf.noise_model(),
         },
         status: termination,
     })
@@ -299,6 +303,7 @@ mod tests {
     use crate::dynamics::solve::ModeSelection;
     use crate::frf::{FrfQuantity, FrfSet};
     use crate::identify::black_box::tests::{model, objective, truth};
+    use crate::identify::frf_objective::{coherence_sigma, FrfNoise};
     use num_complex::Complex64;
     use rand::SeedableRng;
     use rand_chacha::ChaCha8Rng;
@@ -331,7 +336,8 @@ mod tests {
         let prepared = PreparedModel::new(&model()).unwrap();
         for seed in 1..=5 {
             let set = measured(&prepared, &truth(), 0.01, seed);
-            let r = FrfReference::new(&prepared, &[set], None, (10.0, 400.0)).unwrap();
+            let r = FrfReference::new(&prepared, &[set], None, (10.0, 400.0), FrfNoise::default())
+                .unwrap();
             assert_eq!(r.count(), 2 * 3 * 781);
             let at_truth = r.fit(&prepared, &truth()).unwrap();
             // Noise units: RMS ≈ 1 at the truth, white along frequency.
@@ -352,24 +358,100 @@ mod tests {
         }
     }
 
+    /// Noise smooth along frequency, as force noise under a force window
+    /// gives an impact test's H1: H(1 + ε(ω)) with ε a 21-line moving
+    /// average of complex white noise, std `rel` per line, and the
+    /// coherence that n averages with that error would show
+    /// (γ² = 1/(1 + n·rel²), the inverse of [`coherence_sigma`]).
+    fn smooth_noise(set: &mut FrfSet, rel: f64, n: usize, seed: u64) {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let gamma2 = 1.0 / (1.0 + n as f64 * rel * rel);
+        for c in &mut set.channels {
+            let len = c.values.len() + 20;
+            let white: Vec<Complex64> = (0..len)
+                .map(|_| {
+                    let re = crate::ema::synthetic::gauss(&mut rng);
+                    Complex64::new(re, crate::ema::synthetic::gauss(&mut rng))
+                })
+                .collect();
+            // Each ε has E|ε|² = rel²: 21 terms of E|w|² = 2.
+            let k = rel / (2.0 * 21.0f64).sqrt();
+            for (i, v) in c.values.iter_mut().enumerate() {
+                let eps: Complex64 = white[i..i + 21].iter().sum::<Complex64>() * k;
+                *v *= Complex64::new(1.0, 0.0) + eps;
+            }
+            c.coherence = Some(vec![gamma2; c.values.len()]);
+        }
+    }
+
+    #[test]
+    fn coherence_gives_the_noise_that_differences_of_lines_miss() {
+        assert_eq!(coherence_sigma(2.0, 1.0, 5), 0.0);
+        assert!((coherence_sigma(2.0, 0.5, 4) - 1.0).abs() < 1e-15);
+        assert!(coherence_sigma(1.0, 0.0, 5).is_infinite());
+        let prepared = PreparedModel::new(&model()).unwrap();
+        let averages = 5;
+        for seed in 1..=4 {
+            let mut set = measured(&prepared, &truth(), 0.0, seed);
+            smooth_noise(&mut set, 0.02, averages, seed);
+            let band = (10.0, 400.0);
+            let lines =
+                FrfReference::new(&prepared, &[set.clone()], None, band, FrfNoise::default())
+                    .unwrap();
+            let noise = FrfNoise {
+                averages: Some(averages),
+            };
+            let coherent = FrfReference::new(&prepared, &[set], None, band, noise).unwrap();
+            let (a, b) = (
+                lines.fit(&prepared, &truth()).unwrap(),
+                coherent.fit(&prepared, &truth()).unwrap(),
+            );
+            // Differences see a fraction of smooth noise: the truth looks
+            // several σ off and "systematic"; with the coherence it is at
+            // the noise (still correlated along frequency, as it is).
+            assert!(a.rms > 3.0 && a.lag1 > 0.8, "seed {seed}: {a:?}");
+            assert!((0.75..1.3).contains(&b.rms), "seed {seed}: {b:?}");
+            assert!(lines.noise_warning().is_some());
+            assert!(coherent.noise_warning().is_none());
+            assert!(coherent
+                .noise_model()
+                .starts_with("coherence (n = 5) on 3 of 3 channels"));
+            // A wrong model is still far above the coherence's noise.
+            let nominal = coherent.fit(&prepared, &objective().nominal()).unwrap();
+            assert!(nominal.rms > 10.0, "{nominal:?}");
+        }
+    }
+
     #[test]
     fn a_mismatched_frf_set_is_refused_with_the_position() {
         let prepared = PreparedModel::new(&model()).unwrap();
         let mut set = measured(&prepared, &truth(), 0.01, 1);
         set.position.index = 7;
-        let e = FrfReference::new(&prepared, &[set.clone()], None, (10.0, 400.0));
+        let e = FrfReference::new(
+            &prepared,
+            &[set.clone()],
+            None,
+            (10.0, 400.0),
+            FrfNoise::default(),
+        );
         assert!(e
             .err()
             .is_some_and(|e| e.to_string().contains("position 7")));
         set.position.index = 0;
-        let e = FrfReference::new(&prepared, &[set.clone()], None, (1000.0, 2000.0));
+        let e = FrfReference::new(
+            &prepared,
+            &[set.clone()],
+            None,
+            (1000.0, 2000.0),
+            FrfNoise::default(),
+        );
         assert!(e
             .err()
             .is_some_and(|e| e.to_string().contains("lines in the band")));
         for c in &mut set.channels {
             c.response.node += 10;
         }
-        let e = FrfReference::new(&prepared, &[set], None, (10.0, 400.0));
+        let e = FrfReference::new(&prepared, &[set], None, (10.0, 400.0), FrfNoise::default());
         assert!(e
             .err()
             .is_some_and(|e| e.to_string().contains("shares no channel")));
@@ -384,7 +466,8 @@ mod tests {
         let prepared = PreparedModel::new(&model()).unwrap();
         let o = objective();
         let set = measured(&prepared, &truth(), 0.01, 3);
-        let r = FrfReference::new(&prepared, &[set], None, (10.0, 400.0)).unwrap();
+        let r =
+            FrfReference::new(&prepared, &[set], None, (10.0, 400.0), FrfNoise::default()).unwrap();
         let nominal = o.nominal();
         let mut x0 = truth();
         x0[4..].copy_from_slice(&nominal[4..]);

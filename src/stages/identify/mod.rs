@@ -28,7 +28,7 @@ use super::{
     StageOutputs,
 };
 use crate::dynamics::{self, directory_resolver};
-use crate::identify::frf_objective::FrfReference;
+use crate::identify::frf_objective::{FrfNoise, FrfReference};
 use crate::identify::updating::{update, Plan, Strategy, Update};
 use crate::identify::{ModalObjective, NamedMode, Screening, SubproblemSpec};
 use crate::optimize::Optimizer;
@@ -80,8 +80,10 @@ impl Kind for Identify {
     /// 8: the `updated_model` output (the identified values in the model
     /// file). 9: model modes by shift-invert block Lanczos (issue 16).
     /// 10: the `frf` input and the FRF refinement.
+    /// 11: per-line FRF noise from coherence (`frf_averages`), the noise
+    /// model in cost.json, a warning for coherence left unused.
     fn version(&self) -> u32 {
-        10
+        11
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -239,11 +241,20 @@ impl Kind for Identify {
             .map(|path| {
                 let sets = artifacts::read_frf(path, "frf")?;
                 let prepared = objective.prepared();
-                FrfReference::new(prepared, &sets, spec.positions.as_deref(), spec.frf_band)
-                    .map_err(|e| StageError::InvalidInput {
-                        input: "frf".into(),
-                        message: e.to_string(),
-                    })
+                let noise = FrfNoise {
+                    averages: spec.frf_averages,
+                };
+                FrfReference::new(
+                    prepared,
+                    &sets,
+                    spec.positions.as_deref(),
+                    spec.frf_band,
+                    noise,
+                )
+                .map_err(|e| StageError::InvalidInput {
+                    input: "frf".into(),
+                    message: e.to_string(),
+                })
             })
             .transpose()?;
         let plan = Plan {
@@ -255,13 +266,16 @@ impl Kind for Identify {
             exclude: &spec.exclude,
             max_std_error: spec.max_std_error,
         };
-        let u = update(&mut objective, &plan, &progress).map_err(|e| match e {
+        let mut u = update(&mut objective, &plan, &progress).map_err(|e| match e {
             crate::identify::IdentifyError::Invalid(m) => StageError::InvalidInput {
                 input: "reference".into(),
                 message: m,
             },
             e => StageError::Failed(e.to_string()),
         })?;
+        if let Some(w) = frf_reference.as_ref().and_then(|r| r.noise_warning()) {
+            u.verdict.warnings.push(w);
+        }
         if !u.verdict.ok {
             ctx.progress
                 .set_message(format!("verdict: {}", u.verdict.message));

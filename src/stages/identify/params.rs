@@ -184,6 +184,12 @@ crate::params! {
         /// with the `frf` input: the band [low, high] Hz of the FRF lines
         /// fitted (default: every line of the input)
         pub frf_band: Option<(f64, f64)> = None; range Range::at_least(0.0),
+        /// with an `frf` input that carries coherence (impact or shaker
+        /// test): the number of averages n behind each FRF; each line's noise
+        /// then comes from its coherence, σ² = |H|²(1 − γ²)/(n γ²), which
+        /// also holds noise correlated across lines (force noise under a force
+        /// window) that differences of neighbouring lines miss
+        pub frf_averages: Option<usize> = None; range Range::closed(1.0, 100_000.0),
     }
 }
 
@@ -201,6 +207,7 @@ pub struct Spec {
     pub positions: Option<Vec<u32>>,
     pub frf_refinement: FrfRefinementParams,
     pub frf_band: (f64, f64),
+    pub frf_averages: Option<usize>,
     /// Nominal-model modes to leave out: (position, number).
     pub exclude: Vec<(u32, usize)>,
 }
@@ -340,6 +347,7 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
             positions: p.positions.clone(),
             frf_refinement: p.frf_refinement.clone(),
             frf_band,
+            frf_averages: p.frf_averages,
             exclude: p
                 .exclude_modes
                 .iter()
