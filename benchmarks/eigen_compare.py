@@ -13,6 +13,12 @@ Interleaved best-of-n wall time, one thread each (OPENBLAS_NUM_THREADS=1).
 modalflow's figure excludes its one-time preparation (symbolic analysis),
 which is printed separately; scipy has no such split.
 
+max |df/f| is the largest frequency difference between the two. On the
+unreduced models K holds clamping springs of ~1e20 N/m; SuperLU's
+partial-pivoting solves of K + sM are then accurate in backward error only
+(forward error O(1) on a random right-hand side at 5e4 DOF), and ARPACK's
+lowest frequencies drift by up to a few percent there (README).
+
     cargo bench --bench dynamics --no-run
     python3 benchmarks/eigen_compare.py target/release/deps/dynamics-<hash> [rounds]
 """

@@ -80,7 +80,9 @@ impl Kind for Gsa {
     /// names its modes' frequencies.
     /// 4: model modes by shift-invert block Lanczos (issue 16).
     fn version(&self) -> u32 {
-        4
+        // v5: Lanczos orthogonalization/basis/tolerance (issue 16) change
+        // eigenpairs in the last bits.
+        5
     }
 
     fn summary(&self) -> &'static str {

@@ -81,7 +81,9 @@ impl Kind for Identify {
     /// file). 9: model modes by shift-invert block Lanczos (issue 16).
     /// 10: the `frf` input and the FRF refinement.
     fn version(&self) -> u32 {
-        10
+        // v11: Lanczos orthogonalization/basis/tolerance (issue 16) change
+        // eigenpairs in the last bits.
+        11
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
