@@ -343,4 +343,36 @@ mod tests {
         let skew = Csc::from_triplets(2, vec![(0, 1, 1.0), (1, 0, 2.0)]);
         assert!(skew.asymmetry(1e-12).is_some());
     }
+
+    /// Products of column groups (8, 3) equal one-column products bit for
+    /// bit, also for a strided input.
+    #[test]
+    fn block_products_do_not_depend_on_the_grouping() {
+        let n = 40;
+        let mut t = Vec::new();
+        for i in 0..n {
+            t.push((i, i, 4.0 + i as f64 / 7.0));
+            for k in [1, 3] {
+                if i + k < n {
+                    let v = ((i * 31 + k) % 17) as f64 / 9.0 - 1.0;
+                    t.push((i + k, i, v));
+                    t.push((i, i + k, v));
+                }
+            }
+        }
+        let A = Csc::from_triplets(n, t);
+        let X = Mat::from_fn(n, 11, |i, j| ((i * 7 + j * 13) % 23) as f64 / 5.0 - 2.0);
+        let mut Y = Mat::zeros(n, 11);
+        A.mul(X.as_ref(), Y.as_mut());
+        let XT = X.transpose().to_owned();
+        for j in 0..11 {
+            let mut y = Mat::zeros(n, 1);
+            A.mul(X.subcols(j, 1), y.as_mut());
+            assert_eq!(y.col(0), Y.col(j));
+            // A row of the transposed copy: a strided column view.
+            A.mul(XT.transpose().subcols(j, 1), y.as_mut());
+            assert_eq!(y.col(0), Y.col(j));
+        }
+        assert!((&Y - A.to_dense() * &X).norm_max() < 1e-12);
+    }
 }

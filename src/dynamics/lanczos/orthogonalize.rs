@@ -268,3 +268,90 @@ pub(super) fn orthonormalize_block<O: ShiftInvertOperator + ?Sized>(
     }
     Some(R)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::{MatMut, MatRef};
+
+    /// M = diag(1, 2, …, n); the solve is not used here.
+    struct Diagonal(usize);
+
+    impl ShiftInvertOperator for Diagonal {
+        fn dim(&self) -> usize {
+            self.0
+        }
+        fn mass(&self, X: MatRef<'_, f64>, mut Y: MatMut<'_, f64>) {
+            for j in 0..X.ncols() {
+                for i in 0..X.nrows() {
+                    Y[(i, j)] = (i + 1) as f64 * X[(i, j)];
+                }
+            }
+        }
+        fn solve(&mut self, _: MatMut<'_, f64>) {}
+    }
+
+    fn block(n: usize, cols: usize, f: impl Fn(usize, usize) -> f64) -> (Mat<f64>, Mat<f64>) {
+        let V = Mat::from_fn(n, cols, f);
+        let mut MV = Mat::zeros(n, cols);
+        Diagonal(n).mass(V.as_ref(), MV.as_mut());
+        (V, MV)
+    }
+
+    #[test]
+    fn cholesky_qr2_orthonormalizes_and_reproduces_the_block() {
+        let (n, p) = (50, 4);
+        let (mut V, mut MV) = block(n, p, start_value);
+        let W = V.clone();
+        let mut tmp = Mat::zeros(n, p);
+        let R = cholesky_qr2(&mut V, &mut MV, &mut tmp, 0, p, &[1.0; 4]).expect("well conditioned");
+        let G = MV.transpose() * &V;
+        assert!(
+            (&G - Mat::<f64>::identity(p, p)).norm_max() < 1e-14,
+            "{G:?}"
+        );
+        assert!((&V * &R - &W).norm_max() < 1e-13 * W.norm_max());
+        for j in 0..p {
+            for i in j + 1..p {
+                assert_eq!(R[(i, j)], 0.0);
+            }
+        }
+    }
+
+    #[test]
+    fn cholesky_qr2_declines_a_rank_deficient_block() {
+        let (n, p) = (50, 4);
+        // Column 3 = column 0 + column 1: Gram–Schmidt must deflate it.
+        let (mut V, mut MV) = block(n, p, |i, j| match j {
+            3 => start_value(i, 0) + start_value(i, 1),
+            _ => start_value(i, j),
+        });
+        let mut tmp = Mat::zeros(n, p);
+        assert!(cholesky_qr2(&mut V, &mut MV, &mut tmp, 0, p, &[1.0; 4]).is_none());
+    }
+
+    #[test]
+    fn one_pass_suffices_unless_the_projection_cancels() {
+        // Basis: 4 M-orthonormal vectors (e_i / sqrt(i+1)); the new column
+        // is a basis vector plus a small orthogonal part, so the first pass
+        // cancels and a second one runs; the result is M-orthogonal.
+        let n = 20;
+        let (mut V, mut MV) = block(n, 5, |i, j| match j {
+            4 => (if i == 2 { 1.0 } else { 0.0 }) + 1e-9 * start_value(i, 9),
+            _ if i == j => 1.0 / ((i + 1) as f64).sqrt(),
+            _ => 0.0,
+        });
+        let op = Diagonal(n);
+        let C = project_out(&op, &mut V, &mut MV, 0, 4, 1);
+        assert!((C[(2, 0)] - 3f64.sqrt()).abs() < 1e-8);
+        let norm = m_norm2(&V, &MV, 4).sqrt();
+        assert!(norm > 1e-10 && norm < 1e-8, "{norm:e}");
+        for j in 0..4 {
+            let d: f64 = (0..n).map(|i| MV[(i, j)] * V[(i, 4)]).sum();
+            assert!(d.abs() < 1e-14 * norm, "{j}: {d:e} vs {norm:e}");
+        }
+        let mut check = Mat::zeros(n, 1);
+        op.mass(V.as_ref().subcols(4, 1), check.as_mut());
+        assert_eq!(check, MV.subcols(4, 1).to_owned());
+    }
+}
