@@ -13,6 +13,16 @@ Interleaved best-of-n wall time, one thread each (OPENBLAS_NUM_THREADS=1).
 modalflow's figure excludes its one-time preparation (symbolic analysis),
 which is printed separately; scipy has no such split.
 
+max |df/f| is the largest frequency difference between the two. The scaled
+copies refine the beams to elements of a fraction of a millimetre, so the
+bending terms 12EI/h^3 grow with the cube of the scale (max |K| 1e18 at
+1e4, 1.4e20 at 5e4, 7.3e21 at 2e5 DOF): K + sM is then so ill-conditioned
+that SuperLU's partial-pivoting solves are accurate in backward error only
+(forward error O(1) on a random right-hand side at 5e4 DOF), ARPACK's
+lowest frequencies drift by percents at 5e4 and come out negative at 2e5,
+and modalflow's Cholesky-based ones drift from their mesh-converged values
+too (README). The timings stand; these models are not accuracy references.
+
     cargo bench --bench dynamics --no-run
     python3 benchmarks/eigen_compare.py target/release/deps/dynamics-<hash> [rounds]
 """

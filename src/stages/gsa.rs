@@ -81,8 +81,10 @@ impl Kind for Gsa {
     /// 4: model modes by shift-invert block Lanczos (issue 16).
     /// 5: log-scale samples through the one unit-box map of `parameter::Scale`
     ///    (log10 form; round-off different from the former `lower·(upper/lower)^u`).
+    /// 6: eigenpairs from the faster Lanczos (one conditional DGKS pass,
+    ///    Cholesky QR2, basis 2.5·nev, tolerance 1e-12; issue 16), last bits.
     fn version(&self) -> u32 {
-        5
+        6
     }
 
     fn summary(&self) -> &'static str {

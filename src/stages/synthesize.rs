@@ -154,7 +154,9 @@ impl Kind for Synthesize {
     /// by shift-invert block Lanczos (last bits of frequencies and shapes
     /// change, issue 16).
     fn version(&self) -> u32 {
-        4
+        // v5: Lanczos orthogonalization/basis/tolerance (issue 16) change
+        // eigenpairs in the last bits.
+        5
     }
     fn summary(&self) -> &'static str {
         "solve a model file and write reference FRFs (with noise or a simulated impact test), modes and the truth"

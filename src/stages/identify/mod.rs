@@ -82,8 +82,9 @@ impl Kind for Identify {
     /// 10: the `frf` input and the FRF refinement.
     /// 11: per-line FRF noise from coherence (`frf_averages`), the noise
     /// model in cost.json, a warning for coherence left unused.
+    /// 12: eigenpairs from the faster Lanczos (issue 16), last bits.
     fn version(&self) -> u32 {
-        11
+        12
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
