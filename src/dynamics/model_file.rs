@@ -339,6 +339,13 @@ pub struct PointDofSpec {
 
 /// Parse a model file from text; `file` names it in error messages.
 pub fn parse(text: &str, file: &str) -> Result<ModelFile, DynamicsError> {
+    if let Err(deep) = crate::yaml::check_depth(text) {
+        return Err(DynamicsError::Syntax {
+            file: file.to_string(),
+            location: format!("line {} column {}", deep.line, deep.column),
+            message: deep.to_string(),
+        });
+    }
     serde_yaml_ng::from_str(text).map_err(|e| DynamicsError::Syntax {
         file: file.to_string(),
         location: match e.location() {

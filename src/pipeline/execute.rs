@@ -140,8 +140,9 @@ impl Engine<'_> {
 
     /// Verified cache entry for `key`, or why there is none usable
     /// (`None`: no entry; `Some`: an entry that is corrupt).
-    pub fn cached(&self, key: &str) -> Result<RunRecord, Option<String>> {
+    pub fn cached(&self, node: &Node, key: &str) -> Result<RunRecord, Option<String>> {
         let rec = self.store.read_record(key).map_err(Some)?.ok_or(None)?;
+        check_outputs(node, &rec).map_err(Some)?;
         for out in rec.outputs.values() {
             self.store.verify(&out.artifact).map_err(Some)?;
         }
@@ -202,7 +203,7 @@ impl Engine<'_> {
             Ok(l) => l,
             Err(e) => return fatal(report, e.into(), warnings),
         };
-        let record = match (self.forced[i], self.cached(&key)) {
+        let record = match (self.forced[i], self.cached(node, &key)) {
             (false, Ok(rec)) => {
                 report.status = Status::Cached;
                 report.reason = "up to date".into();
@@ -352,13 +353,12 @@ impl Engine<'_> {
         record: &RunRecord,
         done: &dyn Fn(usize) -> Option<Done>,
     ) -> Result<(), StoreError> {
-        for (name, out) in &record.outputs {
-            if node.workspace_outputs.is_empty() {
-                break;
-            }
-            let dest = self.plan.dir.join(super::plan::normalize(name));
-            if store::hash_path(&dest).ok().as_deref() != Some(out.artifact.hash.as_str()) {
-                self.store.checkout(&out.artifact, &dest)?;
+        if !node.workspace_outputs.is_empty() {
+            for (name, out) in &record.outputs {
+                let dest = workspace_path(&self.plan.dir, name)?;
+                if store::hash_path(&dest).ok().as_deref() != Some(out.artifact.hash.as_str()) {
+                    self.store.checkout(&out.artifact, &dest)?;
+                }
             }
         }
         let origins = node
@@ -389,4 +389,41 @@ impl Engine<'_> {
         );
         results::materialize(&self.store, &self.results.join(&node.name), &manifest)
     }
+}
+
+/// A record names exactly the outputs the stage declares, and a stage that
+/// writes into the workspace stores each output under its declared path:
+/// what a record (a shared cache's, possibly forged) says is compared with
+/// what the pipeline file says, never trusted for where to write.
+fn check_outputs(node: &Node, rec: &RunRecord) -> Result<(), String> {
+    let declared = node.output_names();
+    let same_names = declared.len() == rec.outputs.len()
+        && declared.iter().all(|n| rec.outputs.contains_key(n));
+    if !same_names {
+        return Err(format!(
+            "run record lists outputs {:?}, the stage declares {declared:?}",
+            rec.outputs.keys().collect::<Vec<_>>()
+        ));
+    }
+    if !node.workspace_outputs.is_empty() {
+        if let Some((name, _)) = rec.outputs.iter().find(|(n, o)| *n != &o.file) {
+            return Err(format!(
+                "run record stores workspace output `{name}` under another name"
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// Where a workspace output goes: its declared path below the pipeline
+/// directory, never through a symbolic link ([`crate::paths`]).
+pub fn workspace_path(dir: &std::path::Path, name: &str) -> Result<PathBuf, StoreError> {
+    let invalid = |message: String| StoreError {
+        op: "write workspace output",
+        path: dir.join(name),
+        cause: std::io::Error::new(std::io::ErrorKind::InvalidInput, message),
+    };
+    let rel = crate::paths::relative(name).map_err(|p| invalid(p.to_string()))?;
+    crate::paths::no_symlink_below(dir, &rel).map_err(|e| invalid(e.to_string()))?;
+    Ok(dir.join(rel))
 }

@@ -16,6 +16,7 @@ pub mod progress;
 pub mod provenance;
 pub mod record;
 pub mod results;
+pub mod roots;
 pub mod scheduler;
 pub mod span;
 pub mod spec;

@@ -2,9 +2,14 @@
 //! seconds and counters. Written last, after every object, and sealed: the
 //! record names its key and ends with a checksum of its own text, so a
 //! record edited after it was written, or written for another key, is
-//! corrupt (and the stage recomputed) rather than trusted.
+//! corrupt (and the stage recomputed) rather than trusted. With a cache key
+//! (`MODALFLOW_CACHE_KEY_FILE`) the checksum is a keyed hash, so a record
+//! written by anyone without the key — a forged one in a shared cache —
+//! is recomputed, never used. Without a key, every name and hash in a
+//! record is still checked before it becomes a path ([`crate::paths`]).
 
 use super::store::{OutputRecord, Result, Store};
+use crate::paths;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::fs;
@@ -32,14 +37,24 @@ pub struct RunRecord {
     pub checksum: String,
 }
 
+/// The seal of a record's text: blake3, keyed with the cache key when one
+/// is set (`MODALFLOW_CACHE_KEY_FILE`), so that only holders of the key can
+/// write records a keyed reader accepts.
+fn seal(text: &[u8], key: Option<&[u8; 32]>) -> blake3::Hash {
+    match key {
+        Some(k) => blake3::keyed_hash(k, text),
+        None => blake3::hash(text),
+    }
+}
+
 impl RunRecord {
     /// The record file's text: the record's pretty JSON with the checksum
     /// of that text appended as the last field.
-    fn sealed_text(&self) -> String {
+    fn sealed_text(&self, key: Option<&[u8; 32]>) -> String {
         let mut bare = self.clone();
         bare.checksum.clear();
         let text = serde_json::to_string_pretty(&bare).unwrap_or_default();
-        let sum = blake3::hash(text.as_bytes()).to_hex();
+        let sum = seal(text.as_bytes(), key).to_hex();
         let body = text.strip_suffix("\n}").unwrap_or(&text);
         format!("{body},\n  \"checksum\": \"{sum}\"\n}}")
     }
@@ -47,14 +62,35 @@ impl RunRecord {
 
 /// Whether a record file's text carries the checksum of the rest of it
 /// (the inverse of [`RunRecord::sealed_text`]).
-fn seal_matches(text: &[u8], checksum: &str) -> bool {
+fn seal_matches(text: &[u8], checksum: &str, key: Option<&[u8; 32]>) -> bool {
     let tail = format!(",\n  \"checksum\": \"{checksum}\"\n}}");
     let Some(body) = text.strip_suffix(tail.as_bytes()) else {
         return false;
     };
     let mut bare = body.to_vec();
     bare.extend_from_slice(b"\n}");
-    blake3::hash(&bare).to_hex().as_str() == checksum
+    seal(&bare, key).to_hex().as_str() == checksum
+}
+
+/// What a record says that becomes a path: every output's object hash and
+/// file name. A record is untrusted input (a shared or published cache):
+/// anything that would leave the results or workspace folder is refused.
+fn check_paths(rec: &RunRecord) -> std::result::Result<(), String> {
+    for (name, out) in &rec.outputs {
+        if !paths::is_hash(&out.artifact.hash) {
+            return Err(format!("run record: output `{name}` has no valid object hash"));
+        }
+        match paths::relative(&out.file) {
+            Ok(rel) if rel == out.file => {}
+            _ => {
+                return Err(format!(
+                    "run record: output `{name}` has file name `{}`, which would leave its folder",
+                    out.file.escape_debug()
+                ))
+            }
+        }
+    }
+    Ok(())
 }
 
 impl Store {
@@ -86,18 +122,26 @@ impl Store {
         if rec.checksum.is_empty() {
             return Err("run record has no checksum".into());
         }
-        if !seal_matches(&bytes, &rec.checksum) {
-            return Err(
-                "run record does not match its checksum (edited after it was written)".into(),
-            );
+        if !seal_matches(&bytes, &rec.checksum, self.seal_key()) {
+            return Err(if self.seal_key().is_some() {
+                "run record is not sealed with this cache's key (MODALFLOW_CACHE_KEY_FILE), or \
+                 was edited after it was written"
+                    .into()
+            } else {
+                "run record does not match its checksum (edited after it was written, or \
+                 sealed with a cache key this run does not have)"
+                    .into()
+            });
         }
+        check_paths(&rec)?;
         Ok(Some(rec))
     }
 
     /// Commit a run record (the last write of a stage run), sealed with
     /// its checksum.
     pub fn write_record(&self, rec: &RunRecord) -> Result<()> {
-        self.write_atomic(&self.record_path(&rec.key), rec.sealed_text().as_bytes())
+        let text = rec.sealed_text(self.seal_key());
+        self.write_atomic(&self.record_path(&rec.key), text.as_bytes())
     }
 
     pub fn remove_record(&self, key: &str) {

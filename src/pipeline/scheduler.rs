@@ -77,6 +77,9 @@ pub enum RunError {
     /// A stage's own writes failed for lack of storage.
     #[error("stage {stage}: {message}")]
     Storage { stage: String, message: String },
+    /// Cache, results folder, project and outputs overlap.
+    #[error(transparent)]
+    Roots(#[from] super::roots::RootsOverlap),
     /// A stage has to be computed but the cache is read-only.
     #[error(
         "stage {stage} is not in the read-only cache {} ({reason}); computing it needs a \
@@ -99,6 +102,7 @@ impl RunError {
             RunError::UnknownForce { .. }
                 | RunError::UnknownTarget { .. }
                 | RunError::NameTaken { .. }
+                | RunError::Roots(_)
         )
     }
 }
@@ -108,6 +112,7 @@ fn engine<'a>(
     opts: &RunOptions,
     executor: Executor,
 ) -> Result<Engine<'a>, RunError> {
+    super::roots::check(plan, &opts.cache, &opts.results)?;
     let store = Store::open(&opts.cache)?;
     let last = provenance::load(&store, &plan.name);
     if let Some(owner) = last.owned_by_another(&plan.path()) {
@@ -428,7 +433,7 @@ pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
                 Ok(m) => {
                     let key = m.key();
                     report.key = Some(key.clone());
-                    match (engine.forced[i], engine.cached(&key)) {
+                    match (engine.forced[i], engine.cached(node, &key)) {
                         (false, Ok(rec)) => {
                             report.status = Status::Cached;
                             report.reason = "up to date".into();

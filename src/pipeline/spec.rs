@@ -25,6 +25,13 @@ pub struct PipelineSpec {
     /// resources; not part of any key.
     #[serde(default)]
     pub executor: ExecutorSpec,
+    /// Directories outside the pipeline file's directory whose files params
+    /// may name (relative to the pipeline file, or absolute). Reading
+    /// outside is refused otherwise: a pipeline file from someone else
+    /// cannot make modalflow read (and quote in its errors) files it was
+    /// not meant to see.
+    #[serde(default)]
+    pub read_outside: Vec<String>,
     pub stages: IndexMap<String, StageSpec>,
 }
 

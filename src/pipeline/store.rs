@@ -16,6 +16,7 @@
 //! leaves either a complete entry or none.
 
 pub use super::record::RunRecord;
+use crate::paths;
 use serde::{Deserialize, Serialize};
 use std::fs::{self, File};
 use std::io::{self, Read, Write};
@@ -102,6 +103,32 @@ pub struct Store {
     /// storage): cached results are served, nothing is written, no lock
     /// file is created.
     read_only: bool,
+    /// Key of the records' seal, from `MODALFLOW_CACHE_KEY_FILE`.
+    seal_key: Option<[u8; 32]>,
+}
+
+/// Names the file holding a shared cache's secret; see [`Store::seal_key`].
+pub const KEY_ENV: &str = "MODALFLOW_CACHE_KEY_FILE";
+
+/// The seal key from the file `MODALFLOW_CACHE_KEY_FILE` names, if set:
+/// blake3's key derivation over the file's bytes (any length of secret).
+fn seal_key_from_env() -> Result<Option<[u8; 32]>> {
+    let Some(path) = std::env::var_os(KEY_ENV) else {
+        return Ok(None);
+    };
+    let path = PathBuf::from(path);
+    let secret = fs::read(&path).map_err(err("read the cache key file", &path))?;
+    if secret.len() < 16 {
+        return Err(err("use the cache key file", &path)(io::Error::new(
+            io::ErrorKind::InvalidData,
+            "it holds fewer than 16 bytes; put a long random secret there \
+             (e.g. `head -c 32 /dev/urandom > FILE`)",
+        )));
+    }
+    Ok(Some(blake3::derive_key(
+        "modalflow cache run-record seal v1",
+        &secret,
+    )))
 }
 
 static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
@@ -113,29 +140,47 @@ impl Store {
     /// it leaves when killed can be told from a live run's
     /// ([`super::leftovers`]).
     pub fn open(root: &Path) -> Result<Store> {
+        let seal_key = seal_key_from_env()?;
         let mut read_only = false;
         for sub in ["objects", "runs", "pipelines", "locks", "tmp"] {
             let p = root.join(sub);
             if let Err(e) = fs::create_dir_all(&p) {
-                if !(is_read_only(&e) && root.join("runs").is_dir()) {
+                if !is_read_only(&e) {
                     return Err(err("create directory", &p)(e));
                 }
+                // A cache on storage that refuses writes is read: empty or
+                // not, `status` lists what would run and `run` says which
+                // stage it is missing.
                 read_only = true;
+                break;
             }
         }
         // Absolute, so scratch and object paths handed to stages (and to
         // commands running in another directory) stay valid.
-        let root = fs::canonicalize(root).map_err(err("open", root))?;
+        let root = match fs::canonicalize(root) {
+            Ok(r) => r,
+            Err(_) if read_only => paths::absolute(root),
+            Err(e) => return Err(err("open", root)(e)),
+        };
         if !read_only {
             // Existing directories on a read-only mount "create" fine; the
             // announcement is the first real write and tells.
             match super::leftovers::announce(&root.join("tmp")) {
                 Ok(()) => {}
-                Err(e) if is_read_only(&e.cause) && root.join("runs").is_dir() => read_only = true,
+                Err(e) if is_read_only(&e.cause) => read_only = true,
                 Err(e) => return Err(e),
             }
         }
-        Ok(Store { root, read_only })
+        Ok(Store {
+            root,
+            read_only,
+            seal_key,
+        })
+    }
+
+    /// The key records are sealed with (`MODALFLOW_CACHE_KEY_FILE`), if any.
+    pub fn seal_key(&self) -> Option<&[u8; 32]> {
+        self.seal_key.as_ref()
     }
 
     pub fn root(&self) -> &Path {
@@ -171,7 +216,12 @@ impl Store {
 
     /// Store the file or directory at `path`; returns its artifact.
     pub fn put(&self, path: &Path) -> Result<Artifact> {
-        let meta = fs::metadata(path).map_err(err("read", path))?;
+        // Not followed: a link among a stage's outputs would copy a file
+        // from elsewhere into the cache and the results.
+        let meta = fs::symlink_metadata(path).map_err(err("read", path))?;
+        if meta.file_type().is_symlink() {
+            return Err(err("store", path)(symlink_refused()));
+        }
         if meta.is_dir() {
             let mut entries = Vec::new();
             for rel in walk(path).map_err(err("read", path))? {
@@ -263,6 +313,9 @@ impl Store {
     /// Returns a description of the first problem found.
     pub fn verify(&self, a: &Artifact) -> std::result::Result<(), String> {
         let check = |hash: &str| -> std::result::Result<(), String> {
+            if !paths::is_hash(hash) {
+                return Err(format!("`{}` is not an object hash", hash.escape_debug()));
+            }
             match hash_file(&self.object_path(hash)) {
                 Ok(h) if h == hash => Ok(()),
                 Ok(h) => Err(format!("object {hash} is corrupt (content hashes to {h})")),
@@ -281,11 +334,25 @@ impl Store {
     fn tree(&self, hash: &str) -> Result<Vec<TreeEntry>> {
         let p = self.object_path(hash);
         let bytes = fs::read(&p).map_err(err("read", &p))?;
-        let tree: Tree = serde_json::from_slice(&bytes).map_err(|e| StoreError {
+        let invalid = |e: String| StoreError {
             op: "parse the tree object",
             path: p.clone(),
             cause: io::Error::new(io::ErrorKind::InvalidData, e),
-        })?;
+        };
+        let tree: Tree = serde_json::from_slice(&bytes).map_err(|e| invalid(e.to_string()))?;
+        // A tree's names become paths below a checkout: each must stay there.
+        for e in &tree.entries {
+            if !paths::is_hash(&e.hash) {
+                return Err(invalid(format!("entry `{}` has no valid hash", e.path)));
+            }
+            match paths::relative(&e.path) {
+                Ok(rel) if rel == e.path => {}
+                Ok(_) => return Err(invalid(format!("entry `{}` is not normalized", e.path))),
+                Err(problem) => {
+                    return Err(invalid(format!("entry `{}` {problem}", e.path.escape_debug())))
+                }
+            }
+        }
         Ok(tree.entries)
     }
 
@@ -306,6 +373,12 @@ impl Store {
     /// Copy an artifact out of the cache to `dest` (replacing what is there),
     /// via a temp path and rename so readers never see half a file.
     pub fn checkout(&self, a: &Artifact, dest: &Path) -> Result<()> {
+        if !paths::is_hash(&a.hash) {
+            return Err(err("check out", dest)(io::Error::new(
+                io::ErrorKind::InvalidData,
+                "not an object hash",
+            )));
+        }
         if let Some(dir) = dest.parent() {
             fs::create_dir_all(dir).map_err(err("create directory", dir))?;
         }
@@ -435,6 +508,14 @@ fn sibling_temp(dest: &Path) -> PathBuf {
     dest.with_file_name(format!(".{name}.modalflow-tmp-{}-{n}", process_nonce()))
 }
 
+fn symlink_refused() -> io::Error {
+    io::Error::new(
+        io::ErrorKind::InvalidInput,
+        "it is a symbolic link; modalflow stores regular files and folders only \
+         (write the file itself, not a link to it)",
+    )
+}
+
 /// blake3 of a file's content, hex.
 pub fn hash_file(path: &Path) -> io::Result<String> {
     let mut hasher = blake3::Hasher::new();
@@ -478,7 +559,14 @@ fn walk(root: &Path) -> io::Result<Vec<String>> {
         for entry in fs::read_dir(root.join(&rel))? {
             let entry = entry?;
             let r = rel.join(entry.file_name());
-            if entry.file_type()?.is_dir() {
+            let kind = entry.file_type()?;
+            if kind.is_symlink() {
+                return Err(io::Error::new(
+                    io::ErrorKind::InvalidInput,
+                    format!("{} is a symbolic link", root.join(&r).display()),
+                ));
+            }
+            if kind.is_dir() {
                 stack.push(r);
             } else {
                 out.push(r.to_string_lossy().replace('\\', "/"));

@@ -84,23 +84,20 @@ impl Kind for Command {
             ));
         }
         for (i, out) in p.outs.iter().enumerate() {
-            let path = Path::new(out);
-            let escapes = path
-                .components()
-                .any(|c| matches!(c, std::path::Component::ParentDir));
-            if path.is_absolute() || escapes || out.trim().is_empty() {
+            if let Err(problem) = crate::paths::relative(out) {
                 problems.push(ParamProblem::new(
                     &["outs", &i.to_string()],
-                    format!("output path `{out}` must be relative and stay below the pipeline directory"),
-                    "write outputs next to the pipeline file, e.g. `data/table.csv`",
+                    format!("output path `{}` {problem}", out.escape_debug()),
+                    "outputs are removed before the command runs and restored from the cache: \
+                     name a file or folder strictly below the pipeline directory, e.g. `data/table.csv`",
                 ));
             }
         }
         for (i, dep) in p.deps.iter().enumerate() {
-            if dep.trim().is_empty() {
+            if dep.trim().is_empty() || dep.chars().any(char::is_control) {
                 problems.push(ParamProblem::new(
                     &["deps", &i.to_string()],
-                    "an empty dependency path",
+                    format!("dependency path `{}` is empty or has a control character", dep.escape_debug()),
                     "name a file or directory relative to the pipeline file",
                 ));
             }
@@ -111,20 +108,7 @@ impl Kind for Command {
     fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
         let cmd = p.cmd.as_str();
         for out in &p.outs {
-            let p = ctx.pipeline_dir.join(out);
-            let removed = if p.is_dir() {
-                std::fs::remove_dir_all(&p)
-            } else {
-                std::fs::remove_file(&p)
-            };
-            if let Err(e) = removed {
-                if e.kind() != std::io::ErrorKind::NotFound {
-                    return Err(StageError::io(
-                        format!("cannot remove stale output {}", p.display()),
-                        e,
-                    ));
-                }
-            }
+            remove_stale_output(ctx.pipeline_dir, out)?;
         }
         let log_path = ctx.scratch.join("command.log");
         let log =
@@ -185,6 +169,29 @@ impl Kind for Command {
             files,
             counters: Default::default(),
         })
+    }
+}
+
+/// Remove what a previous run left at `out` (checked by the path policy
+/// at validation; checked again here, since links can appear meanwhile):
+/// never through a symbolic link, never the pipeline directory itself.
+fn remove_stale_output(dir: &Path, out: &str) -> Result<(), StageError> {
+    let rel = crate::paths::relative(out)
+        .map_err(|problem| StageError::Failed(format!("output path `{out}` {problem}")))?;
+    crate::paths::no_symlink_below(dir, &rel)
+        .map_err(|e| StageError::io(format!("cannot remove stale output `{out}`"), e))?;
+    let p = dir.join(&rel);
+    let removed = match std::fs::symlink_metadata(&p) {
+        Ok(m) if m.is_dir() => std::fs::remove_dir_all(&p),
+        Ok(_) => std::fs::remove_file(&p),
+        Err(e) => Err(e),
+    };
+    match removed {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(StageError::io(
+            format!("cannot remove stale output {}", p.display()),
+            e,
+        )),
+        _ => Ok(()),
     }
 }
 

@@ -27,7 +27,7 @@ use super::{
     Artifact, FileRef, InputSpec, Kind, Output, ParamProblem, StageContext, StageError,
     StageOutputs,
 };
-use crate::dynamics::{self, directory_resolver};
+use crate::dynamics;
 use crate::simulator::{BandOptions, FrfBands, Model, StructuralModel, StructuralOptions};
 use model_spec::{ModelParam, ModelSpec};
 pub use spec::Params;
@@ -255,7 +255,8 @@ pub(super) fn build_model(
     let text = std::fs::read_to_string(&file)
         .map_err(|e| StageError::io(format!("cannot read model file `{path}`"), e))?;
     let base = file.parent().unwrap_or(ctx.pipeline_dir).to_path_buf();
-    let resolver = directory_resolver(&base);
+    let resolver =
+        crate::paths::confined_reader(base.clone(), vec![ctx.pipeline_dir.to_path_buf(), base]);
     let model =
         dynamics::Model::from_yaml(&text, path, &resolver).map_err(|e| invalid(e.to_string()))?;
     let reference = match ctx.inputs.get("reference") {

@@ -18,7 +18,6 @@ use super::{
 use crate::dynamics::measurement;
 use crate::dynamics::model_file::{self, ParameterKind};
 use crate::dynamics::solve::ModeSelection;
-use crate::dynamics::superelement::directory_resolver;
 use crate::dynamics::{Model, PreparedModel};
 use crate::frf::{Dof, FrfSet};
 use crate::modal::{ModalModel, Mode};
@@ -39,7 +38,7 @@ fn load_model(dir: &Path, rel: &str) -> Result<(Model, String), String> {
     let text =
         std::fs::read_to_string(&path).map_err(|e| format!("cannot read model file {rel}: {e}"))?;
     let base = path.parent().unwrap_or(dir).to_path_buf();
-    let resolver = directory_resolver(&base);
+    let resolver = crate::paths::confined_reader(base.clone(), vec![dir.to_path_buf(), base]);
     let model = Model::from_yaml(&text, rel, &resolver).map_err(|e| e.to_string())?;
     Ok((model, text))
 }

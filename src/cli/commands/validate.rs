@@ -13,15 +13,18 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// Accepted like on every command that takes them, so one command line
-    /// works for `validate`, `status` and `run`; validation reads no cache.
+    /// works for `validate`, `status` and `run`; validation reads no cache
+    /// but refuses locations that overlap the project or each other.
     #[command(flatten)]
-    _locations: Locations,
+    locations: Locations,
     #[command(flatten)]
     overrides: crate::cli::output::Overrides,
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
     let plan = plan::load_with(&args.file, &args.overrides.set)?;
+    modalflow::pipeline::roots::check(&plan, &args.locations.cache, &args.locations.results)
+        .map_err(modalflow::pipeline::scheduler::RunError::from)?;
     let edges: usize = plan.upstream.iter().map(Vec::len).sum();
     if args.json {
         print_json(&serde_json::json!({

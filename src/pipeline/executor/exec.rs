@@ -121,7 +121,16 @@ fn run_in(
             let path = match input.artifact.kind {
                 ArtifactKind::File => object,
                 ArtifactKind::Dir => {
-                    let p = inputs_dir.join(name).join(k.to_string()).join(&input.file);
+                    // The file name comes from a record: it must stay below.
+                    let file = crate::paths::relative(&input.file).map_err(|problem| {
+                        JobError::Stage(format!(
+                            "input `{name}` ({}.{}): file name `{}` {problem}",
+                            input.stage,
+                            input.output,
+                            input.file.escape_debug()
+                        ))
+                    })?;
+                    let p = inputs_dir.join(name).join(k.to_string()).join(file);
                     store.checkout(&input.artifact, &p)?;
                     p
                 }
@@ -200,7 +209,13 @@ fn run_in(
                 .map(|f| f.to_string_lossy().into_owned())
                 .unwrap_or_else(|| name.clone())
         };
-        let artifact = store.put(&full)?;
+        let artifact = store.put(&full).map_err(|e| match e.cause.kind() {
+            // A link among the outputs is the stage's fault, not the cache's.
+            std::io::ErrorKind::InvalidInput => JobError::Stage(format!(
+                "output `{name}`: {e}; fix the command or the outs list"
+            )),
+            _ => JobError::Store(e),
+        })?;
         outputs.insert(name.clone(), OutputRecord { file, artifact });
     }
     let record = RunRecord {
@@ -262,7 +277,7 @@ fn commit_shard(
 /// back from the cache when it is missing or differs.
 fn restore_workspace(store: &Store, job: &Job) -> Result<(), StoreError> {
     for r in &job.restore {
-        let dest = job.pipeline_dir.join(&r.path);
+        let dest = crate::pipeline::execute::workspace_path(&job.pipeline_dir, &r.path)?;
         if store::hash_path(&dest).ok().as_deref() != Some(r.artifact.hash.as_str()) {
             store.checkout(&r.artifact, &dest)?;
         }

@@ -3,9 +3,50 @@
 //! files reference.
 
 use super::{Ctx, FileParam, Node};
+use crate::paths;
 use crate::stages;
 use std::collections::HashMap;
-use std::path::{Component, Path};
+use std::path::{Component, Path, PathBuf};
+
+/// The `read_outside:` directories, resolved against `dir`; each must be
+/// an existing directory.
+pub(super) fn read_roots(cx: &mut Ctx, given: &[String], dir: &Path) -> Vec<PathBuf> {
+    let mut roots = Vec::new();
+    for (i, text) in given.iter().enumerate() {
+        match std::fs::canonicalize(dir.join(text)) {
+            Ok(p) if p.is_dir() => roots.push(p),
+            _ => {
+                let loc = cx.spans.value(&["read_outside", &i.to_string()]);
+                cx.at(
+                    loc,
+                    format!("`read_outside: {text}` is not a directory"),
+                    Some(format!(
+                        "name existing directories, relative to the pipeline file's directory ({})",
+                        dir.display()
+                    )),
+                );
+            }
+        }
+    }
+    roots
+}
+
+/// Whether a file param may be read: it resolves (links followed) below
+/// the pipeline directory or a `read_outside:` directory. A file that does
+/// not exist yet is judged by its path.
+fn outside(dir: &Path, roots: &[PathBuf], path: &str) -> Option<PathBuf> {
+    let full = paths::absolute(&dir.join(path));
+    (!paths::read_allowed(&full, dir, roots)).then_some(full)
+}
+
+fn outside_help(dir: &Path) -> String {
+    format!(
+        "modalflow reads only below the pipeline file's directory ({}); to read elsewhere on \
+         purpose, list the directory under `read_outside:` at the top of the pipeline file, \
+         or copy the file below the pipeline directory",
+        dir.display()
+    )
+}
 
 /// Collect path-typed params, link them to producing stages, and check that
 /// the rest exist.
@@ -46,11 +87,20 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
             let loc_path: Vec<&str> = loc_path.iter().map(String::as_str).collect();
             if f.glob {
                 match stages::expand_glob(dir, &f.path) {
-                    Ok(found) => files.extend(found.into_iter().map(|(rel, _)| FileParam {
-                        param: f.param.clone(),
-                        path: rel,
-                        producer: None,
-                    })),
+                    Ok(found) => {
+                        for (rel, _) in found {
+                            if let Some(full) = outside(dir, &cx.read_roots, &rel) {
+                                let loc = cx.spans.value(&loc_path);
+                                cx.at(loc, format!("param `{}` of stage `{}` matches `{}`, outside the pipeline directory", f.param, node.name, full.display()), Some(outside_help(dir)));
+                                continue;
+                            }
+                            files.push(FileParam {
+                                param: f.param.clone(),
+                                path: rel,
+                                producer: None,
+                            });
+                        }
+                    }
                     Err(message) => {
                         let loc = cx.spans.value(&loc_path);
                         cx.at(loc, format!("param `{}` of stage `{}`: {message}", f.param, node.name), Some("paths are relative to the pipeline file's directory; check the pattern".into()));
@@ -60,6 +110,11 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
             }
             let path = normalize(&f.path);
             let producer = producers.get(&path).filter(|(p, _)| *p != i).cloned();
+            if let Some(full) = outside(dir, &cx.read_roots, &path) {
+                let loc = cx.spans.value(&loc_path);
+                cx.at(loc, format!("file `{}` named by param `{}` of stage `{}` is outside the pipeline directory ({})", f.path, f.param, node.name, full.display()), Some(outside_help(dir)));
+                continue;
+            }
             if producer.is_none() && !dir.join(&path).exists() {
                 let loc = cx.spans.value(&loc_path);
                 cx.at(loc, format!("file `{}` named by param `{}` of stage `{}` does not exist", f.path, f.param, node.name), Some(format!("paths are relative to the pipeline file's directory ({}); create the file or let a `command` stage produce it via `outs`", dir.display())));
@@ -73,11 +128,21 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
         // Look into the files once they all exist and the params are good.
         if node.parsed.is_valid() && cx.diags.len() == before {
             match node.kind.file_dependencies(&node.parsed, dir) {
-                Ok(extra) => files.extend(extra.into_iter().map(|path| FileParam {
-                    param: "(referenced)".into(),
-                    path: normalize(&path),
-                    producer: None,
-                })),
+                Ok(extra) => {
+                    for path in extra {
+                        let path = normalize(&path);
+                        if let Some(full) = outside(dir, &cx.read_roots, &path) {
+                            let loc = cx.spans.value(&["stages", &node.base, "params"]);
+                            cx.at(loc, format!("stage `{}`: a file it references, `{path}`, is outside the pipeline directory ({})", node.name, full.display()), Some(outside_help(dir)));
+                            continue;
+                        }
+                        files.push(FileParam {
+                            param: "(referenced)".into(),
+                            path,
+                            producer: None,
+                        });
+                    }
+                }
                 Err(p) => {
                     let mut path = vec!["stages", node.base.as_str(), "params"];
                     path.extend(p.path.iter().map(String::as_str));
@@ -87,6 +152,36 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
             }
         }
         node.files = files;
+    }
+}
+
+/// Declared workspace outputs (`outs`) are removed before their command
+/// runs and restored from the cache: one must not be the pipeline file
+/// itself, nor lie behind a symbolic link (the removal would reach
+/// through it).
+pub(super) fn check_workspace_outputs(cx: &mut Ctx, dir: &Path, nodes: &[Node]) {
+    let own = cx.file.file_name().map(|n| n.to_string_lossy().into_owned());
+    for n in nodes {
+        for out in &n.workspace_outputs {
+            let Ok(rel) = paths::relative(out) else {
+                continue; // reported by the kind's check
+            };
+            let problem = if own.as_deref() == Some(rel.as_str()) {
+                Some("is the pipeline file itself".to_string())
+            } else {
+                paths::no_symlink_below(dir, &rel)
+                    .err()
+                    .map(|e| format!("cannot be written: {e}"))
+            };
+            if let Some(problem) = problem {
+                let loc = cx.spans.value(&["stages", &n.base, "params", "outs"]);
+                cx.at(
+                    loc,
+                    format!("output `{out}` of stage `{}` {problem}", n.name),
+                    Some("name a file or folder of the stage's own below the pipeline directory".into()),
+                );
+            }
+        }
     }
 }
 

@@ -18,6 +18,7 @@ use super::diagnostic::{closest, Diagnostic, Diagnostics, Location};
 use super::executor::ExecutorSpec;
 use super::graph;
 use super::matrix::{self, Combination};
+use crate::paths::{self, MAX_NAME_BYTES};
 use super::span::SpanIndex;
 use super::spec::{PipelineSpec, StageSpec};
 use crate::stages::{self, Output, Parsed, Stage};
@@ -124,6 +125,8 @@ pub(super) struct Ctx<'a> {
     pub(super) invalid: BTreeSet<String>,
     /// `--set` overrides and whether each applied to a stage.
     pub(super) sets: Vec<(Override, bool)>,
+    /// The `read_outside:` directories, absolute with links resolved.
+    pub(super) read_roots: Vec<PathBuf>,
 }
 
 impl Ctx<'_> {
@@ -178,12 +181,21 @@ fn plan_sets(file: &Path, dir: &Path, source: &str, sets: &[String]) -> Result<P
         diags: Vec::new(),
         invalid: BTreeSet::new(),
         sets: Vec::new(),
+        read_roots: Vec::new(),
     };
     for text in sets {
         match Override::parse(text) {
             Ok(o) => cx.sets.push((o, false)),
             Err(e) => cx.at(None, e, None),
         }
+    }
+    if let Err(deep) = crate::yaml::check_depth(source) {
+        let loc = Location {
+            line: deep.line,
+            column: deep.column,
+        };
+        cx.at(Some(loc), format!("invalid pipeline file: {deep}"), None);
+        return Err(PlanError::Invalid(Diagnostics(cx.diags)));
     }
     let mut spec: PipelineSpec = match serde_yaml_ng::from_str(source) {
         Ok(s) => s,
@@ -211,6 +223,7 @@ fn plan_sets(file: &Path, dir: &Path, source: &str, sets: &[String]) -> Result<P
         );
     }
     check_executor(&mut cx, &spec.executor);
+    cx.read_roots = files::read_roots(&mut cx, &spec.read_outside, dir);
     let mut nodes = expand(&mut cx, &spec, dir);
     check_sets(&mut cx, &nodes);
     check_shards(&mut cx, &spec.executor, &nodes);
@@ -218,6 +231,7 @@ fn plan_sets(file: &Path, dir: &Path, source: &str, sets: &[String]) -> Result<P
     spec.executor.binary = check_binary(&mut cx, &spec.executor, dir);
     resolve_inputs(&mut cx, &spec, &mut nodes);
     resolve_files(&mut cx, dir, &mut nodes);
+    files::check_workspace_outputs(&mut cx, dir, &nodes);
     let upstream: Vec<Vec<usize>> = nodes
         .iter()
         .map(|n| {
@@ -394,6 +408,7 @@ fn check_binary(cx: &mut Ctx, spec: &ExecutorSpec, dir: &Path) -> Option<PathBuf
 
 fn valid_stage_name(name: &str) -> bool {
     !name.is_empty()
+        && name.len() <= MAX_NAME_BYTES
         && name
             .chars()
             .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
@@ -406,7 +421,9 @@ fn expand(cx: &mut Ctx, spec: &PipelineSpec, _dir: &Path) -> Vec<Node> {
         cx.at(
             loc,
             format!("invalid pipeline name `{}`", spec.name),
-            Some("use letters, digits, `_` and `-` (it names the results directory)".into()),
+            Some(format!(
+                "use letters, digits, `_` and `-`, at most {MAX_NAME_BYTES} (it names the results directory)"
+            )),
         );
     }
     if spec.stages.is_empty() {
@@ -424,7 +441,7 @@ fn expand(cx: &mut Ctx, spec: &PipelineSpec, _dir: &Path) -> Vec<Node> {
             cx.at(
                 loc,
                 format!("invalid stage name `{base}`"),
-                Some("use letters, digits, `_` and `-`; dots and brackets are reserved for references".into()),
+                Some(format!("use letters, digits, `_` and `-`, at most {MAX_NAME_BYTES}; dots and brackets are reserved for references")),
             );
             continue;
         }
@@ -471,13 +488,34 @@ fn check_matrix(cx: &mut Ctx, base: &str, st: &StageSpec) -> bool {
             );
             ok = false;
         }
-        if values.iter().any(|v| matrix::scalar_text(v).is_none()) {
+        if !valid_stage_name(key) {
+            let loc = cx.spans.key(&["stages", base, "matrix", key]);
+            cx.at(
+                loc,
+                format!("invalid matrix key `{key}` in stage `{base}`"),
+                Some("use letters, digits, `_` and `-` (keys appear in `${matrix.KEY}` and in the results folder name)".into()),
+            );
+            ok = false;
+        }
+        let texts: Vec<Option<String>> = values.iter().map(matrix::scalar_text).collect();
+        if texts.iter().any(Option::is_none) {
             cx.at(
                 loc,
                 format!("matrix key `{key}` of stage `{base}` has a non-scalar value"),
                 Some("matrix values must be strings, numbers or booleans".into()),
             );
             ok = false;
+        }
+        for text in texts.into_iter().flatten() {
+            if let Err(problem) = paths::name(&text) {
+                cx.at(
+                    loc,
+                    format!("matrix value `{}` of key `{key}` in stage `{base}` {problem}", text.escape_debug()),
+                    Some("matrix values become part of the results folder name: use plain words or numbers, and \
+                          build paths in params instead, e.g. `model: models/${matrix.variant}.yaml`".into()),
+                );
+                ok = false;
+            }
         }
     }
     ok
@@ -492,6 +530,15 @@ fn expand_one(
     combo: Combination,
 ) -> Option<Node> {
     let name = matrix::expanded_name(base, &combo);
+    if let Err(problem) = paths::name(&name) {
+        let loc = cx.spans.key(&["stages", base, "matrix"]);
+        cx.at(
+            loc,
+            format!("expanded stage name `{name}` {problem}"),
+            Some("it names the stage's results folder: shorten the stage name or the matrix keys and values".into()),
+        );
+        return None;
+    }
     let params = match matrix::substitute_map(&st.params, &combo, &mut Vec::new()) {
         Ok(mut p) => {
             for (o, used) in cx.sets.iter_mut() {

@@ -27,7 +27,7 @@ use super::{
     Artifact, FileRef, InputSpec, Kind, Output, ParamProblem, StageContext, StageError,
     StageOutputs,
 };
-use crate::dynamics::{self, directory_resolver};
+use crate::dynamics;
 use crate::identify::frf_objective::{FrfNoise, FrfReference};
 use crate::identify::updating::{update, Plan, Strategy, Update};
 use crate::identify::{ModalObjective, NamedMode, Screening, SubproblemSpec};
@@ -401,7 +401,8 @@ fn load_model(ctx: &StageContext, param: Option<&str>) -> Result<dynamics::Model
         let text = std::fs::read_to_string(&file)
             .map_err(|e| StageError::io(format!("cannot read model file `{rel}`"), e))?;
         let base = file.parent().unwrap_or(ctx.pipeline_dir).to_path_buf();
-        let resolver = directory_resolver(&base);
+        let resolver =
+            crate::paths::confined_reader(base.clone(), vec![ctx.pipeline_dir.to_path_buf(), base]);
         return dynamics::Model::from_yaml(&text, rel, &resolver).map_err(|e| {
             StageError::InvalidParam {
                 param: "model".into(),
