@@ -17,6 +17,7 @@ mod identify;
 mod import;
 mod metrics_properties;
 mod optimize;
+mod path_safety;
 mod pipelines;
 mod quickstart;
 mod reliability;
