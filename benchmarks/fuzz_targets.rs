@@ -42,6 +42,16 @@ pub fn targets() -> Vec<Target> {
             seeds: &["pipelines/quickstart.yaml", "tests/fuzz/corpus/pipeline"],
             run: pipeline,
         },
+        Target {
+            name: "paths",
+            seeds: &["tests/fuzz/corpus/paths"],
+            run: paths,
+        },
+        Target {
+            name: "record",
+            seeds: &["tests/fuzz/corpus/record"],
+            run: record,
+        },
     ]
 }
 
@@ -96,10 +106,13 @@ fn pipeline_dir() -> &'static Path {
     })
 }
 
-/// Remove the directory [`pipeline_dir`] made.
+/// Remove the directories [`pipeline_dir`] and [`record_bench`] made.
 pub fn cleanup() {
     if let Some(dir) = PIPELINE_DIR.get() {
         let _ = std::fs::remove_dir_all(dir);
+    }
+    if let Some(bench) = RECORD_BENCH.get() {
+        let _ = std::fs::remove_dir_all(&bench.parent);
     }
 }
 
@@ -113,6 +126,122 @@ fn pipeline(bytes: &[u8]) -> String {
         }
         other => class(other),
     }
+}
+
+/// The path policy on arbitrary text: what it accepts must stay below its
+/// root, whatever the spelling; a violation is a finding (a panic).
+fn paths(bytes: &[u8]) -> String {
+    use modalflow::paths::{name, relative};
+    let text = String::from_utf8_lossy(bytes);
+    let root = Path::new("/root-of-fuzz");
+    if let Ok(rel) = relative(&text) {
+        let joined = root.join(&rel);
+        let escapes = Path::new(&rel).components().any(|c| {
+            !matches!(c, std::path::Component::Normal(_))
+        });
+        assert!(
+            !escapes && joined.starts_with(root) && joined != root,
+            "relative({text:?}) = {rel:?} leaves its root"
+        );
+        assert!(!rel.chars().any(char::is_control), "{rel:?}");
+    }
+    if name(&text).is_ok() {
+        let joined = root.join(&*text);
+        assert_eq!(joined.parent(), Some(root), "name({text:?}) is not one component");
+    }
+    class(relative(&text))
+}
+
+/// A scratch cache and a sandbox beside decoys, on a RAM disk where there
+/// is one (records are written with fsync).
+struct RecordBench {
+    store: modalflow::pipeline::store::Store,
+    sandbox: PathBuf,
+    decoy: PathBuf,
+    parent: PathBuf,
+}
+
+static RECORD_BENCH: OnceLock<RecordBench> = OnceLock::new();
+
+fn record_bench() -> &'static RecordBench {
+    RECORD_BENCH.get_or_init(|| {
+        let base = if Path::new("/dev/shm").is_dir() {
+            PathBuf::from("/dev/shm")
+        } else {
+            std::env::temp_dir()
+        };
+        let parent = base.join(format!("modalflow-fuzz-record-{}", std::process::id()));
+        let _ = std::fs::create_dir_all(parent.join("sandbox/a/b"));
+        let decoy = parent.join("decoy.txt");
+        let _ = std::fs::write(&decoy, "decoy");
+        let store = modalflow::pipeline::store::Store::open(&parent.join("cache"))
+            .unwrap_or_else(|e| panic!("fuzz cache: {e}"));
+        // Objects the seeds refer to: "a\n" and "b\n".
+        for blob in [b"a\n".as_slice(), b"b\n"] {
+            let _ = store.put_bytes(blob);
+        }
+        RecordBench {
+            store,
+            sandbox: parent.join("sandbox/a/b"),
+            decoy,
+            parent,
+        }
+    })
+}
+
+/// A run record (its text; `TREE` in it stands for the hash of the tree
+/// listing after the line `---`) sealed as the store would, read back, and
+/// every output it lists checked out into a sandbox two levels below a
+/// decoy: nothing may appear or change outside the sandbox and the cache.
+fn record(bytes: &[u8]) -> String {
+    use modalflow::pipeline::store::RunRecord;
+    let bench = record_bench();
+    let text = String::from_utf8_lossy(bytes);
+    let (rec_text, tree) = text.split_once("\n---\n").unwrap_or((&text, ""));
+    let tree_hash = match bench.store.put_bytes(tree.as_bytes()) {
+        Ok(h) => h,
+        Err(e) => return class::<(), _>(Err(e)),
+    };
+    let rec_text = rec_text.replace("TREE", &tree_hash);
+    let mut rec: RunRecord = match serde_json::from_str(&rec_text) {
+        Ok(r) => r,
+        Err(e) => return class::<(), _>(Err(e)),
+    };
+    rec.key = "fuzz".into();
+    if let Err(e) = bench.store.write_record(&rec) {
+        return class::<(), _>(Err(e));
+    }
+    let read = match bench.store.read_record("fuzz") {
+        Ok(Some(r)) => r,
+        Ok(None) => return "none".into(),
+        Err(e) => return class::<(), _>(Err(e)),
+    };
+    let mut outcome = Ok(());
+    for out in read.outputs.values() {
+        if let Err(e) = bench.store.verify(&out.artifact) {
+            outcome = Err(e);
+            continue;
+        }
+        if let Err(e) = bench.store.checkout(&out.artifact, &bench.sandbox.join(&out.file)) {
+            outcome = Err(e.to_string());
+        }
+    }
+    let decoy = std::fs::read(&bench.decoy).unwrap_or_default();
+    assert_eq!(decoy, b"decoy", "a record changed the decoy");
+    let mut names: Vec<String> = std::fs::read_dir(&bench.parent)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["cache", "decoy.txt", "sandbox"], "a record wrote outside");
+    let sandbox_parent = bench.sandbox.parent().unwrap_or(&bench.parent);
+    let inside: Vec<_> = std::fs::read_dir(sandbox_parent).into_iter().flatten().flatten().collect();
+    assert_eq!(inside.len(), 1, "a record wrote beside the sandbox");
+    let _ = std::fs::remove_dir_all(&bench.sandbox);
+    let _ = std::fs::create_dir_all(&bench.sandbox);
+    class(outcome)
 }
 
 /// The seed files of a target, read from below `root`.
@@ -201,6 +330,17 @@ const TOKENS: &[&[u8]] = &[
     b"rigid: ",
     b"beam: ",
     b"dofs: [x]",
+    b"../",
+    b"/",
+    b"./",
+    b"..",
+    b"\\",
+    b"//",
+    b"\0",
+    b"\"file\": \"",
+    b"\"path\": \"",
+    b"\"hash\": \"",
+    b"../../decoy.txt",
 ];
 
 /// One random mutation of `input` (`other`: a second corpus entry for

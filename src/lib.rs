@@ -10,6 +10,7 @@ pub mod dynamics;
 pub mod ema;
 pub mod frf;
 pub mod geometry;
+pub mod heap;
 pub mod identify;
 pub mod io;
 pub mod metrics;

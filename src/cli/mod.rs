@@ -18,8 +18,9 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
-    /// Memory a stage may be estimated to need (e.g. 4G, 512M); params
-    /// asking for more are rejected at validation. Default: half the RAM.
+    /// Memory bound of the run (e.g. 4G, 512M): params estimated to need
+    /// more are rejected at validation, and the process stops (exit 3)
+    /// when its heap would grow past it. Default: half the RAM.
     #[arg(long, global = true, env = "MODALFLOW_MAX_MEMORY", value_name = "SIZE",
           value_parser = modalflow::resources::parse_size)]
     max_memory: Option<u64>,
@@ -65,6 +66,7 @@ pub fn main() -> ExitCode {
     if let Some(bytes) = cli.max_memory {
         modalflow::resources::set_memory_limit(bytes);
     }
+    crate::HEAP.set_limit(modalflow::resources::memory_limit());
     let result = match cli.command {
         Command::Run(a) => commands::run::exec(a),
         Command::Status(a) => commands::status::exec(a),
