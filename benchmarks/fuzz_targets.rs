@@ -136,9 +136,9 @@ fn paths(bytes: &[u8]) -> String {
     let root = Path::new("/root-of-fuzz");
     if let Ok(rel) = relative(&text) {
         let joined = root.join(&rel);
-        let escapes = Path::new(&rel).components().any(|c| {
-            !matches!(c, std::path::Component::Normal(_))
-        });
+        let escapes = Path::new(&rel)
+            .components()
+            .any(|c| !matches!(c, std::path::Component::Normal(_)));
         assert!(
             !escapes && joined.starts_with(root) && joined != root,
             "relative({text:?}) = {rel:?} leaves its root"
@@ -147,7 +147,11 @@ fn paths(bytes: &[u8]) -> String {
     }
     if name(&text).is_ok() {
         let joined = root.join(&*text);
-        assert_eq!(joined.parent(), Some(root), "name({text:?}) is not one component");
+        assert_eq!(
+            joined.parent(),
+            Some(root),
+            "name({text:?}) is not one component"
+        );
     }
     class(relative(&text))
 }
@@ -222,7 +226,10 @@ fn record(bytes: &[u8]) -> String {
             outcome = Err(e);
             continue;
         }
-        if let Err(e) = bench.store.checkout(&out.artifact, &bench.sandbox.join(&out.file)) {
+        if let Err(e) = bench
+            .store
+            .checkout(&out.artifact, &bench.sandbox.join(&out.file))
+        {
             outcome = Err(e.to_string());
         }
     }
@@ -235,9 +242,17 @@ fn record(bytes: &[u8]) -> String {
         .map(|e| e.file_name().to_string_lossy().into_owned())
         .collect();
     names.sort();
-    assert_eq!(names, ["cache", "decoy.txt", "sandbox"], "a record wrote outside");
+    assert_eq!(
+        names,
+        ["cache", "decoy.txt", "sandbox"],
+        "a record wrote outside"
+    );
     let sandbox_parent = bench.sandbox.parent().unwrap_or(&bench.parent);
-    let inside: Vec<_> = std::fs::read_dir(sandbox_parent).into_iter().flatten().flatten().collect();
+    let inside: Vec<_> = std::fs::read_dir(sandbox_parent)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .collect();
     assert_eq!(inside.len(), 1, "a record wrote beside the sandbox");
     let _ = std::fs::remove_dir_all(&bench.sandbox);
     let _ = std::fs::create_dir_all(&bench.sandbox);

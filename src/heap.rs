@@ -106,7 +106,10 @@ extern "C" {
 fn stop(limit: usize, used: usize, asked: usize) -> ! {
     use std::io::Write;
     let mut buf = [0u8; 512];
-    let mut w = Cursor { buf: &mut buf, len: 0 };
+    let mut w = Cursor {
+        buf: &mut buf,
+        len: 0,
+    };
     w.put(b"modalflow: the memory limit of ");
     w.mib(limit);
     w.put(b" (--max-memory) is reached: an allocation of ");
@@ -175,7 +178,10 @@ mod tests {
     #[test]
     fn the_message_is_formatted_without_allocating() {
         let mut buf = [0u8; 64];
-        let mut w = Cursor { buf: &mut buf, len: 0 };
+        let mut w = Cursor {
+            buf: &mut buf,
+            len: 0,
+        };
         w.mib(256 << 20);
         w.put(b", ");
         w.mib(1);

@@ -59,7 +59,13 @@ impl Sandbox {
                 if t.is_dir() {
                     stack.push(p);
                 } else if t.is_symlink() {
-                    out.insert(p.clone(), std::fs::read_link(&p).unwrap().into_os_string().into_encoded_bytes());
+                    out.insert(
+                        p.clone(),
+                        std::fs::read_link(&p)
+                            .unwrap()
+                            .into_os_string()
+                            .into_encoded_bytes(),
+                    );
                 } else {
                     out.insert(p.clone(), std::fs::read(&p).unwrap());
                 }
@@ -95,7 +101,10 @@ impl Sandbox {
         for (k, v) in &before {
             assert_eq!(Some(v), after.get(k), "{args:?} changed {}", k.display());
         }
-        assert!(!stderr.contains(DECOY.trim()), "a decoy was quoted: {stderr}");
+        assert!(
+            !stderr.contains(DECOY.trim()),
+            "a decoy was quoted: {stderr}"
+        );
         stderr
     }
 }
@@ -108,8 +117,16 @@ fn command_stage(outs: &str) -> String {
 fn outs_that_name_the_directory_its_parent_or_an_absolute_path_are_refused() {
     let sb = Sandbox::new();
     for outs in [
-        "\".\"", "\"./\"", "\"./.\"", "\"\"", "\"keep/..\"", "\"../outside\"",
-        "\"../outside/decoy.txt\"", "\"/tmp\"", "\"keep/\\n\"", "p.yaml",
+        "\".\"",
+        "\"./\"",
+        "\"./.\"",
+        "\"\"",
+        "\"keep/..\"",
+        "\"../outside\"",
+        "\"../outside/decoy.txt\"",
+        "\"/tmp\"",
+        "\"keep/\\n\"",
+        "p.yaml",
     ] {
         sb.write("p.yaml", &command_stage(outs));
         for cmd in ["validate", "run", "status"] {
@@ -134,8 +151,16 @@ fn outs_overlapping_the_cache_or_results_and_overlapping_roots_are_refused() {
     sb.expect(&["validate", "study/p.yaml", "--results", "."], 2, &[]);
     // A cache inside the results folder, and results inside the cache.
     sb.write("p.yaml", &command_stage("o.txt"));
-    for (cache, results) in [("results/p/s", "results"), ("cache", "cache/r"), (".", "results")] {
-        let err = sb.expect(&["run", "p.yaml", "--cache", cache, "--results", results], 2, &[]);
+    for (cache, results) in [
+        ("results/p/s", "results"),
+        ("cache", "cache/r"),
+        (".", "results"),
+    ] {
+        let err = sb.expect(
+            &["run", "p.yaml", "--cache", cache, "--results", results],
+            2,
+            &[],
+        );
         assert!(err.contains("overlap") || err.contains("contains"), "{err}");
     }
 }
@@ -188,7 +213,11 @@ fn links_are_never_written_through_nor_followed_into_the_cache() {
     assert!(err.contains("symbolic link"), "{err}");
     for entry in walk(&sb.proj().join("cache")) {
         let bytes = std::fs::read(&entry).unwrap_or_default();
-        assert!(!String::from_utf8_lossy(&bytes).contains(DECOY.trim()), "{}", entry.display());
+        assert!(
+            !String::from_utf8_lossy(&bytes).contains(DECOY.trim()),
+            "{}",
+            entry.display()
+        );
     }
 }
 
@@ -203,7 +232,10 @@ fn files_outside_the_pipeline_directory_are_read_only_when_listed() {
             &format!("name: p\nstages:\n  s:\n    kind: command\n    params: {{cmd: \"true\", deps: [\"{dep}\"]}}\n"),
         );
         let err = sb.expect(&["validate", "p.yaml"], 2, &[]);
-        assert!(err.contains("outside the pipeline directory") && err.contains("read_outside"), "{err}");
+        assert!(
+            err.contains("outside the pipeline directory") && err.contains("read_outside"),
+            "{err}"
+        );
     }
     // A model file pulling in a matrix file from elsewhere: refused, and
     // the foreign file's content is never quoted.
@@ -220,14 +252,20 @@ fn files_outside_the_pipeline_directory_are_read_only_when_listed() {
         "name: p\nstages:\n  t:\n    kind: synthesize\n    params: {model: models/fe.yaml, frequency: {min: 0, max: 10, step: 1}}\n",
     );
     let err = sb.expect(&["validate", "p.yaml"], 2, &[]);
-    assert!(err.contains("outside the pipeline and model directories"), "{err}");
+    assert!(
+        err.contains("outside the pipeline and model directories"),
+        "{err}"
+    );
     // Listed on purpose: read.
     sb.write(
         "p.yaml",
         "name: p\nread_outside: [../outside]\nstages:\n  s:\n    kind: command\n    params: {cmd: \"cat ../outside/decoy.txt > o.txt\", deps: [../outside/decoy.txt], outs: [o.txt]}\n",
     );
     sb.expect(&["run", "p.yaml"], 0, &["cache", "results", "o.txt"]);
-    assert_eq!(std::fs::read_to_string(sb.proj().join("o.txt")).unwrap(), DECOY);
+    assert_eq!(
+        std::fs::read_to_string(sb.proj().join("o.txt")).unwrap(),
+        DECOY
+    );
 }
 
 /// A run of a two-output command stage, and its record.
@@ -236,7 +274,9 @@ fn cached_run(sb: &Sandbox, key_file: Option<&Path>) -> (Store, RunRecord) {
         "p.yaml",
         "name: p\nstages:\n  s:\n    kind: command\n    params: {cmd: \"mkdir -p d && echo a > d/a.txt && echo b > o.txt\", outs: [d, o.txt]}\n",
     );
-    let mut c = sb.root.command(&["run", "p.yaml", "--json", "--progress", "none"]);
+    let mut c = sb
+        .root
+        .command(&["run", "p.yaml", "--json", "--progress", "none"]);
     c.current_dir(sb.proj());
     if let Some(k) = key_file {
         c.env("MODALFLOW_CACHE_KEY_FILE", k);
@@ -254,15 +294,19 @@ fn cached_run(sb: &Sandbox, key_file: Option<&Path>) -> (Store, RunRecord) {
     (store, rec)
 }
 
+/// One way to edit a genuine record.
+type Forgery = Box<dyn Fn(&mut RunRecord)>;
+
 #[test]
 fn a_forged_record_can_at_worst_make_a_stage_rerun() {
     let sb = Sandbox::new();
     let (store, rec) = cached_run(&sb, None);
     let pwned = store.put_bytes(b"PWNED\n").unwrap();
     let escape = "../../outside/decoy.txt";
-    let tree = format!("{{\"entries\":[{{\"path\":\"{escape}\",\"hash\":\"{pwned}\",\"bytes\":6}}]}}");
+    let tree =
+        format!("{{\"entries\":[{{\"path\":\"{escape}\",\"hash\":\"{pwned}\",\"bytes\":6}}]}}");
     let tree_hash = store.put_bytes(tree.as_bytes()).unwrap();
-    let forgeries: Vec<Box<dyn Fn(&mut RunRecord)>> = vec![
+    let forgeries: Vec<Forgery> = vec![
         Box::new(|r| r.outputs.get_mut("o.txt").unwrap().file = escape.into()),
         Box::new(|r| r.outputs.get_mut("o.txt").unwrap().file = "/tmp/x".into()),
         Box::new(|r| r.outputs.get_mut("o.txt").unwrap().artifact.hash = escape.into()),
@@ -278,17 +322,29 @@ fn a_forged_record_can_at_worst_make_a_stage_rerun() {
         store.write_record(&forged).unwrap();
         std::fs::remove_dir_all(sb.proj().join("results")).ok();
         std::fs::remove_dir_all(sb.proj().join("d")).ok();
-        let err = sb.expect(&["run", "p.yaml", "--progress", "lines"], 0, &["cache", "results", "d", "o.txt"]);
+        let err = sb.expect(
+            &["run", "p.yaml", "--progress", "lines"],
+            0,
+            &["cache", "results", "d", "o.txt"],
+        );
         assert!(err.contains("cache entry unusable"), "{err}");
-        assert_eq!(std::fs::read_to_string(sb.proj().join("o.txt")).unwrap(), "b\n");
-        assert_eq!(std::fs::read_to_string(sb.proj().join("d/a.txt")).unwrap(), "a\n");
+        assert_eq!(
+            std::fs::read_to_string(sb.proj().join("o.txt")).unwrap(),
+            "b\n"
+        );
+        assert_eq!(
+            std::fs::read_to_string(sb.proj().join("d/a.txt")).unwrap(),
+            "a\n"
+        );
     }
 }
 
 #[test]
 fn with_a_cache_key_a_record_written_without_it_is_recomputed() {
     let sb = Sandbox::new();
-    let key = sb.root.write("secret.key", "a long random secret, 32 bytes or so\n");
+    let key = sb
+        .root
+        .write("secret.key", "a long random secret, 32 bytes or so\n");
     let (store, rec) = cached_run(&sb, Some(&key));
     // Someone without the key swaps o.txt for other (valid) content.
     let forged_obj = store.put_bytes(b"forged\n").unwrap();
@@ -296,13 +352,20 @@ fn with_a_cache_key_a_record_written_without_it_is_recomputed() {
     forged.outputs.get_mut("o.txt").unwrap().artifact.hash = forged_obj;
     store.write_record(&forged).unwrap();
     let mut c = sb.root.command(&["run", "p.yaml", "--progress", "lines"]);
-    c.current_dir(sb.proj()).env("MODALFLOW_CACHE_KEY_FILE", &key);
+    c.current_dir(sb.proj())
+        .env("MODALFLOW_CACHE_KEY_FILE", &key);
     let out = c.output().unwrap();
     let err = text(&out.stderr);
     assert_eq!(out.status.code(), Some(0), "{err}");
     assert!(err.contains("not sealed with this cache's key"), "{err}");
-    assert_eq!(std::fs::read_to_string(sb.proj().join("o.txt")).unwrap(), "b\n");
-    assert_eq!(std::fs::read_to_string(sb.proj().join("results/p/s/o.txt")).unwrap(), "b\n");
+    assert_eq!(
+        std::fs::read_to_string(sb.proj().join("o.txt")).unwrap(),
+        "b\n"
+    );
+    assert_eq!(
+        std::fs::read_to_string(sb.proj().join("results/p/s/o.txt")).unwrap(),
+        "b\n"
+    );
 }
 
 #[test]
@@ -311,7 +374,11 @@ fn deep_yaml_nesting_is_refused_before_parsing() {
     let n = 100_000;
     sb.write(
         "p.yaml",
-        &format!("name: p\nstages:\n  s:\n    kind: command\n    params: {{cmd: x, deps: {}{}}}\n", "[".repeat(n), "]".repeat(n)),
+        &format!(
+            "name: p\nstages:\n  s:\n    kind: command\n    params: {{cmd: x, deps: {}{}}}\n",
+            "[".repeat(n),
+            "]".repeat(n)
+        ),
     );
     let err = sb.expect(&["validate", "p.yaml"], 2, &[]);
     assert!(err.contains("nesting deeper than 64"), "{err}");

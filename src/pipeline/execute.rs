@@ -397,8 +397,8 @@ impl Engine<'_> {
 /// what the pipeline file says, never trusted for where to write.
 fn check_outputs(node: &Node, rec: &RunRecord) -> Result<(), String> {
     let declared = node.output_names();
-    let same_names = declared.len() == rec.outputs.len()
-        && declared.iter().all(|n| rec.outputs.contains_key(n));
+    let same_names =
+        declared.len() == rec.outputs.len() && declared.iter().all(|n| rec.outputs.contains_key(n));
     if !same_names {
         return Err(format!(
             "run record lists outputs {:?}, the stage declares {declared:?}",

@@ -78,7 +78,9 @@ fn seal_matches(text: &[u8], checksum: &str, key: Option<&[u8; 32]>) -> bool {
 fn check_paths(rec: &RunRecord) -> std::result::Result<(), String> {
     for (name, out) in &rec.outputs {
         if !paths::is_hash(&out.artifact.hash) {
-            return Err(format!("run record: output `{name}` has no valid object hash"));
+            return Err(format!(
+                "run record: output `{name}` has no valid object hash"
+            ));
         }
         match paths::relative(&out.file) {
             Ok(rel) if rel == out.file => {}

@@ -40,10 +40,7 @@ pub fn check(plan: &Plan, cache: &Path, results: &Path) -> Result<(), RootsOverl
     let folder = results.join(&plan.name);
     if std::fs::symlink_metadata(&folder).is_ok_and(|m| m.file_type().is_symlink()) {
         return refuse(
-            format!(
-                "the results folder {} is a symbolic link",
-                folder.display()
-            ),
+            format!("the results folder {} is a symbolic link", folder.display()),
             "modalflow replaces stage folders there and does not write through links; \
              remove the link or choose another --results",
         );

@@ -349,7 +349,10 @@ impl Store {
                 Ok(rel) if rel == e.path => {}
                 Ok(_) => return Err(invalid(format!("entry `{}` is not normalized", e.path))),
                 Err(problem) => {
-                    return Err(invalid(format!("entry `{}` {problem}", e.path.escape_debug())))
+                    return Err(invalid(format!(
+                        "entry `{}` {problem}",
+                        e.path.escape_debug()
+                    )))
                 }
             }
         }

@@ -97,7 +97,10 @@ impl Kind for Command {
             if dep.trim().is_empty() || dep.chars().any(char::is_control) {
                 problems.push(ParamProblem::new(
                     &["deps", &i.to_string()],
-                    format!("dependency path `{}` is empty or has a control character", dep.escape_debug()),
+                    format!(
+                        "dependency path `{}` is empty or has a control character",
+                        dep.escape_debug()
+                    ),
                     "name a file or directory relative to the pipeline file",
                 ));
             }

@@ -160,7 +160,10 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
 /// itself, nor lie behind a symbolic link (the removal would reach
 /// through it).
 pub(super) fn check_workspace_outputs(cx: &mut Ctx, dir: &Path, nodes: &[Node]) {
-    let own = cx.file.file_name().map(|n| n.to_string_lossy().into_owned());
+    let own = cx
+        .file
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned());
     for n in nodes {
         for out in &n.workspace_outputs {
             let Ok(rel) = paths::relative(out) else {
@@ -178,7 +181,10 @@ pub(super) fn check_workspace_outputs(cx: &mut Ctx, dir: &Path, nodes: &[Node]) 
                 cx.at(
                     loc,
                     format!("output `{out}` of stage `{}` {problem}", n.name),
-                    Some("name a file or folder of the stage's own below the pipeline directory".into()),
+                    Some(
+                        "name a file or folder of the stage's own below the pipeline directory"
+                            .into(),
+                    ),
                 );
             }
         }
