@@ -30,12 +30,13 @@ fn model_source(
                 message: e.to_string(),
             }
         })?;
-        let base = file.parent().unwrap_or(ctx.pipeline_dir);
+        let base = file.parent().unwrap_or(ctx.pipeline_dir).to_path_buf();
+        let read =
+            crate::paths::confined_reader(base.clone(), vec![ctx.pipeline_dir.to_path_buf(), base]);
         let mut external = BTreeMap::new();
         for f in spec.external_files() {
-            let content = std::fs::read_to_string(base.join(&f))
-                .map_err(|e| StageError::io(format!("cannot read {f}"), e))?;
-            external.insert(f, content);
+            let bytes = read(&f).map_err(|e| StageError::io(format!("cannot read {f}"), e))?;
+            external.insert(f, String::from_utf8_lossy(&bytes).into_owned());
         }
         return Ok((text, rel.to_string(), external));
     }
