@@ -355,3 +355,147 @@ stages:
     // synthesize ran on the submitting machine: only the array and the merge queued.
     assert_eq!(submissions(&ws).len(), 2);
 }
+
+/// Files named `decoy*` anywhere below `dir`.
+fn decoys(dir: &Path) -> Vec<String> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(dir).into_iter().flatten().flatten() {
+        let path = entry.path();
+        if entry.file_name().to_string_lossy().starts_with("decoy") {
+            found.push(path.display().to_string());
+        }
+        if path.is_dir() {
+            found.extend(decoys(&path));
+        }
+    }
+    found
+}
+
+#[test]
+fn matrix_values_with_shell_syntax_reach_no_shell() {
+    // Matrix values become stage names, which enter the job name and the
+    // script's comment line: an array of four expansions and a job alone.
+    // (The command reads its value as a quoted here-document: distinct
+    // params, so distinct keys, and the stage itself runs nothing.)
+    let ws = Workspace::new();
+    ws.write(
+        "p.yaml",
+        r#"name: cluster
+executor: {kind: slurm, poll: 0.5}
+stages:
+  s:
+    kind: command
+    matrix: {v: ["x\ntouch decoy1\n", "$(touch decoy2)", "`touch decoy3`; touch decoy4 #", "it's \"q\" \\ ${HOME} \r\ntouch decoy5"]}
+    params:
+      cmd: |
+        cat > /dev/null <<'END_OF_VALUE'
+        ${matrix.v}
+        END_OF_VALUE
+  t:
+    kind: command
+    matrix: {v: ["y\ntouch decoy6"]}
+    params: {cmd: "true"}
+"#,
+    );
+    let r = run(&ws, &[], &[], 0);
+    assert!(r.all("ran"), "{:?}", r.statuses());
+    assert_eq!(decoys(ws.path()), Vec::<String>::new());
+    let subs = submissions(&ws);
+    assert_eq!(subs.len(), 2, "{subs:?}");
+    for (id, _) in subs {
+        // The stand-in keeps a copy of each script it ran.
+        let copy = ws.path().join(format!("fake/{id}.sh"));
+        let script = std::fs::read_to_string(&copy).expect("script copy");
+        let parse = Command::new("sh")
+            .arg("-n")
+            .arg(&copy)
+            .status()
+            .expect("sh -n");
+        assert!(parse.success(), "{script}");
+        let comments = script
+            .lines()
+            .filter(|l| l.starts_with("# modalflow "))
+            .count();
+        assert_eq!(comments, 1, "{script}");
+        // Only the script's own lines reach the shell.
+        let shell: Vec<&str> = script
+            .lines()
+            .filter(|l| !l.starts_with('#') && !l.trim().is_empty())
+            .collect();
+        assert!(
+            shell.iter().all(|l| !l.contains("touch")),
+            "{shell:#?}\n{script}"
+        );
+    }
+}
+
+#[test]
+fn executor_values_that_would_inject_are_refused_at_validate_and_run() {
+    let ws = Workspace::new();
+    let decoy = ws.path().join("decoy");
+    let decoy = decoy.display();
+    ws.write(
+        "p.yaml",
+        &format!(
+            r#"name: v
+executor:
+  kind: slurm
+  sbatch: ["--qos=short", "--qos=x\ntouch {decoy}", "touch {decoy}"]
+  scratch: "$(touch {decoy})"
+  kinds:
+    command: {{partition: "p\ntouch {decoy}", scratch: "`touch {decoy}`"}}
+  stages:
+    a: {{account: "acct\r\ntouch {decoy}", time: "10\ntouch {decoy}", memory: "4G\n* attempt"}}
+stages:
+  a: {{kind: command, params: {{cmd: "true", outs: [a.txt]}}}}
+"#
+        ),
+    );
+    let out = ws.cmd(&["validate", "p.yaml"]);
+    let err = text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("8 problems"), "{err}");
+    // Each problem: its message, then its location.
+    let blocks: Vec<&str> = err.split("\n[").collect();
+    for (at, what) in [
+        ("p.yaml:4:27", "`sbatch` contains a control character (\\n)"),
+        ("p.yaml:4:67", "`sbatch` entry `touch "),
+        ("p.yaml:5:12", "`scratch: $(touch "),
+        (
+            "p.yaml:7:26",
+            "`partition` contains a control character (\\n)",
+        ),
+        (
+            "p.yaml:7:69",
+            "backticks (command substitution) are not allowed",
+        ),
+        (
+            "p.yaml:9:18",
+            "`account` contains a control character (\\r)",
+        ),
+        ("p.yaml:9:63", "`time` contains a control character (\\n)"),
+        (
+            "p.yaml:9:106",
+            "`memory` contains a control character (\\n)",
+        ),
+    ] {
+        assert!(
+            blocks.iter().any(|b| b.contains(at) && b.contains(what)),
+            "{at} {what} in\n{err}"
+        );
+    }
+    assert!(err.contains("`$NAME` or `${NAME}`"), "{err}");
+    assert!(err.contains("not an sbatch option"), "{err}");
+    // `run` refuses the same file before anything is submitted.
+    let out = command(&ws, &[], &[]).output().expect("run modalflow");
+    assert_eq!(out.status.code(), Some(2), "{}", text(&out.stderr));
+    assert!(submissions(&ws).is_empty());
+    assert_eq!(decoys(ws.path()), Vec::<String>::new());
+    // Variables alone are what `scratch` may expand.
+    ws.write(
+        "p.yaml",
+        "name: v\nexecutor: {kind: slurm, scratch: \"$TMPDIR/${USER}_mf\", sbatch: [\"--comment=it's #1\", \"-J x\"]}\nstages:\n  a: {kind: command, params: {cmd: \"true\", outs: [a.txt]}}\n",
+    );
+    let out = ws.cmd(&["validate", "p.yaml"]);
+    assert_eq!(out.status.code(), Some(0), "{}", text(&out.stderr));
+}

@@ -174,6 +174,9 @@ impl ExecutorSpec {
             for p in resources::problems(&r) {
                 let mut path = at.clone();
                 path.push(p.field.to_string());
+                if let Some(i) = p.index {
+                    path.push(i.to_string());
+                }
                 out.push(Problem {
                     path,
                     message: p.message,
@@ -237,5 +240,38 @@ mod tests {
             ]
         );
         assert!(serde_yaml_ng::from_str::<ExecutorSpec>("cpu: 2\n").is_err());
+    }
+
+    #[test]
+    fn values_that_would_inject_into_a_job_script_are_problems() {
+        let spec: ExecutorSpec = serde_yaml_ng::from_str(
+            "partition: \"p\\nrm -rf /tmp/decoy\"\naccount: \"a\\u0000\"\nsbatch: [\"--qos=short\", \"--qos=x\\nrm -rf /tmp/decoy\", \"rm -rf /tmp/decoy\"]\nscratch: \"$(touch /tmp/pwned)\"\nkinds:\n  gsa: {scratch: \"`touch /tmp/pwned`\", time: \"30\\r\"}\nstages:\n  s: {sbatch: [\"-J x;y\"], scratch: \"$TMPDIR/${USER}_x\", memory: \"4G\\n* attempt\"}\n",
+        )
+        .expect("types are fine");
+        let problems = spec.problems();
+        let paths: Vec<String> = problems.iter().map(|p| p.path.join(".")).collect();
+        assert_eq!(
+            paths,
+            [
+                "scratch",
+                "partition",
+                "account",
+                "sbatch.1",
+                "sbatch.2",
+                "kinds.gsa.time",
+                "kinds.gsa.scratch",
+                "stages.s.memory"
+            ]
+        );
+        for p in &problems {
+            let field = p.path.iter().rev().find(|s| s.parse::<usize>().is_err());
+            let field = field.map_or("", String::as_str);
+            assert!(p.message.contains(&format!("`{field}")), "{}", p.message);
+            assert!(!p.message.contains(['\n', '\r', '\0']), "{:?}", p.message);
+        }
+        assert!(problems[0].message.contains("`$(...)` is not allowed"));
+        assert!(problems[0].help.contains("`$NAME` or `${NAME}`"));
+        assert!(problems[3].message.contains("control character (\\n)"));
+        assert!(problems[4].message.contains("not an sbatch option"));
     }
 }

@@ -154,11 +154,181 @@ fn scaled(value: &str) -> Option<&str> {
     (factor.trim() == "attempt").then_some(base.trim())
 }
 
-/// A problem in a resources mapping: which field, what, what to do.
+/// A problem in a resources mapping: which field (and which entry of a
+/// list field), what, what to do.
 pub struct FieldProblem {
     pub field: &'static str,
+    pub index: Option<usize>,
     pub message: String,
     pub help: String,
+}
+
+/// Why a value cannot go into a job script. Every value of the block that
+/// reaches the script is checked with these, at `validate` time
+/// ([`problems`]) and again when the script is written
+/// ([`super::script::Script::text`]).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum Unsafe {
+    /// A newline would end the `#SBATCH` line and start a shell line; no
+    /// control character has a use in a resource value.
+    #[error("`{field}` contains a control character ({found}): `{value}`")]
+    Control {
+        field: &'static str,
+        value: String,
+        found: String,
+    },
+    #[error("`sbatch` entry `{0}` is not an sbatch option")]
+    NotAnOption(String),
+    #[error("`scratch: {value}`: {what}")]
+    Scratch { value: String, what: &'static str },
+}
+
+impl Unsafe {
+    /// What to write instead.
+    pub fn help(&self) -> &'static str {
+        match self {
+            Unsafe::Control { .. } => {
+                "resource values are single-line text; a newline (or any other control \
+                 character) would end the `#SBATCH` line and start a shell command"
+            }
+            Unsafe::NotAnOption(_) => {
+                "each `sbatch` entry is one option as sbatch takes it: `--option=value`, \
+                 `--option value`, `--flag` or `-x value`"
+            }
+            Unsafe::Scratch { .. } => SCRATCH_HELP,
+        }
+    }
+}
+
+const SCRATCH_HELP: &str = "a node-local directory: plain text and environment variables \
+    `$NAME` or `${NAME}` expanded by the job's shell (`$TMPDIR`, `/scratch/$USER`); \
+    no command substitution (`$(...)`, backticks), `\\`, `\"` or other `$` forms";
+
+/// `value` with its control characters escaped, for messages.
+pub fn shown(value: &str) -> String {
+    value
+        .chars()
+        .map(|c| {
+            if c.is_control() {
+                c.escape_default().to_string()
+            } else {
+                c.to_string()
+            }
+        })
+        .collect()
+}
+
+/// Refuse any control character (newline, carriage return, NUL, tab, …).
+pub fn no_control(field: &'static str, value: &str) -> Result<(), Unsafe> {
+    match value.chars().find(|c| c.is_control()) {
+        Some(c) => Err(Unsafe::Control {
+            field,
+            value: shown(value),
+            found: c.escape_default().to_string(),
+        }),
+        None => Ok(()),
+    }
+}
+
+/// An `sbatch:` entry: one option (`--opt`, `--opt=value`, `--opt value`,
+/// `-x`, `-x value`, `-xvalue`) on one line.
+pub fn sbatch_option(entry: &str) -> Result<(), Unsafe> {
+    no_control("sbatch", entry)?;
+    let option = if let Some(long) = entry.strip_prefix("--") {
+        let name = long.split(['=', ' ']).next().unwrap_or_default();
+        name.starts_with(|c: char| c.is_ascii_alphabetic())
+            && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-')
+    } else {
+        entry
+            .strip_prefix('-')
+            .is_some_and(|short| short.starts_with(|c: char| c.is_ascii_alphabetic()))
+    };
+    if option {
+        Ok(())
+    } else {
+        Err(Unsafe::NotAnOption(entry.to_string()))
+    }
+}
+
+/// A piece of a `scratch:` value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ScratchPart<'a> {
+    /// Literal text: no `$`, backtick, `\`, `"` or control character.
+    Text(&'a str),
+    /// An environment variable's name, as written: `$NAME` (the name runs
+    /// to the first character that cannot continue it, as in the shell) or
+    /// `${NAME}` (`braced`).
+    Var { name: &'a str, braced: bool },
+}
+
+/// `scratch:` as literal text and variable references, or why not: the job
+/// script expands the variables and nothing else.
+pub fn scratch_parts(value: &str) -> Result<Vec<ScratchPart<'_>>, Unsafe> {
+    no_control("scratch", value)?;
+    let refuse = |what| {
+        Err(Unsafe::Scratch {
+            value: value.to_string(),
+            what,
+        })
+    };
+    if value.trim().is_empty() {
+        return refuse("it is empty");
+    }
+    let mut parts = Vec::new();
+    let mut rest = value;
+    while let Some(i) = rest.find(['$', '`', '\\', '"']) {
+        if i > 0 {
+            parts.push(ScratchPart::Text(&rest[..i]));
+        }
+        let after = &rest[i + 1..];
+        match &rest[i..=i] {
+            "`" => return refuse("backticks (command substitution) are not allowed"),
+            "\\" => return refuse("`\\` is not allowed"),
+            "\"" => return refuse("`\"` is not allowed"),
+            _ => {}
+        }
+        let braced = after.starts_with('{');
+        let (name, tail) = if let Some(inner) = after.strip_prefix('{') {
+            match inner.split_once('}') {
+                Some((name, tail)) => (name, tail),
+                None => return refuse("`${` has no closing `}`"),
+            }
+        } else {
+            let end = after
+                .find(|c: char| !(c.is_ascii_alphanumeric() || c == '_'))
+                .unwrap_or(after.len());
+            after.split_at(end)
+        };
+        if after.starts_with('(') {
+            return refuse("command substitution `$(...)` is not allowed");
+        }
+        let variable = name.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_')
+            && name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+        if !variable {
+            return refuse("`$` must start an environment variable, `$NAME` or `${NAME}`");
+        }
+        parts.push(ScratchPart::Var { name, braced });
+        rest = tail;
+    }
+    if !rest.is_empty() {
+        parts.push(ScratchPart::Text(rest));
+    }
+    Ok(parts)
+}
+
+/// `value` unless it has a control character, which is then its problem.
+fn clean<'v>(
+    field: &'static str,
+    value: &'v Option<String>,
+    bad: &mut dyn FnMut(&'static str, String, &str),
+) -> Option<&'v str> {
+    match value.as_deref().map(|v| no_control(field, v)) {
+        Some(Err(e)) => {
+            bad(field, e.to_string(), e.help());
+            None
+        }
+        _ => value.as_deref(),
+    }
 }
 
 /// Every value problem of one level.
@@ -167,11 +337,12 @@ pub fn problems(r: &Resources) -> Vec<FieldProblem> {
     let mut bad = |field, message: String, help: &str| {
         out.push(FieldProblem {
             field,
+            index: None,
             message,
             help: help.to_string(),
         })
     };
-    if let Some(t) = &r.time {
+    if let Some(t) = clean("time", &r.time, &mut bad) {
         if !valid_time(scaled(t).unwrap_or(t)) {
             bad(
                 "time",
@@ -181,7 +352,7 @@ pub fn problems(r: &Resources) -> Vec<FieldProblem> {
             );
         }
     }
-    if let Some(m) = &r.memory {
+    if let Some(m) = clean("memory", &r.memory, &mut bad) {
         if !valid_memory(scaled(m).unwrap_or(m)) {
             bad(
                 "memory",
@@ -228,16 +399,11 @@ pub fn problems(r: &Resources) -> Vec<FieldProblem> {
             "stages run one after another in one job: 1 (a job each) to 1000",
         );
     }
-    if r.scratch.as_deref().is_some_and(|s| s.trim().is_empty()) {
-        bad(
-            "scratch",
-            "`scratch` is empty".into(),
-            "a node-local directory such as `$TMPDIR` or `/scratch/$USER`",
-        );
+    if let Some(Err(e)) = r.scratch.as_deref().map(scratch_parts) {
+        bad("scratch", e.to_string(), e.help());
     }
     for (field, value) in [("partition", &r.partition), ("account", &r.account)] {
-        if value
-            .as_deref()
+        if clean(field, value, &mut bad)
             .is_some_and(|v| v.is_empty() || v.chars().any(char::is_whitespace))
         {
             bad(
@@ -245,6 +411,16 @@ pub fn problems(r: &Resources) -> Vec<FieldProblem> {
                 format!("`{field}` must be one word"),
                 "the name as `sinfo` / `sacctmgr show assoc` list it",
             );
+        }
+    }
+    for (i, entry) in r.sbatch.iter().flatten().enumerate() {
+        if let Err(e) = sbatch_option(entry) {
+            out.push(FieldProblem {
+                field: "sbatch",
+                index: Some(i),
+                message: e.to_string(),
+                help: e.help().to_string(),
+            });
         }
     }
     out

@@ -244,7 +244,7 @@ impl Slurm {
                     shards: true,
                 },
             };
-            let id = send(&dir.join("shards.sh"), &script.text())?;
+            let id = send(&dir.join("shards.sh"), &script)?;
             return Ok(placed(id, Some(missing), attempt, &dir, None));
         }
         let member = Member {
@@ -299,7 +299,7 @@ impl Slurm {
             .description
             .file_stem()
             .map_or("job".into(), |s| s.to_string_lossy().into_owned());
-        let id = send(&dir.join(format!("{name}.sh")), &script.text())?;
+        let id = send(&dir.join(format!("{name}.sh")), &script)?;
         Ok(placed(id, None, attempt, &dir, None))
     }
 
@@ -347,7 +347,7 @@ impl Slurm {
                     Body::PerTask(&descriptions)
                 },
             };
-            let id = send(&dir.join(format!("batch-{n}.sh")), &script.text())?;
+            let id = send(&dir.join(format!("batch-{n}.sh")), &script)?;
             for i in 0..chunk.len() {
                 let tasks = (!group).then(|| vec![i]);
                 out.push(placed(id.clone(), tasks, 1, &dir, Some(dir.clone())));
@@ -409,10 +409,14 @@ impl Slurm {
     }
 }
 
-/// Write `text` to `script` and submit it.
-fn send(script: &Path, text: &str) -> Result<String, String> {
-    std::fs::write(script, text).map_err(|e| format!("cannot write {}: {e}", script.display()))?;
-    queue::submit(script)
+/// Write `script` to `path` and submit it; a script with a value that
+/// cannot go into it is neither written nor submitted.
+fn send(path: &Path, script: &Script) -> Result<String, String> {
+    let text = script
+        .text()
+        .map_err(|e| format!("job script {}: {e}", path.display()))?;
+    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    queue::submit(path)
 }
 
 fn placed(
