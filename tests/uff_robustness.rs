@@ -199,3 +199,27 @@ fn huge_counts_fail_fast_without_allocating() {
         );
     }
 }
+
+/// Binary 58b values are checked as read too: an uneven axis that goes
+/// below 0 and a coherence above 1 are errors at the value's byte offset.
+#[test]
+fn implausible_binary_values_name_their_byte_offset() {
+    let mut set = small_set();
+    set.frequencies_hz = vec![0.0, 1.0, 2.5, -2.0, 4.0, 5.0];
+    let e = read_uff(&write_frf_artifact(std::slice::from_ref(&set)), "neg.uff").unwrap_err();
+    assert!(
+        matches!(e, IoError::Implausible { .. })
+            && e.to_string().starts_with("neg.uff, byte offset ")
+            && e.to_string().contains("point 4: frequency -2 is negative"),
+        "{e}"
+    );
+    let mut set = small_set();
+    set.channels[0].coherence = Some(vec![0.9, 0.9, 0.9, 0.9, 1.5, 0.9]);
+    let e = read_uff(&write_frf_artifact(std::slice::from_ref(&set)), "coh.uff").unwrap_err();
+    assert!(
+        e.to_string().starts_with("coh.uff, byte offset ")
+            && e.to_string()
+                .contains("point 5: coherence 1.5 is outside [0, 1]"),
+        "{e}"
+    );
+}

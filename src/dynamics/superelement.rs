@@ -1,6 +1,6 @@
 //! External super-elements: mass and stiffness matrices exported from FE
-//! software (Matrix Market read with `sprs`; Harwell–Boeing, Abaqus and
-//! Nastran DMIG by [`crate::io::fe`]), plus a node map from node ids to
+//! software (Matrix Market, Harwell–Boeing, Abaqus and Nastran DMIG, read
+//! by [`crate::io::fe`]), plus a node map from node ids to
 //! matrix rows (6 DOFs x, y, z, rx, ry, rz, or 3 translations), given or
 //! taken from the files' node/DOF labels.
 //! File paths are relative to the model file; the caller supplies a resolver
@@ -50,25 +50,7 @@ fn read_matrix(
     let text_of = || text.ok_or_else(|| fail("not a text file (UTF-8)".into()));
     let located = |e: fe::FeError| fail(e.to_string());
     let m = match format {
-        FeFormat::MatrixMarket => {
-            let mut reader = std::io::BufReader::new(bytes.as_slice());
-            let tri: sprs::TriMatI<f64, usize> =
-                sprs::io::read_matrix_market_from_bufread(&mut reader).map_err(|e| {
-                    fail(format!("not a real Matrix Market coordinate matrix: {e}"))
-                })?;
-            if tri.rows() != tri.cols() {
-                return Err(fail(format!(
-                    "matrix is {}×{}, expected square",
-                    tri.rows(),
-                    tri.cols()
-                )));
-            }
-            FeMatrix {
-                n: tri.rows(),
-                entries: tri.triplet_iter().map(|(v, (i, j))| (i, j, *v)).collect(),
-                labels: None,
-            }
-        }
+        FeFormat::MatrixMarket => fe::read_matrix_market(text_of()?).map_err(located)?,
         FeFormat::HarwellBoeing => fe::read_harwell_boeing(text_of()?).map_err(located)?,
         FeFormat::Abaqus => fe::read_abaqus_mtx(text_of()?).map_err(located)?,
         FeFormat::NastranDmig => fe::read_dmig(text_of()?, dmig_name).map_err(located)?,
@@ -106,17 +88,92 @@ fn sniff(text: &str) -> Option<FeFormat> {
     None
 }
 
-/// Renumber `m` to the rows of `labels` (which contain all of its own).
+/// Renumber `m` to the rows of `labels` (which contain all of its own); a
+/// row without a label becomes `usize::MAX`, which [`check_rows`] refuses.
 fn relabel(m: FeMatrix, labels: &[DofLabel]) -> Vec<(usize, usize, f64)> {
     let own = m.labels.unwrap_or_default();
     let map: Vec<usize> = own
         .iter()
-        .map(|l| labels.binary_search(l).unwrap_or(0))
+        .map(|l| labels.binary_search(l).unwrap_or(usize::MAX))
         .collect();
+    let to = |i: usize| map.get(i).copied().unwrap_or(usize::MAX);
     m.entries
         .into_iter()
-        .map(|(i, j, v)| (map[i], map[j], v))
+        .map(|(i, j, v)| (to(i), to(j), v))
         .collect()
+}
+
+/// Every entry of M and K inside the n × n matrices, and every one of the n
+/// rows holding at least one entry of M or K. A row with neither is a DOF
+/// without mass and stiffness (the pencil K − λM is singular there); a size
+/// line claiming more rows than the entries touch is refused here, before
+/// matrices of that size are built. Time and memory follow the entries,
+/// not `n`.
+fn check_rows(
+    m: &[(usize, usize, f64)],
+    k: &[(usize, usize, f64)],
+    n: usize,
+) -> Result<(), String> {
+    let mut rows: Vec<usize> = Vec::new();
+    for &(i, j, _) in m.iter().chain(k) {
+        if i >= n || j >= n {
+            return Err(format!(
+                "entry ({}, {}) is outside the {n}×{n} matrices",
+                i.saturating_add(1),
+                j.saturating_add(1)
+            ));
+        }
+        rows.extend([i, j]);
+    }
+    rows.sort_unstable();
+    rows.dedup();
+    if rows.len() == n {
+        return Ok(());
+    }
+    let first = rows
+        .iter()
+        .enumerate()
+        .find(|&(k, &r)| r != k)
+        .map_or(rows.len(), |(k, _)| k);
+    Err(format!(
+        "{} of the {n} rows have no entry in the mass or the stiffness matrix (the first is row \
+         {}, 1-based): a DOF without mass and stiffness makes the eigenproblem singular; the \
+         declared size is wrong or the export lists unused DOFs",
+        n - rows.len(),
+        first + 1
+    ))
+}
+
+/// The loaded super-element (and its dense Craig–Bampton matrices when it
+/// is reduced) against the memory limit, before the matrices are built.
+fn check_memory(n: usize, entries: usize, reduced: bool) -> Result<(), String> {
+    let sparse = fe::matrix_bytes(n, entries);
+    let dense = if reduced {
+        8.0 * 4.0 * (n as f64).powi(2)
+    } else {
+        0.0
+    };
+    let limit = crate::resources::memory_limit() as f64;
+    if sparse + dense <= limit {
+        return Ok(());
+    }
+    let human = crate::resources::human;
+    Err(format!(
+        "{n} DOF and {entries} matrix entries need an estimated {}{}, more than the memory limit \
+         of {} (--max-memory){}",
+        human(sparse + dense),
+        if reduced {
+            " held dense for the Craig–Bampton reduction"
+        } else {
+            ""
+        },
+        human(limit),
+        if reduced {
+            "; drop the reduction (sparse solver) or raise the limit"
+        } else {
+            "; raise the limit"
+        }
+    ))
 }
 
 fn symmetric(
@@ -188,15 +245,8 @@ pub fn load_superelement(
             ))
         }
     };
-    let (M, K) = match &labels {
-        Some(l) => {
-            let n = l.len();
-            let (tm, tk) = (relabel(Mf, l), relabel(Kf, l));
-            (
-                symmetric(tm, n, |m| matrix_error(file, &fm, &spec.mass, m))?,
-                symmetric(tk, n, |m| matrix_error(file, &fk, &spec.stiffness, m))?,
-            )
-        }
+    let (n, tm, tk) = match &labels {
+        Some(l) => (l.len(), relabel(Mf, l), relabel(Kf, l)),
         None => {
             if Mf.n != Kf.n {
                 return Err(DynamicsError::invalid(
@@ -205,15 +255,17 @@ pub fn load_superelement(
                     format!("mass is {0}×{0} but stiffness is {1}×{1}", Mf.n, Kf.n),
                 ));
             }
-            let n = Mf.n;
-            (
-                symmetric(Mf.entries, n, |m| matrix_error(file, &fm, &spec.mass, m))?,
-                symmetric(Kf.entries, n, |m| {
-                    matrix_error(file, &fk, &spec.stiffness, m)
-                })?,
-            )
+            (Mf.n, Mf.entries, Kf.entries)
         }
     };
+    let invalid = |m: String| {
+        let files = format!("mass `{}`, stiffness `{}`", spec.mass, spec.stiffness);
+        DynamicsError::invalid(file, field, format!("{m} ({files})"))
+    };
+    check_rows(&tm, &tk, n).map_err(invalid)?;
+    check_memory(n, tm.len() + tk.len(), spec.reduction.is_some()).map_err(invalid)?;
+    let M = symmetric(tm, n, |m| matrix_error(file, &fm, &spec.mass, m))?;
+    let K = symmetric(tk, n, |m| matrix_error(file, &fk, &spec.stiffness, m))?;
     let nodes = node_map(spec, labels.as_deref(), M.n, file, field)?;
     Ok(FeBody { M, K, nodes })
 }

@@ -7,8 +7,12 @@ use crate::frf::{Dof, FrfChannel, FrfSet, Position};
 use crate::io::csv_table::{csv_err, fmt_f64, from_csv_error, metadata, quantity_name, real_cell};
 use crate::io::dof_text::{format_channel, parse_channel};
 use crate::io::error::{IoError, Location, Place};
+use crate::io::limits::BYTES_PER_CSV_CELL;
+use crate::io::validity::{check_coherence, check_frequency};
 use num_complex::Complex64;
+use std::collections::{HashMap, HashSet};
 
+/// A channel's columns: name, DOFs, re, im and coherence column.
 type Channel = (String, (Dof, Dof), usize, usize, Option<usize>);
 
 struct Columns {
@@ -19,8 +23,14 @@ struct Columns {
     channels: Vec<Channel>,
 }
 
+/// The header's columns, in time linear in their number: names are looked
+/// up in a hash map (first occurrence wins), not searched column by column.
 fn columns(headers: &csv::StringRecord, source: &str, line: usize) -> Result<Columns, IoError> {
-    let find = |name: &str| headers.iter().position(|h| h == name);
+    let mut index: HashMap<&str, usize> = HashMap::with_capacity(headers.len());
+    for (i, h) in headers.iter().enumerate() {
+        index.entry(h).or_insert(i);
+    }
+    let find = |name: &str| index.get(name).copied();
     let frequency = find("frequency_hz").ok_or_else(|| {
         csv_err(
             source,
@@ -29,6 +39,8 @@ fn columns(headers: &csv::StringRecord, source: &str, line: usize) -> Result<Col
         )
     })?;
     let mut channels: Vec<Channel> = Vec::new();
+    let mut seen: HashSet<(Dof, Dof)> = HashSet::new();
+    let mut key = String::new();
     for (i, h) in headers.iter().enumerate() {
         if matches!(h, "frequency_hz" | "position" | "position_label") {
             continue;
@@ -47,8 +59,13 @@ fn columns(headers: &csv::StringRecord, source: &str, line: usize) -> Result<Col
                 format!("column {h:?}: channel must read like 101+X/1-Z"),
             )
         })?;
-        let name = format_channel(r, f);
-        let partner = |k: &str| find(&format!("{k}:{ch}"));
+        let mut partner = |k: &str| {
+            key.clear();
+            key.push_str(k);
+            key.push(':');
+            key.push_str(ch);
+            find(&key)
+        };
         match kind {
             "re" => {
                 let im = partner("im").ok_or_else(|| {
@@ -58,14 +75,16 @@ fn columns(headers: &csv::StringRecord, source: &str, line: usize) -> Result<Col
                         format!("column {h:?} has no `im:{ch}` partner"),
                     )
                 })?;
-                if channels.iter().any(|c| c.0 == name) {
+                let coh = partner("coh");
+                let name = format_channel(r, f);
+                if !seen.insert((r, f)) {
                     return Err(csv_err(
                         source,
                         line,
                         format!("channel {name} appears twice"),
                     ));
                 }
-                channels.push((name, (r, f), i, im, partner("coh")));
+                channels.push((name, (r, f), i, im, coh));
             }
             "im" | "coh" => {
                 if partner("re").is_none() {
@@ -103,7 +122,9 @@ struct Rows {
     coh: Vec<Vec<Option<f64>>>,
 }
 
-/// Reads a CSV FRF table; `source` names it in errors.
+/// Reads a CSV FRF table; `source` names it in errors. Time is linear in
+/// the table's size; frequencies (≥ 0, strictly increasing per position)
+/// and coherences (in [0, 1]) are checked as each row is read.
 pub fn read_frf_csv(bytes: &[u8], source: &str) -> Result<Vec<FrfSet>, IoError> {
     let quantity = metadata(bytes, source)?;
     let mut rdr = csv::ReaderBuilder::new()
@@ -116,11 +137,22 @@ pub fn read_frf_csv(bytes: &[u8], source: &str) -> Result<Vec<FrfSet>, IoError> 
         .clone();
     let header_line = rdr.position().line().max(1) as usize;
     let cols = columns(&headers, source, header_line)?;
+    let column = |i: usize| headers.get(i).unwrap_or("");
     let mut groups: Vec<Rows> = Vec::new();
+    let mut group_of: HashMap<u32, usize> = HashMap::new();
+    let mut cells_read = 0f64;
     for rec in rdr.records() {
         let rec = rec.map_err(|e| from_csv_error(source, &e))?;
         let line = rec.position().map(|p| p.line() as usize).unwrap_or(0);
         let cell = |i: usize| rec.get(i).unwrap_or("");
+        // The cells kept grow with the rows read; bound them as they come.
+        cells_read += cols.channels.len().max(1) as f64;
+        IoError::check_memory(
+            source,
+            Place::Line(line),
+            || format!("{cells_read} FRF cells read up to here"),
+            cells_read * BYTES_PER_CSV_CELL,
+        )?;
         let index = match cols.position {
             Some(i) => cell(i).parse::<u32>().map_err(|_| {
                 IoError::not_numeric(
@@ -132,14 +164,14 @@ pub fn read_frf_csv(bytes: &[u8], source: &str) -> Result<Vec<FrfSet>, IoError> 
             })?,
             None => 0,
         };
-        let label = cols.label.map(|i| cell(i).to_string()).unwrap_or_default();
-        let g = match groups.iter().position(|g| g.position.index == index) {
-            Some(g) => g,
+        let label = cols.label.map(cell).unwrap_or_default();
+        let g = match group_of.get(&index) {
+            Some(&g) => g,
             None => {
                 groups.push(Rows {
                     position: Position {
                         index,
-                        label: label.clone(),
+                        label: label.to_string(),
                     },
                     first_line: line,
                     lines: Vec::new(),
@@ -147,6 +179,7 @@ pub fn read_frf_csv(bytes: &[u8], source: &str) -> Result<Vec<FrfSet>, IoError> 
                     cells: vec![Vec::new(); cols.channels.len()],
                     coh: vec![Vec::new(); cols.channels.len()],
                 });
+                group_of.insert(index, groups.len() - 1);
                 groups.len() - 1
             }
         };
@@ -162,24 +195,22 @@ pub fn read_frf_csv(bytes: &[u8], source: &str) -> Result<Vec<FrfSet>, IoError> 
             ));
         }
         let f = real_cell(source, line, "frequency_hz", cell(cols.frequency))?;
-        if let Some(&prev) = g.freqs.last() {
-            if f <= prev {
-                return Err(csv_err(
-                    source,
-                    line,
-                    format!("frequency {f} Hz does not increase (previous row of position {index}: {prev} Hz)"),
-                ));
-            }
-        }
+        check_frequency(f, g.freqs.last().copied()).map_err(|m| {
+            IoError::implausible(
+                source,
+                Place::Line(line),
+                format!("frequency_hz of position {index}: {m}"),
+            )
+        })?;
         g.freqs.push(f);
         g.lines.push(line);
         for (k, (name, _, re, im, coh)) in cols.channels.iter().enumerate() {
-            let (re, im) = (cell(*re), cell(*im));
-            let v = match (re.is_empty(), im.is_empty()) {
+            let (re_text, im_text) = (cell(*re), cell(*im));
+            let v = match (re_text.is_empty(), im_text.is_empty()) {
                 (true, true) => None,
                 (false, false) => Some(Complex64::new(
-                    real_cell(source, line, &format!("re:{name}"), re)?,
-                    real_cell(source, line, &format!("im:{name}"), im)?,
+                    real_cell(source, line, column(*re), re_text)?,
+                    real_cell(source, line, column(*im), im_text)?,
                 )),
                 _ => {
                     return Err(csv_err(
@@ -190,8 +221,18 @@ pub fn read_frf_csv(bytes: &[u8], source: &str) -> Result<Vec<FrfSet>, IoError> 
                 }
             };
             g.cells[k].push(v);
-            let c = match coh.map(cell).filter(|c| !c.is_empty()) {
-                Some(c) => Some(real_cell(source, line, &format!("coh:{name}"), c)?),
+            let c = match coh.map(|i| (i, cell(i))).filter(|(_, c)| !c.is_empty()) {
+                Some((i, c)) => {
+                    let v = real_cell(source, line, column(i), c)?;
+                    check_coherence(v).map_err(|m| {
+                        IoError::implausible(
+                            source,
+                            Place::Line(line),
+                            format!("{}: {m}", column(i)),
+                        )
+                    })?;
+                    Some(v)
+                }
                 None => None,
             };
             g.coh[k].push(c);
@@ -270,13 +311,20 @@ pub fn write_frf_csv(sets: &[FrfSet]) -> Result<Vec<u8>, IoError> {
     }
     let with_position = sets.len() > 1 || sets.iter().any(|s| s.position.index != 0);
     let with_label = sets.iter().any(|s| !s.position.label.is_empty());
+    // Channels in first-seen order, with whether any set has a coherence.
     let mut names: Vec<(String, bool)> = Vec::new();
+    let mut slot: HashMap<(Dof, Dof), usize> = HashMap::new();
     for s in sets {
         for c in &s.channels {
-            let n = format_channel(c.response, c.reference);
-            match names.iter_mut().find(|(m, _)| *m == n) {
-                Some(e) => e.1 |= c.coherence.is_some(),
-                None => names.push((n, c.coherence.is_some())),
+            match slot.get(&(c.response, c.reference)) {
+                Some(&k) => names[k].1 |= c.coherence.is_some(),
+                None => {
+                    slot.insert((c.response, c.reference), names.len());
+                    names.push((
+                        format_channel(c.response, c.reference),
+                        c.coherence.is_some(),
+                    ));
+                }
             }
         }
     }
@@ -302,6 +350,13 @@ pub fn write_frf_csv(sets: &[FrfSet]) -> Result<Vec<u8>, IoError> {
     };
     w.write_record(&header).map_err(unwritable)?;
     for s in sets {
+        // This set's channel in each column slot.
+        let mut by_slot: Vec<Option<&FrfChannel>> = vec![None; names.len()];
+        for c in &s.channels {
+            if let Some(&k) = slot.get(&(c.response, c.reference)) {
+                by_slot[k] = Some(c);
+            }
+        }
         for (i, f) in s.frequencies_hz.iter().enumerate() {
             let mut row: Vec<String> = Vec::with_capacity(header.len());
             if with_position {
@@ -311,11 +366,7 @@ pub fn write_frf_csv(sets: &[FrfSet]) -> Result<Vec<u8>, IoError> {
                 row.push(s.position.label.clone());
             }
             row.push(fmt_f64(*f));
-            for (n, has_coh) in &names {
-                let ch = s
-                    .channels
-                    .iter()
-                    .find(|c| format_channel(c.response, c.reference) == *n);
+            for ((_, has_coh), ch) in names.iter().zip(&by_slot) {
                 let v = ch.and_then(|c| c.values.get(i));
                 row.push(v.map(|v| fmt_f64(v.re)).unwrap_or_default());
                 row.push(v.map(|v| fmt_f64(v.im)).unwrap_or_default());

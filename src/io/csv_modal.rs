@@ -4,9 +4,11 @@
 use crate::frf::{Dof, Position};
 use crate::io::csv_table::{csv_err, fmt_f64, from_csv_error, int_cell, real_cell, Table};
 use crate::io::dof_text::parse_direction;
-use crate::io::error::IoError;
+use crate::io::error::{IoError, Place};
+use crate::io::validity::check_natural_frequency;
 use crate::modal::{ModalModel, Mode};
 use num_complex::Complex64;
+use std::collections::HashMap;
 
 /// The two tables of a modal model export.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -39,6 +41,10 @@ pub fn read_modal_csv(
     );
     // Per model: the mode numbers next to the modes, sorted at the end.
     let mut models: Vec<(ModalModel, Vec<u32>)> = Vec::new();
+    // Lookups by hash, so the time is linear in the rows: position → model,
+    // (model, mode number) → mode slot.
+    let mut model_of: HashMap<u32, usize> = HashMap::new();
+    let mut slots: HashMap<(usize, u32), usize> = HashMap::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| from_csv_error(src, &e))?;
         let line = rec.position().map(|p| p.line() as usize).unwrap_or(0);
@@ -49,13 +55,17 @@ pub fn read_modal_csv(
         };
         let label = c_label.map(|i| cell(i).to_string()).unwrap_or_default();
         let number = int_cell::<u32>(src, line, "mode", cell(c_mode))?;
+        let frequency_hz = real_cell(src, line, "frequency_hz", cell(c_f))?;
+        check_natural_frequency(frequency_hz).map_err(|m| {
+            IoError::implausible(src, Place::Line(line), format!("frequency_hz: {m}"))
+        })?;
         let mode = Mode {
-            frequency_hz: real_cell(src, line, "frequency_hz", cell(c_f))?,
+            frequency_hz,
             damping_ratio: real_cell(src, line, "damping_ratio", cell(c_z))?,
             shape: Vec::new(),
         };
-        let m = match models.iter().position(|(m, _)| m.position.index == index) {
-            Some(m) => m,
+        let m = match model_of.get(&index) {
+            Some(&m) => m,
             None => {
                 let position = Position {
                     index,
@@ -69,6 +79,7 @@ pub fn read_modal_csv(
                     },
                     Vec::new(),
                 ));
+                model_of.insert(index, models.len() - 1);
                 models.len() - 1
             }
         };
@@ -80,7 +91,7 @@ pub fn read_modal_csv(
                 format!("position {index} has two labels"),
             ));
         }
-        if numbers.contains(&number) {
+        if slots.insert((m, number), numbers.len()).is_some() {
             return Err(csv_err(
                 src,
                 line,
@@ -90,7 +101,15 @@ pub fn read_modal_csv(
         numbers.push(number);
         model.modes.push(mode);
     }
-    read_shapes(&mut models, shapes_csv, shapes_source)?;
+    read_shapes(
+        &mut models,
+        &Lookup {
+            model_of: &model_of,
+            slots: &slots,
+        },
+        shapes_csv,
+        shapes_source,
+    )?;
     Ok(models
         .into_iter()
         .map(|(mut m, numbers)| {
@@ -102,8 +121,16 @@ pub fn read_modal_csv(
         .collect())
 }
 
+/// The modes table's hash lookups: position → model, (model, mode
+/// number) → mode slot.
+struct Lookup<'a> {
+    model_of: &'a HashMap<u32, usize>,
+    slots: &'a HashMap<(usize, u32), usize>,
+}
+
 fn read_shapes(
     models: &mut [(ModalModel, Vec<u32>)],
+    lookup: &Lookup<'_>,
     bytes: &[u8],
     src: &str,
 ) -> Result<(), IoError> {
@@ -117,6 +144,8 @@ fn read_shapes(
         .map(|(m, _)| vec![Vec::new(); m.modes.len()])
         .collect();
     let mut first_lines: Vec<Vec<usize>> = vec![Vec::new(); models.len()];
+    // Per model: DOF → its slot (first-appearance order).
+    let mut dof_slot: Vec<HashMap<Dof, usize>> = vec![HashMap::new(); models.len()];
     for rec in rdr.records() {
         let rec = rec.map_err(|e| from_csv_error(src, &e))?;
         let line = rec.position().map(|p| p.line() as usize).unwrap_or(0);
@@ -142,18 +171,17 @@ fn read_shapes(
             Some(s) => real_cell(src, line, "imag", s)?,
             None => 0.0,
         };
-        let m = models
-            .iter()
-            .position(|(m, _)| m.position.index == index)
-            .ok_or_else(|| {
-                csv_err(
-                    src,
-                    line,
-                    format!("position {index} is not in the modes table"),
-                )
-            })?;
-        let (model, numbers) = &mut models[m];
-        let k = numbers.iter().position(|&n| n == number).ok_or_else(|| {
+        let m = lookup.model_of.get(&index).copied().ok_or_else(|| {
+            csv_err(
+                src,
+                line,
+                format!("position {index} is not in the modes table"),
+            )
+        })?;
+        let Some((model, _)) = models.get_mut(m) else {
+            continue;
+        };
+        let k = lookup.slots.get(&(m, number)).copied().ok_or_else(|| {
             csv_err(
                 src,
                 line,
@@ -161,9 +189,10 @@ fn read_shapes(
             )
         })?;
         let dof = Dof::new(node, direction);
-        let d = match model.dofs.iter().position(|x| *x == dof) {
-            Some(d) => d,
+        let d = match dof_slot[m].get(&dof) {
+            Some(&d) => d,
             None => {
+                dof_slot[m].insert(dof, model.dofs.len());
                 model.dofs.push(dof);
                 first_lines[m].push(line);
                 model.dofs.len() - 1
@@ -350,5 +379,13 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.to_string().contains("direction \"+Q\""), "{e}");
+        let negative = b"mode,frequency_hz,damping_ratio\n1,10,0.01\n2,-20,0.02\n";
+        let e = read_modal_csv(negative, "m.csv", shapes, "s.csv").unwrap_err();
+        assert!(
+            matches!(e, IoError::Implausible { .. })
+                && e.to_string()
+                    .starts_with("m.csv, line 3: frequency_hz: natural frequency -20"),
+            "{e}"
+        );
     }
 }

@@ -122,6 +122,24 @@ pub enum IoError {
     #[error("{at}: {what}")]
     Csv { at: Location, what: String },
 
+    /// A measured value no measurement can have: a negative or
+    /// non-increasing frequency line, a coherence outside [0, 1].
+    #[error("{at}: {what}")]
+    Implausible { at: Location, what: String },
+
+    /// A count read from the file would need more memory than the limit
+    /// (`--max-memory`); refused before anything is allocated.
+    #[error(
+        "{at}: {what} need an estimated {needed}, more than the memory limit of {limit}; \
+         the count in the file is wrong, or raise the limit with --max-memory"
+    )]
+    OverLimit {
+        at: Location,
+        what: String,
+        needed: String,
+        limit: String,
+    },
+
     /// A selection (DOF pattern, band) is malformed or selects nothing.
     #[error("invalid selection: {what}")]
     Selection { what: String },
@@ -177,6 +195,31 @@ impl IoError {
         }
     }
 
+    pub(crate) fn implausible(source: &str, place: Place, what: impl Into<String>) -> Self {
+        IoError::Implausible {
+            at: Location::new(source, place),
+            what: what.into(),
+        }
+    }
+
+    /// `Err(OverLimit)` when `bytes` (for `what`) exceed the memory limit.
+    pub(crate) fn check_memory(
+        source: &str,
+        place: Place,
+        what: impl FnOnce() -> String,
+        bytes: f64,
+    ) -> Result<(), IoError> {
+        match crate::io::limits::over_memory_limit(bytes) {
+            None => Ok(()),
+            Some((needed, limit)) => Err(IoError::OverLimit {
+                at: Location::new(source, place),
+                what: what(),
+                needed,
+                limit,
+            }),
+        }
+    }
+
     /// Where the error is, if it points into a source.
     pub fn location(&self) -> Option<&Location> {
         match self {
@@ -188,7 +231,9 @@ impl IoError {
             | IoError::AxisMismatch { at, .. }
             | IoError::DuplicateChannel { at, .. }
             | IoError::NoFrf { at, .. }
-            | IoError::Csv { at, .. } => Some(at),
+            | IoError::Csv { at, .. }
+            | IoError::Implausible { at, .. }
+            | IoError::OverLimit { at, .. } => Some(at),
             IoError::Selection { .. } | IoError::Unwritable { .. } => None,
         }
     }

@@ -16,6 +16,13 @@
 //! | export | [`write_uff58`] (+ [`uff58_from_frf_sets`]), [`write_uff55`] (+ [`uff55_from_modal_models`]) |
 //! | CSV | [`read_frf_csv`], [`write_frf_csv`], [`read_modal_csv`], [`write_modal_csv`] |
 //! | choose channels and a band | [`Selection`], [`select_frf_sets`], [`select_functions`] |
+//! | physical validity (frequency axis, coherence) | [`check_abscissa`], [`check_frequency`], [`check_coherence`] |
+//!
+//! Every reader refuses what no measurement can hold — a negative or
+//! non-increasing frequency line, a coherence outside [0, 1], NaN or inf —
+//! at the value's line ([`validity`]), and checks every count read from a
+//! file against the bytes that follow and the memory limit
+//! (`--max-memory`) before allocating for it.
 //!
 //! The UFF record layouts, the 58b header and the artifact's encoding of
 //! positions are described in [`uff::ds58`], [`uff::ds58_binary`],
@@ -38,8 +45,8 @@
 //!
 //! - Optional leading `#` lines hold metadata; `# quantity: receptance`
 //!   (or `mobility`, `accelerance`) sets the FRF quantity, default receptance.
-//! - `frequency_hz` (required): frequency line in Hz, strictly increasing
-//!   within a position.
+//! - `frequency_hz` (required): frequency line in Hz, ≥ 0 and strictly
+//!   increasing within a position.
 //! - `re:<channel>` and `im:<channel>` (in pairs): real and imaginary part of
 //!   the FRF in SI units; `coh:<channel>` (optional): coherence γ² in [0, 1].
 //! - `position` (optional): 0-based configuration index; without it every row
@@ -72,8 +79,10 @@ mod csv_table;
 pub mod dof_text;
 pub mod error;
 pub mod fe;
+pub(crate) mod limits;
 pub mod select;
 pub mod uff;
+pub mod validity;
 
 pub use csv_frf::{read_frf_csv, write_frf_csv};
 pub use csv_modal::{read_modal_csv, write_modal_csv, ModalCsv};
@@ -90,3 +99,4 @@ pub use uff::ds58::{
 pub use uff::frf_sets::{frf_sets_from_uff, FrfImport, FrfImportOptions};
 pub use uff::modal_models::{modal_models_from_uff, uff55_from_modal_models, ModalImport};
 pub use uff::{read_uff, write_uff55, write_uff58, UffBlock, UffDataset, UffFile, UffWarning};
+pub use validity::{check_abscissa, check_coherence, check_even_abscissa, check_frequency};

@@ -7,7 +7,7 @@
 //! of three numbers (`row, column, value`, 1-based) are read as unlabelled
 //! coordinates; `**` lines are comments.
 
-use super::{fail, number_labels, parse_real, DofLabel, FeError, FeMatrix};
+use super::{check_size, fail, number_labels, parse_real, DofLabel, FeError, FeMatrix};
 
 fn dof(field: &str, line: usize) -> Result<u8, FeError> {
     match field.trim().parse::<u8>() {
@@ -38,6 +38,7 @@ fn node(field: &str, line: usize) -> Result<u64, FeError> {
 pub fn read_abaqus_mtx(text: &str) -> Result<FeMatrix, FeError> {
     let mut labelled: Vec<(DofLabel, DofLabel, f64)> = Vec::new();
     let mut plain: Vec<(usize, usize, f64)> = Vec::new();
+    let mut plain_lines: Vec<usize> = Vec::new();
     for (k, raw) in text.lines().enumerate() {
         let line = k + 1;
         let t = raw.trim();
@@ -66,6 +67,7 @@ pub fn read_abaqus_mtx(text: &str) -> Result<FeMatrix, FeError> {
                     ),
                 };
                 plain.push((idx(f[0])?, idx(f[1])?, value(f[2])?));
+                plain_lines.push(line);
             }
             n => {
                 return fail(
@@ -88,11 +90,15 @@ pub fn read_abaqus_mtx(text: &str) -> Result<FeMatrix, FeError> {
         let upper = labelled.iter().all(|(a, b, _)| a <= b);
         return Ok(number_labels(labelled, lower || upper));
     }
-    let n = plain
+    // The size comes from the largest index: bound it before the matrix
+    // of that size is built.
+    let (n, at) = plain
         .iter()
-        .map(|&(i, j, _)| i.max(j) + 1)
-        .max()
-        .unwrap_or(0);
+        .zip(&plain_lines)
+        .map(|(&(i, j, _), &line)| (i.max(j).saturating_add(1), line))
+        .max_by_key(|&(n, _)| n)
+        .unwrap_or((0, 1));
+    check_size(at, n, plain.len().saturating_mul(2))?;
     let one = plain.iter().all(|(i, j, _)| i >= j) || plain.iter().all(|(i, j, _)| i <= j);
     let mut entries = plain.clone();
     if one {

@@ -17,7 +17,7 @@
 //! of each equation to `<name>.MAPPING` with `HBMAT, …, Mapping = YES`;
 //! [`read_ansys_mapping`] reads it.
 
-use super::{fail, parse_real, DofLabel, FeError, FeMatrix};
+use super::{check_size, fail, parse_real, DofLabel, FeError, FeMatrix};
 
 /// Count and width of a Fortran edit descriptor such as `(10I8)`,
 /// `(1P,4E20.12)` or `(3D25.16)`.
@@ -45,14 +45,15 @@ fn fixed_fields<'a>(
     wanted: usize,
     what: &str,
 ) -> Result<Vec<(usize, &'a str)>, FeError> {
-    let mut out = Vec::with_capacity(wanted);
+    // Grows with the fields actually read; the caller bounded `wanted`.
+    let mut out = Vec::new();
     for (k, line) in lines.iter().enumerate().skip(start).take(cards) {
         let mut pos = 0;
         for _ in 0..count {
             if out.len() == wanted || pos >= line.len() {
                 break;
             }
-            let end = (pos + width).min(line.len());
+            let end = pos.saturating_add(width).min(line.len());
             let field = line.get(pos..end).unwrap_or("").trim();
             if !field.is_empty() {
                 out.push((k + 1, field));
@@ -62,7 +63,7 @@ fn fixed_fields<'a>(
     }
     if out.len() < wanted {
         return fail(
-            (start + cards).min(lines.len()).max(1),
+            start.saturating_add(cards).min(lines.len()).max(1),
             format!("{what}: found {} of {wanted} entries", out.len()),
         );
     }
@@ -117,6 +118,9 @@ pub fn read_harwell_boeing(text: &str) -> Result<FeMatrix, FeError> {
     if nrow != ncol {
         return fail(3, format!("matrix is {nrow}×{ncol}, expected square"));
     }
+    let (Some(n_ptr), Some(nnz_end)) = (ncol.checked_add(1), nnz.checked_add(1)) else {
+        return fail(3, "NCOL or NNZERO is too large");
+    };
     let l4 = lines[3];
     let cut = |a: usize, b: usize| l4.get(a..b.min(l4.len())).unwrap_or("");
     let (pf, inf, vf) = if l4.len() >= 33 && l4.starts_with('(') && cut(16, 17) == "(" {
@@ -139,35 +143,78 @@ pub fn read_harwell_boeing(text: &str) -> Result<FeMatrix, FeError> {
         })
     };
     let (pf, inf, vf) = (fmt(pf, "pointer")?, fmt(inf, "index")?, fmt(vf, "value")?);
-    let start = if rhscrd > 0 { 5 } else { 4 };
-    let ptr = fixed_fields(&lines, start, ptrcrd, pf, ncol + 1, "column pointers")?;
-    let ind = fixed_fields(&lines, start + ptrcrd, indcrd, inf, nnz, "row indices")?;
-    let val = fixed_fields(&lines, start + ptrcrd + indcrd, valcrd, vf, nnz, "values")?;
+    let start: usize = if rhscrd > 0 { 5 } else { 4 };
+    let (ind_start, val_start) = (
+        start.saturating_add(ptrcrd),
+        start.saturating_add(ptrcrd).saturating_add(indcrd),
+    );
+    // Sizes against the cards that follow, then against the memory limit,
+    // before any of them is read.
+    for (at, cards, (count, _), wanted, what) in [
+        (start, ptrcrd, pf, n_ptr, "column pointers"),
+        (ind_start, indcrd, inf, nnz, "row indices"),
+        (val_start, valcrd, vf, nnz, "values"),
+    ] {
+        let available = cards.min(lines.len().saturating_sub(at));
+        if wanted > available.saturating_mul(count) {
+            return fail(
+                3,
+                format!(
+                    "NCOL {ncol} / NNZERO {nnz}: {wanted} {what} cannot fit in the {available} \
+                     card(s) of at most {count} fields that follow; the header is wrong or the \
+                     file is truncated"
+                ),
+            );
+        }
+    }
+    check_size(
+        3,
+        nrow,
+        if symmetric {
+            nnz.saturating_mul(2)
+        } else {
+            nnz
+        },
+    )?;
+    let ptr = fixed_fields(&lines, start, ptrcrd, pf, n_ptr, "column pointers")?;
+    let ind = fixed_fields(&lines, ind_start, indcrd, inf, nnz, "row indices")?;
+    let val = fixed_fields(&lines, val_start, valcrd, vf, nnz, "values")?;
     let int = |(line, f): &(usize, &str), what: &str| {
         f.parse::<usize>()
             .or_else(|_| fail(*line, format!("{what} `{f}` is not a positive integer")))
     };
-    let mut pointers = Vec::with_capacity(ncol + 1);
+    let mut pointers = Vec::new();
     for p in &ptr {
         pointers.push(int(p, "column pointer")?);
     }
-    if pointers[0] != 1 || pointers[ncol] != nnz + 1 || pointers.windows(2).any(|w| w[1] < w[0]) {
+    if pointers.first() != Some(&1)
+        || pointers.last() != Some(&nnz_end)
+        || pointers.windows(2).any(|w| w[1] < w[0])
+    {
         return fail(
-            ptr[0].0,
-            format!(
-                "column pointers must rise from 1 to NNZERO + 1 = {}",
-                nnz + 1
-            ),
+            ptr.first().map_or(start + 1, |p| p.0),
+            format!("column pointers must rise from 1 to NNZERO + 1 = {nnz_end}"),
         );
     }
-    let mut entries = Vec::with_capacity(if symmetric { 2 * nnz } else { nnz });
-    for j in 0..ncol {
-        for k in pointers[j] - 1..pointers[j + 1] - 1 {
-            let i = int(&ind[k], "row index")?;
+    let mut entries = Vec::new();
+    for (j, w) in pointers.windows(2).enumerate() {
+        for k in w[0] - 1..w[1] - 1 {
+            let (Some(at), Some(&(line, f))) = (ind.get(k), val.get(k)) else {
+                return fail(
+                    ptr.get(j).map_or(1, |p| p.0),
+                    "column pointer beyond NNZERO",
+                );
+            };
+            let i = int(at, "row index")?;
             if i == 0 || i > nrow {
-                return fail(ind[k].0, format!("row index {i} outside 1..={nrow}"));
+                return fail(
+                    at.0,
+                    format!(
+                        "row index {i} of column {} is outside 1..={nrow}; fix the index or NROW",
+                        j + 1
+                    ),
+                );
             }
-            let (line, f) = val[k];
             let v = parse_real(f).ok_or_else(|| FeError {
                 line,
                 message: format!("value `{f}` is not a finite number"),
@@ -189,6 +236,9 @@ pub fn read_harwell_boeing(text: &str) -> Result<FeMatrix, FeError> {
 /// of UX UY UZ ROTX ROTY ROTZ): the label of every equation, in order.
 pub fn read_ansys_mapping(text: &str) -> Result<Vec<DofLabel>, FeError> {
     let mut out: Vec<Option<DofLabel>> = Vec::new();
+    // Every equation has its own line, so none is numbered beyond the
+    // line count: the bound before the table grows to an equation number.
+    let most = text.lines().count();
     for (k, line) in text.lines().enumerate() {
         let t: Vec<&str> = line.split_whitespace().collect();
         if t.is_empty() || !t[0].starts_with(|c: char| c.is_ascii_digit()) {
@@ -217,6 +267,14 @@ pub fn read_ansys_mapping(text: &str) -> Result<Vec<DofLabel>, FeError> {
         };
         if eq == 0 {
             return fail(k + 1, "equation numbers start at 1");
+        }
+        if eq > most {
+            return fail(
+                k + 1,
+                format!(
+                    "equation {eq} in a file of {most} lines: every equation needs its own line"
+                ),
+            );
         }
         if out.len() < eq {
             out.resize(eq, None);
@@ -260,5 +318,19 @@ RUA                        2             2             2             0
 ";
         let m = read_harwell_boeing(hb).unwrap();
         assert_eq!(m.entries, vec![(0, 0, -1.0), (1, 1, -2.0)]);
+        // A row index beyond NROW names its line; a NNZERO the cards
+        // cannot hold is refused before anything is read.
+        let e = read_harwell_boeing(&hb.replace("       1       2\n-1", "       1       3\n-1"))
+            .unwrap_err();
+        assert_eq!(e.line, 6, "{e}");
+        assert!(e.message.contains("row index 3"), "{e}");
+        let huge = hb.replace(
+            "RUA                        2             2             2",
+            "RUA                        2             2 1000000000000",
+        );
+        let e = read_harwell_boeing(&huge).unwrap_err();
+        assert!(e.message.contains("cannot fit"), "{e}");
+        let e = read_ansys_mapping("1 10 UX\n1000000000000 10 UY\n").unwrap_err();
+        assert_eq!(e.line, 2, "{e}");
     }
 }

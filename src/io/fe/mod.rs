@@ -6,15 +6,19 @@
 //! takes text and returns a [`FeMatrix`] (0-based triplets, both triangles
 //! of a symmetric matrix) with the node/DOF label of every row where the
 //! format carries one, or an [`FeError`] with the line and what to fix.
-//! Nothing here panics on input or touches the file system.
+//! Nothing here panics on input or touches the file system, and no size
+//! read from a header is allocated before `check_size` has bounded it by
+//! the file and the memory limit (`--max-memory`).
 
 pub mod abaqus;
 pub mod dmig;
 pub mod harwell_boeing;
+pub mod matrix_market;
 
 pub use abaqus::read_abaqus_mtx;
 pub use dmig::read_dmig;
 pub use harwell_boeing::{read_ansys_mapping, read_harwell_boeing};
+pub use matrix_market::read_matrix_market;
 
 /// A node id and a DOF code 1..=6 (x, y, z, rx, ry, rz).
 pub type DofLabel = (u64, u8);
@@ -42,6 +46,38 @@ pub(crate) fn fail<T>(line: usize, message: impl Into<String>) -> Result<T, FeEr
         line,
         message: message.into(),
     })
+}
+
+/// Estimated bytes per matrix row of a super-element once loaded and
+/// assembled: column pointers of M and K in the body and again in the
+/// assembled model, damping, and the row's DOF label.
+pub const BYTES_PER_DOF: f64 = 96.0;
+
+/// Estimated bytes per stored matrix entry once loaded and assembled:
+/// triplets (24 bytes) and compressed entries (16) in the body and again in
+/// the assembled model.
+pub const BYTES_PER_ENTRY: f64 = 80.0;
+
+/// Estimated memory of a loaded matrix of `n` rows and `entries` stored
+/// entries (both triangles of a symmetric one).
+pub fn matrix_bytes(n: usize, entries: usize) -> f64 {
+    n as f64 * BYTES_PER_DOF + entries as f64 * BYTES_PER_ENTRY
+}
+
+/// `n` rows and `entries` stored entries read from a header at `line`,
+/// checked against the memory limit before anything is allocated for them.
+pub(crate) fn check_size(line: usize, n: usize, entries: usize) -> Result<(), FeError> {
+    match crate::io::limits::over_memory_limit(matrix_bytes(n, entries)) {
+        None => Ok(()),
+        Some((needed, limit)) => fail(
+            line,
+            format!(
+                "{n} rows and {entries} entries need an estimated {needed} once loaded, more \
+                 than the memory limit of {limit}; the size in the file is wrong, or raise the \
+                 limit with --max-memory"
+            ),
+        ),
+    }
 }
 
 /// A real number in Fortran/Nastran notation: `1.5E+3`, `1.5D+3`, and

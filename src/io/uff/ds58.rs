@@ -26,6 +26,8 @@ use super::ds58_binary::{self, BinaryHeader};
 use super::ds58_records::{self, DataForm};
 use super::text::{self, Cursor};
 use crate::io::error::{IoError, Place};
+use crate::io::limits::BYTES_PER_UFF_VALUE;
+use crate::io::validity::{check_coherence, check_even_abscissa, check_frequency};
 use num_complex::Complex64;
 
 /// Record 6 field 1: what kind of function the dataset holds.
@@ -280,7 +282,10 @@ pub(crate) fn values_per_point(complex: bool, even: bool) -> usize {
 }
 
 /// Parses records 1–12 and the closing `-1`, the cursor standing after the
-/// dataset number line.
+/// dataset number line. FRFs and coherences (the functions the import
+/// uses, whose abscissa is frequency) are checked as they are read: a
+/// negative or non-increasing frequency line and, for coherences, a value
+/// outside [0, 1] are errors at the value's line (58b: byte offset).
 pub(crate) fn parse(
     cur: &mut Cursor<'_>,
     binary: Option<BinaryHeader>,
@@ -290,11 +295,37 @@ pub(crate) fn parse(
     let n = form.points;
     let vpp = values_per_point(form.complex, form.even);
     let n_values = n.checked_mul(vpp).ok_or_else(|| too_many(src, r7, n))?;
+    let mut check = PointCheck::new(d.function, &form);
+    if check.frequency && form.even {
+        check_even_abscissa(form.start, form.step, n).map_err(|m| {
+            IoError::implausible(
+                src,
+                r7,
+                format!("dataset 58 record 7 ({}): {m}", check.kind),
+            )
+        })?;
+    }
+    let memory = |n_values: usize| {
+        IoError::check_memory(
+            src,
+            r7,
+            || format!("record 7's {n} points ({n_values} values)"),
+            n_values as f64 * BYTES_PER_UFF_VALUE,
+        )
+    };
     let mut mismatch = None;
     let values = match binary {
         Some(h) => {
-            let (v, m) = ds58_binary::read_data(cur, &h, n_values, form.precision)?;
+            let start = cur.offset();
+            let (v, m) = ds58_binary::read_data(cur, &h, n_values, form.precision, &memory)?;
             mismatch = m;
+            let size = match form.precision {
+                Precision::Single => 4,
+                Precision::Double => 8,
+            };
+            for (i, &x) in v.iter().enumerate() {
+                check.value(src, i, x, Place::Byte(start + i * size))?;
+            }
             v
         }
         None => {
@@ -308,9 +339,17 @@ pub(crate) fn parse(
                     ),
                 ));
             }
-            let mut v = Vec::with_capacity(n_values);
+            memory(n_values)?;
+            let mut v = Vec::new();
             let single = form.precision == Precision::Single;
-            text::read_numbers(cur, n_values, single, "dataset 58 record 12 (data)", &mut v)?;
+            text::read_numbers_checked(
+                cur,
+                n_values,
+                single,
+                "dataset 58 record 12 (data)",
+                &mut v,
+                &mut |i, x, place| check.value(src, i, x, place),
+            )?;
             v
         }
     };
@@ -318,6 +357,62 @@ pub(crate) fn parse(
 
     (d.abscissa, d.ordinate) = split_values(values, &form);
     Ok((d, mismatch))
+}
+
+/// The physical checks of record 12 values of an FRF or a coherence, by
+/// their position in the record (uneven abscissae interleaved).
+struct PointCheck {
+    /// "FRF" or "coherence"; empty for functions that are not checked.
+    kind: &'static str,
+    /// The abscissa is frequency (FRF, coherence).
+    frequency: bool,
+    /// Uneven: every point carries its frequency as its first value.
+    uneven: bool,
+    coherence: bool,
+    per_point: usize,
+    previous: Option<f64>,
+}
+
+impl PointCheck {
+    fn new(function: FunctionType, form: &DataForm) -> Self {
+        let (kind, frequency, coherence) = match function {
+            FunctionType::Frf => ("FRF", true, false),
+            FunctionType::Coherence => ("coherence", true, true),
+            _ => ("", false, false),
+        };
+        PointCheck {
+            kind,
+            frequency,
+            uneven: !form.even,
+            coherence,
+            per_point: values_per_point(form.complex, form.even),
+            previous: None,
+        }
+    }
+
+    /// Value `i` of record 12 (0-based), read at `place`.
+    fn value(&mut self, src: &str, i: usize, x: f64, place: Place) -> Result<(), IoError> {
+        if !self.frequency {
+            return Ok(());
+        }
+        let (point, k) = (i / self.per_point + 1, i % self.per_point);
+        let bad = |m: String| {
+            IoError::implausible(
+                src,
+                place,
+                format!("dataset 58 record 12 ({}), point {point}: {m}", self.kind),
+            )
+        };
+        if self.uneven && k == 0 {
+            check_frequency(x, self.previous).map_err(bad)?;
+            self.previous = Some(x);
+        }
+        // The real part of the ordinate: right after an uneven abscissa.
+        if self.coherence && k == usize::from(self.uneven) {
+            check_coherence(x).map_err(bad)?;
+        }
+        Ok(())
+    }
 }
 
 fn too_many(src: &str, place: Place, n: usize) -> IoError {

@@ -115,11 +115,14 @@ pub(crate) struct ByteCountMismatch {
 
 /// Reads the binary record 12 (`n_values` numbers), leaving the cursor after
 /// the block; reports a header byte count that record 7 overrules.
+/// `memory(n_values)` is called once the block is known to be in the file,
+/// before the values are allocated.
 pub(crate) fn read_data(
     cur: &mut Cursor<'_>,
     h: &BinaryHeader,
     n_values: usize,
     precision: Precision,
+    memory: &dyn Fn(usize) -> Result<(), IoError>,
 ) -> Result<(Vec<f64>, Option<ByteCountMismatch>), IoError> {
     let src = cur.source;
     let size = match precision {
@@ -171,7 +174,10 @@ pub(crate) fn read_data(
             ),
         )
     })?;
-    let data = &block[..needed];
+    // The block is in the file, so `n_values` is bounded by its size; the
+    // memory limit is checked before the values are made.
+    memory(n_values)?;
+    let data = block.get(..needed).unwrap_or_default();
     let mut out = Vec::with_capacity(n_values);
     match (precision, h.byte_order) {
         (Precision::Double, ByteOrder::Little) => {

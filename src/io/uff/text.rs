@@ -280,7 +280,23 @@ pub(crate) fn read_numbers(
     what: &str,
     out: &mut Vec<f64>,
 ) -> Result<(), IoError> {
-    let target = out.len() + n;
+    read_numbers_checked(cur, n, single, what, out, &mut |_, _, _| Ok(()))
+}
+
+/// [`read_numbers`] with `check(index, value, place)` called on every value
+/// as it is read (`index` counts from 0 within this call), so a value the
+/// caller refuses is reported at its own line. `out` grows as values are
+/// read; nothing is reserved from `n`.
+pub(crate) fn read_numbers_checked(
+    cur: &mut Cursor<'_>,
+    n: usize,
+    single: bool,
+    what: &str,
+    out: &mut Vec<f64>,
+    check: &mut dyn FnMut(usize, f64, Place) -> Result<(), IoError>,
+) -> Result<(), IoError> {
+    let first = out.len();
+    let target = first.saturating_add(n);
     while out.len() < target {
         let place = cur.next_place();
         let line = match cur.next_line() {
@@ -317,6 +333,7 @@ pub(crate) fn read_numbers(
                     value: v,
                 });
             }
+            check(out.len() - first, v, line.place())?;
             out.push(v);
         }
     }
