@@ -130,14 +130,7 @@ fn family(name: &str, noise: f64, seeds: u64) {
         let Some(c) = case(name, seed) else { return };
         let d = frf_data(&c, noise, seed);
         let t = cpu_seconds();
-        let r = match auto_ema(
-            &d,
-            &AutoEmaParams {
-                seed,
-                ..AutoEmaParams::default()
-            },
-            &|| {},
-        ) {
+        let r = match auto_ema(&d, &AutoEmaParams::default(), &|| {}) {
             Ok(r) => r,
             Err(e) => {
                 failures.push(format!("seed {seed}: {e}"));

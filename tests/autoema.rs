@@ -177,15 +177,7 @@ fn synthetic_families_with_default_settings() {
     ] {
         let c = case(family, seed).unwrap();
         let d = frf_data(&c, noise, seed);
-        let r = auto_ema(
-            &d,
-            &AutoEmaParams {
-                seed,
-                ..AutoEmaParams::default()
-            },
-            &|| {},
-        )
-        .unwrap();
+        let r = auto_ema(&d, &AutoEmaParams::default(), &|| {}).unwrap();
         let s = score(&c, noise, &estimates(&r), r.best.mean_frac);
         assert!(
             s.success,

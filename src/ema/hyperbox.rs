@@ -24,7 +24,7 @@
 //! bound"; the search then evaluates the selection a quarter of the range
 //! beyond that bound and reports whether the result would change there.
 
-use super::noise::peaks;
+use super::noise::{cmif_mode_peaks, peaks};
 use super::FrfData;
 
 /// Searched on a log scale (tolerances spanning decades).
@@ -38,21 +38,33 @@ pub struct DataSummary {
     pub line_spacing_hz: f64,
     pub n_ref: usize,
     pub n_lines: usize,
-    /// Peaks of the CMIF curves (a first estimate of the number of modes).
+    /// Peaks of the CMIF curves (a first estimate of the number of modes):
+    /// prominent peaks of the first curve above the noise, and peaks of
+    /// the further ones (repeated roots).
     pub cmif_peaks: usize,
 }
 
 impl DataSummary {
-    pub fn of(data: &FrfData, cmif: &[Vec<f64>]) -> DataSummary {
+    /// The summary of `data` with its CMIF curves and per-channel noise
+    /// variances ([`super::noise`]).
+    pub fn of(data: &FrfData, cmif: &[Vec<f64>], noise: &[f64]) -> DataSummary {
         let f = &data.frequencies_hz;
         let mut steps: Vec<f64> = f.windows(2).map(|w| w[1] - w[0]).collect();
         steps.sort_by(f64::total_cmp);
         let reach = (data.n_lines() / 50).max(5);
-        // First curve: every mode; further curves: repeated roots.
+        // First curve: every mode, by prominence above the noise
+        // ([`cmif_mode_peaks`]); further curves: repeated roots.
+        let noise_power = noise.iter().sum::<f64>() / data.n_ref().max(1) as f64;
         let cmif_peaks = cmif
             .iter()
             .enumerate()
-            .map(|(k, c)| peaks(c, if k == 0 { 1.5 } else { 3.0 }, reach).len())
+            .map(|(k, c)| {
+                if k == 0 {
+                    cmif_mode_peaks(c, noise_power).len()
+                } else {
+                    peaks(c, 3.0, reach).len()
+                }
+            })
             .sum();
         DataSummary {
             band_hz: (

@@ -170,11 +170,10 @@ fn auto_ema_finds_the_four_modes() {
         max_order: Some((8, 24)),
         evaluations: 30,
         initial: 10,
-        seed: 4,
         ..AutoEmaParams::default()
     };
     let r = auto_ema(&d, &params, &|| {}).unwrap();
-    assert_eq!(r.trace.len(), 30);
+    assert!((30..=90).contains(&r.trace.len()), "{}", r.trace.len());
     assert_eq!(
         r.best.roots.len(),
         4,
@@ -218,7 +217,6 @@ fn results_do_not_depend_on_the_thread_count() {
         max_order: Some((6, 14)),
         evaluations: 8,
         initial: 5,
-        seed: 1,
         ..AutoEmaParams::default()
     };
     let run = |threads: usize| {
@@ -270,7 +268,6 @@ fn auto_ema_separates_close_modes_with_two_references() {
         max_order: Some((8, 30)),
         evaluations: 40,
         initial: 12,
-        seed: 2,
         ..AutoEmaParams::default()
     };
     let r = auto_ema(&d, &params, &|| {}).unwrap();
@@ -301,4 +298,51 @@ fn auto_ema_separates_close_modes_with_two_references() {
         assert!(mac_k > 0.98, "mode {k}: MAC {mac_k}");
     }
     assert!(r.best.mean_frac > 0.998, "mean FRAC {}", r.best.mean_frac);
+}
+
+/// Development aid (ignored): CMIF peaks of the real beam.
+#[test]
+#[ignore]
+fn dev_real_beam_cmif() {
+    use crate::io::{frf_sets_from_uff, read_uff, FrfImportOptions};
+    let dir = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/real/beam_ufsc_ss"
+    );
+    for file in [
+        "frf_hammer_as_measured.uff",
+        "frf_shaker.uff",
+        "frf_mimo_2ref.uff",
+    ] {
+        let bytes = std::fs::read(format!("{dir}/{file}")).unwrap();
+        let uff = read_uff(&bytes, file).unwrap();
+        let sets = frf_sets_from_uff(&uff, file, &FrfImportOptions::default())
+            .unwrap()
+            .sets;
+        let (d, l) = layout::frf_data(
+            &sets[0],
+            Some((5.0, 800.0)),
+            Weighting::Uniform,
+            Reciprocity::Auto,
+        )
+        .unwrap();
+        let c = noise::cmif(&d);
+        let nz = noise::noise_variance(&d);
+        let np = nz.iter().sum::<f64>() / d.n_ref() as f64;
+        let p = noise::cmif_mode_peaks(&c[0], np);
+        let old = noise::peaks(&c[0], 1.5, (d.n_lines() / 50).max(5));
+        let f = |v: &[usize]| v.iter().map(|&k| d.frequencies_hz[k]).collect::<Vec<_>>();
+        println!(
+            "{file}: {}\n new {:?}\n old {:?}",
+            l.description,
+            f(&p),
+            f(&old)
+        );
+        let s = hyperbox::DataSummary::of(&d, &c, &nz);
+        println!(
+            " summary peaks {} range {:?}",
+            s.cmif_peaks,
+            s.max_order_range()
+        );
+    }
 }
