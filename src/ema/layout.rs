@@ -463,7 +463,7 @@ mod tests {
             (vec![0, 1], vec![0, 1, 2, 3, 4])
         );
         // Greedy on a large side: one row missing half its columns goes.
-        let has = |r: usize, q: usize| !(r == 7 && q % 2 == 0);
+        let has = |r: usize, q: usize| !(r == 7 && q.is_multiple_of(2));
         let (cols, rows) = greedy(20, 20, &|s, b| has(b, s));
         assert_eq!(cols.len(), 20);
         assert_eq!(rows, (0..20).filter(|&r| r != 7).collect::<Vec<_>>());

@@ -222,6 +222,7 @@ mod tests {
     use super::*;
     use crate::ema::synthetic::{four_mode_system, lines, modal_superposition, SyntheticMode};
     use crate::ema::Weighting;
+    use rand::SeedableRng;
 
     /// The synthetic noise is complex Gaussian with E|n|² = (r · RMS)²: the
     /// estimate recovers it within the sampling error of a median over ~1000
@@ -272,6 +273,33 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The mode count of the first CMIF curve finds the four modes at
+    /// every noise level, and nothing in a curve of noise alone, whether
+    /// its wiggles stand above the noise floor or not.
+    #[test]
+    fn cmif_mode_peaks_count_modes_not_wiggles() {
+        let modes = four_mode_system();
+        for (r, seed) in [(0.0, 1), (0.02, 2), (0.05, 3)] {
+            let set = modal_superposition(&modes, &[0, 3], &lines(20.0, 260.0, 0.25), r, seed);
+            let d = FrfData::from_set(&set, None, Weighting::Uniform).unwrap();
+            let power = noise_variance(&d).iter().sum::<f64>() / 2.0;
+            let found: Vec<f64> = cmif_mode_peaks(&cmif(&d)[0], power)
+                .iter()
+                .map(|&k| d.frequencies_hz[k])
+                .collect();
+            assert_eq!(found.len(), 4, "noise {r}: {found:?}");
+            for (f, m) in found.iter().zip(&modes) {
+                assert!((f - m.frequency_hz).abs() <= 1.0, "noise {r}: {found:?}");
+            }
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let wiggles: Vec<f64> = (0..800)
+            .map(|_| 1.0 + 0.2 * crate::ema::synthetic::gauss(&mut rng).clamp(-1.0, 1.0))
+            .collect();
+        assert!(cmif_mode_peaks(&wiggles, 1e-6).is_empty());
+        assert!(cmif_mode_peaks(&wiggles, 1.0).is_empty());
     }
 
     /// CMIF of a repeated root driven from two references: two curves peak
