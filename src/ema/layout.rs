@@ -105,6 +105,43 @@ impl Layout {
     }
 }
 
+/// The positions' common description, else each one's prefixed with its
+/// position index.
+pub fn describe(positions: &[(u32, &Layout)]) -> String {
+    match positions.first() {
+        Some((_, first))
+            if positions
+                .iter()
+                .all(|(_, l)| l.description == first.description) =>
+        {
+            first.description.clone()
+        }
+        _ => positions
+            .iter()
+            .map(|(p, l)| format!("position {p}: {}", l.description))
+            .collect::<Vec<_>>()
+            .join("; "),
+    }
+}
+
+/// `layout.json` of a modes artifact: per position how the shapes' DOFs
+/// relate to the test (the measured responses, or the references when
+/// transposed).
+pub fn to_json(positions: &[(u32, &Layout)]) -> serde_json::Value {
+    let each: Vec<serde_json::Value> = positions
+        .iter()
+        .map(|(p, l)| {
+            serde_json::json!({
+                "position": p,
+                "layout": l.description,
+                "transposed": l.transposed,
+                "shape_dofs": if l.transposed { "measured references" } else { "measured responses" },
+            })
+        })
+        .collect();
+    serde_json::json!({ "layout": describe(positions), "positions": each })
+}
+
 /// At most eight items, then a count.
 fn list(v: &[String]) -> String {
     let mut s = v.iter().take(8).cloned().collect::<Vec<_>>().join(", ");

@@ -458,7 +458,7 @@ fn metrics(
         })
         .collect();
     Metrics {
-        layout: layout_text(sets, layouts),
+        layout: layout::describe(&positions_of(sets, layouts)),
         goal_reached: positions.iter().all(|p| p.goal_reached),
         mean_frac: positions.iter().map(|p| p.mean_frac).sum::<f64>()
             / positions.len().max(1) as f64,
@@ -475,37 +475,9 @@ fn metrics(
     }
 }
 
-/// The positions' common layout description, else each one's.
-fn layout_text(sets: &[FrfSet], layouts: &[Layout]) -> String {
-    match layouts.first() {
-        Some(first) if layouts.iter().all(|l| l.description == first.description) => {
-            first.description.clone()
-        }
-        _ => sets
-            .iter()
-            .zip(layouts)
-            .map(|(set, l)| format!("position {}: {}", set.position.index, l.description))
-            .collect::<Vec<_>>()
-            .join("; "),
-    }
-}
-
-/// `layout.json` of the modes artifact: per position how the shapes' DOFs
-/// relate to the test (measured responses, or references when transposed).
-fn layout_json(sets: &[FrfSet], layouts: &[Layout]) -> serde_json::Value {
-    let positions: Vec<serde_json::Value> = sets
-        .iter()
-        .zip(layouts)
-        .map(|(set, l)| {
-            serde_json::json!({
-                "position": set.position.index,
-                "layout": l.description,
-                "transposed": l.transposed,
-                "shape_dofs": if l.transposed { "measured references" } else { "measured responses" },
-            })
-        })
-        .collect();
-    serde_json::json!({ "layout": layout_text(sets, layouts), "positions": positions })
+/// Each position's index with its layout.
+fn positions_of<'a>(sets: &[FrfSet], layouts: &'a [Layout]) -> Vec<(u32, &'a Layout)> {
+    sets.iter().map(|s| s.position.index).zip(layouts).collect()
 }
 
 fn write_outputs(
@@ -520,7 +492,7 @@ fn write_outputs(
     artifacts::write_mode_spread(&modes_dir, &mode_spread(sets, results))?;
     write(
         &modes_dir.join("layout.json"),
-        &serde_json::to_vec_pretty(&layout_json(sets, layouts))
+        &serde_json::to_vec_pretty(&layout::to_json(&positions_of(sets, layouts)))
             .map_err(|e| StageError::Failed(e.to_string()))?,
     )?;
     let poles_path = ctx.scratch.join("poles.csv");
