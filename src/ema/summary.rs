@@ -6,7 +6,6 @@
 //! in a log.
 
 use super::hyperbox::{AtBound, DataSummary};
-use super::layout::Layout;
 use super::residual::ResidualPeak;
 use super::search::{AutoEmaResult, TraceEntry};
 use super::selection::{Hyperparameters, HYPERPARAMETER_NAMES};
@@ -38,8 +37,6 @@ pub struct PositionSummary {
     pub index: u32,
     pub label: String,
     pub goal_reached: bool,
-    /// How references and responses were fitted ([`super::layout`]).
-    pub layout: Layout,
     pub mean_frac: f64,
     pub objective: f64,
     pub n_modes: usize,
@@ -86,16 +83,12 @@ impl PositionSummary {
         label: &str,
         h: &[Complex64],
         n_lines: usize,
-        layout: &Layout,
         r: &AutoEmaResult,
     ) -> PositionSummary {
-        let mut warnings = layout.warnings();
-        warnings.extend(r.warnings.iter().cloned());
         PositionSummary {
             index,
             label: label.to_string(),
             goal_reached: r.goal_reached(),
-            layout: layout.clone(),
             mean_frac: r.best.mean_frac,
             objective: r.best.objective,
             n_modes: r.best.n_modes(),
@@ -124,7 +117,7 @@ impl PositionSummary {
             data: r.summary.clone(),
             noise: noise_summary(h, n_lines, &r.noise),
             residual_peaks: r.residual_peaks.clone(),
-            warnings,
+            warnings: r.warnings.clone(),
             trace: r.trace.clone(),
         }
     }
