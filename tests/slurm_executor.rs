@@ -375,6 +375,8 @@ fn decoys(dir: &Path) -> Vec<String> {
 fn matrix_values_with_shell_syntax_reach_no_shell() {
     // Matrix values become stage names, which enter the job name and the
     // script's comment line: an array of four expansions and a job alone.
+    // Values with control characters or separators are refused at
+    // validation (tests/path_safety.rs); these reach the scripts.
     // (The command reads its value as a quoted here-document: distinct
     // params, so distinct keys, and the stage itself runs nothing.)
     let ws = Workspace::new();
@@ -385,7 +387,7 @@ executor: {kind: slurm, poll: 0.5}
 stages:
   s:
     kind: command
-    matrix: {v: ["x\ntouch decoy1\n", "$(touch decoy2)", "`touch decoy3`; touch decoy4 #", "it's \"q\" \\ ${HOME} \r\ntouch decoy5"]}
+    matrix: {v: ["x; touch decoy1", "$(touch decoy2)", "`touch decoy3`; touch decoy4 #", "it's \"q\" ${HOME} && touch decoy5"]}
     params:
       cmd: |
         cat > /dev/null <<'END_OF_VALUE'
@@ -393,7 +395,7 @@ stages:
         END_OF_VALUE
   t:
     kind: command
-    matrix: {v: ["y\ntouch decoy6"]}
+    matrix: {v: ["y | touch decoy6"]}
     params: {cmd: "true"}
 "#,
     );
