@@ -8,7 +8,7 @@
 //! is recomputed, never used. Without a key, every name and hash in a
 //! record is still checked before it becomes a path ([`crate::paths`]).
 
-use super::store::{OutputRecord, Result, Store};
+use super::store::{err, OutputRecord, Result, Store};
 use crate::paths;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -93,6 +93,30 @@ fn check_paths(rec: &RunRecord) -> std::result::Result<(), String> {
         }
     }
     Ok(())
+}
+
+/// Names the file holding a shared cache's secret; see [`Store::seal_key`].
+pub const KEY_ENV: &str = "MODALFLOW_CACHE_KEY_FILE";
+
+/// The seal key from the file `MODALFLOW_CACHE_KEY_FILE` names, if set:
+/// blake3's key derivation over the file's bytes (any length of secret).
+pub(super) fn seal_key_from_env() -> Result<Option<[u8; 32]>> {
+    let Some(path) = std::env::var_os(KEY_ENV) else {
+        return Ok(None);
+    };
+    let path = PathBuf::from(path);
+    let secret = fs::read(&path).map_err(err("read the cache key file", &path))?;
+    if secret.len() < 16 {
+        return Err(err("use the cache key file", &path)(io::Error::new(
+            io::ErrorKind::InvalidData,
+            "it holds fewer than 16 bytes; put a long random secret there \
+             (e.g. `head -c 32 /dev/urandom > FILE`)",
+        )));
+    }
+    Ok(Some(blake3::derive_key(
+        "modalflow cache run-record seal v1",
+        &secret,
+    )))
 }
 
 impl Store {

@@ -107,30 +107,6 @@ pub struct Store {
     seal_key: Option<[u8; 32]>,
 }
 
-/// Names the file holding a shared cache's secret; see [`Store::seal_key`].
-pub const KEY_ENV: &str = "MODALFLOW_CACHE_KEY_FILE";
-
-/// The seal key from the file `MODALFLOW_CACHE_KEY_FILE` names, if set:
-/// blake3's key derivation over the file's bytes (any length of secret).
-fn seal_key_from_env() -> Result<Option<[u8; 32]>> {
-    let Some(path) = std::env::var_os(KEY_ENV) else {
-        return Ok(None);
-    };
-    let path = PathBuf::from(path);
-    let secret = fs::read(&path).map_err(err("read the cache key file", &path))?;
-    if secret.len() < 16 {
-        return Err(err("use the cache key file", &path)(io::Error::new(
-            io::ErrorKind::InvalidData,
-            "it holds fewer than 16 bytes; put a long random secret there \
-             (e.g. `head -c 32 /dev/urandom > FILE`)",
-        )));
-    }
-    Ok(Some(blake3::derive_key(
-        "modalflow cache run-record seal v1",
-        &secret,
-    )))
-}
-
 static TMP_COUNTER: AtomicU64 = AtomicU64::new(0);
 
 impl Store {
@@ -140,7 +116,7 @@ impl Store {
     /// it leaves when killed can be told from a live run's
     /// ([`super::leftovers`]).
     pub fn open(root: &Path) -> Result<Store> {
-        let seal_key = seal_key_from_env()?;
+        let seal_key = super::record::seal_key_from_env()?;
         let mut read_only = false;
         for sub in ["objects", "runs", "pipelines", "locks", "tmp"] {
             let p = root.join(sub);
@@ -604,54 +580,5 @@ pub fn list_objects(store: &Store) -> Vec<(String, PathBuf, u64)> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use std::collections::BTreeMap;
-
-    #[test]
-    fn put_verify_checkout_roundtrip_and_corruption() {
-        let dir = tempfile::tempdir().unwrap();
-        let store = Store::open(&dir.path().join("cache")).unwrap();
-        let src = dir.path().join("a.txt");
-        fs::write(&src, b"hello").unwrap();
-        let a = store.put(&src).unwrap();
-        assert_eq!(a.hash, blake3::hash(b"hello").to_hex().to_string());
-        assert_eq!(a.hash, hash_path(&src).unwrap());
-        assert!(store.verify(&a).is_ok());
-
-        let tree_src = dir.path().join("d");
-        fs::create_dir_all(tree_src.join("sub")).unwrap();
-        fs::write(tree_src.join("x"), b"1").unwrap();
-        fs::write(tree_src.join("sub/y"), b"2").unwrap();
-        let t = store.put(&tree_src).unwrap();
-        assert_eq!(t.kind, ArtifactKind::Dir);
-        assert_eq!(t.hash, hash_path(&tree_src).unwrap());
-        let out = dir.path().join("out");
-        store.checkout(&t, &out).unwrap();
-        assert_eq!(fs::read(out.join("sub/y")).unwrap(), b"2");
-
-        let rec = RunRecord {
-            key: "k".into(),
-            kind: "command".into(),
-            version: 1,
-            stage: "s".into(),
-            outputs: BTreeMap::new(),
-            // Not exactly representable sums parse back 1 ulp off in
-            // serde_json's fast float path: the seal must not care.
-            seconds: 0.009991630000000001,
-            counters: BTreeMap::new(),
-            modalflow_version: "0".into(),
-            checksum: String::new(),
-        };
-        store.write_record(&rec).unwrap();
-        assert!(store.read_record("k").unwrap().is_some());
-        let path = store.record_path("k");
-        let text = fs::read_to_string(&path).unwrap();
-        fs::write(&path, text.replace("\"s\"", "\"t\"")).unwrap();
-        assert!(store.read_record("k").unwrap_err().contains("checksum"));
-
-        fs::write(store.object_path(&a.hash), b"hellO").unwrap();
-        let e = store.verify(&a).unwrap_err();
-        assert!(e.contains("corrupt"), "{e}");
-    }
-}
+#[path = "store_tests.rs"]
+mod tests;

@@ -5,12 +5,14 @@
 
 mod files;
 mod inputs;
+mod names;
 mod params;
 mod set;
 
 pub use files::normalize;
 use files::resolve_files;
 use inputs::resolve_inputs;
+use names::{check_matrix, valid_stage_name};
 use params::parse_params;
 pub use set::Override;
 
@@ -190,11 +192,12 @@ fn plan_sets(file: &Path, dir: &Path, source: &str, sets: &[String]) -> Result<P
         }
     }
     if let Err(deep) = crate::yaml::check_depth(source) {
-        let loc = Location {
-            line: deep.line,
-            column: deep.column,
-        };
-        cx.at(Some(loc), format!("invalid pipeline file: {deep}"), None);
+        let (line, column) = (deep.line, deep.column);
+        cx.at(
+            Some(Location { line, column }),
+            format!("invalid pipeline file: {deep}"),
+            None,
+        );
         return Err(PlanError::Invalid(Diagnostics(cx.diags)));
     }
     let mut spec: PipelineSpec = match serde_yaml_ng::from_str(source) {
@@ -406,14 +409,6 @@ fn check_binary(cx: &mut Ctx, spec: &ExecutorSpec, dir: &Path) -> Option<PathBuf
     Some(path)
 }
 
-fn valid_stage_name(name: &str) -> bool {
-    !name.is_empty()
-        && name.len() <= MAX_NAME_BYTES
-        && name
-            .chars()
-            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
-}
-
 /// Kinds, matrix expansion and param checks, one node per combination.
 fn expand(cx: &mut Ctx, spec: &PipelineSpec, _dir: &Path) -> Vec<Node> {
     if !valid_stage_name(&spec.name) {
@@ -474,51 +469,6 @@ fn expand(cx: &mut Ctx, spec: &PipelineSpec, _dir: &Path) -> Vec<Node> {
         }
     }
     nodes
-}
-
-fn check_matrix(cx: &mut Ctx, base: &str, st: &StageSpec) -> bool {
-    let mut ok = true;
-    for (key, values) in &st.matrix {
-        let loc = cx.spans.value(&["stages", base, "matrix", key]);
-        if values.is_empty() {
-            cx.at(
-                loc,
-                format!("matrix key `{key}` of stage `{base}` has no values"),
-                Some("give at least one value".into()),
-            );
-            ok = false;
-        }
-        if !valid_stage_name(key) {
-            let loc = cx.spans.key(&["stages", base, "matrix", key]);
-            cx.at(
-                loc,
-                format!("invalid matrix key `{key}` in stage `{base}`"),
-                Some("use letters, digits, `_` and `-` (keys appear in `${matrix.KEY}` and in the results folder name)".into()),
-            );
-            ok = false;
-        }
-        let texts: Vec<Option<String>> = values.iter().map(matrix::scalar_text).collect();
-        if texts.iter().any(Option::is_none) {
-            cx.at(
-                loc,
-                format!("matrix key `{key}` of stage `{base}` has a non-scalar value"),
-                Some("matrix values must be strings, numbers or booleans".into()),
-            );
-            ok = false;
-        }
-        for text in texts.into_iter().flatten() {
-            if let Err(problem) = paths::name(&text) {
-                cx.at(
-                    loc,
-                    format!("matrix value `{}` of key `{key}` in stage `{base}` {problem}", text.escape_debug()),
-                    Some("matrix values become part of the results folder name: use plain words or numbers, and \
-                          build paths in params instead, e.g. `model: models/${matrix.variant}.yaml`".into()),
-                );
-                ok = false;
-            }
-        }
-    }
-    ok
 }
 
 fn expand_one(
