@@ -14,6 +14,13 @@
 //! - `scale`: one PUB5-size position (the `large` family) with the time of
 //!   each phase: PolyMAX, the search, the final steps.
 //!
+//! - `real [LO HI [ITERATIONS [FILES]]]`: the real beam of
+//!   `../shared/data/real/beam_ufsc_ss` (hammer as measured, shaker, MIMO;
+//!   FILES comma-separated) on the band [LO, HI] Hz (default 5–800) with
+//!   every variant 0–7 of the Sobol design (`AutoEmaParams::design`): the
+//!   modes, evaluations, chosen order and CPU seconds per variant, i.e. how
+//!   much a result owes to the search design (the stage always uses 0).
+//!
 //! - `export DIR FAMILY SEED NOISE [POSITIONS]`: one family member for
 //!   `benchmarks/autoema_compare.py` — `frf.uff` (58b, POSITIONS copies with
 //!   independent noise, for the PUB5-size run of 4 positions), `frf.bin`
@@ -130,14 +137,7 @@ fn family(name: &str, noise: f64, seeds: u64) {
         let Some(c) = case(name, seed) else { return };
         let d = frf_data(&c, noise, seed);
         let t = cpu_seconds();
-        let r = match auto_ema(
-            &d,
-            &AutoEmaParams {
-                seed,
-                ..AutoEmaParams::default()
-            },
-            &|| {},
-        ) {
+        let r = match auto_ema(&d, &AutoEmaParams::default(), &|| {}) {
             Ok(r) => r,
             Err(e) => {
                 failures.push(format!("seed {seed}: {e}"));
@@ -256,6 +256,61 @@ fn scale() {
     );
 }
 
+/// `real [LO HI [ITERATIONS [FILES]]]` (module docs).
+fn real(args: &[String]) -> Result<(), String> {
+    use modalflow::ema::layout::{frf_data, Reciprocity};
+    use modalflow::io::{frf_sets_from_uff, read_uff, FrfImportOptions};
+    let num = |k: usize, default: f64| args.get(k).and_then(|s| s.parse().ok()).unwrap_or(default);
+    let band = (num(0, 5.0), num(1, 800.0));
+    let evaluations = num(2, 40.0) as usize;
+    let files = args.get(3).map_or(
+        "frf_hammer_as_measured.uff,frf_shaker.uff,frf_mimo_2ref.uff",
+        String::as_str,
+    );
+    let dir = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/real/beam_ufsc_ss"
+    );
+    for file in files.split(',') {
+        let bytes = std::fs::read(format!("{dir}/{file}")).map_err(|e| format!("{file}: {e}"))?;
+        let uff = read_uff(&bytes, file).map_err(|e| e.to_string())?;
+        let sets = frf_sets_from_uff(&uff, file, &FrfImportOptions::default())
+            .map_err(|e| e.to_string())?
+            .sets;
+        let set = sets.first().ok_or(format!("{file}: no FRFs"))?;
+        let (d, layout) = frf_data(set, Some(band), Weighting::Uniform, Reciprocity::Auto)
+            .map_err(|e| e.to_string())?;
+        println!("{file}, {:?} Hz: {}", band, layout.description);
+        for design in 0..8 {
+            let p = AutoEmaParams {
+                design,
+                evaluations,
+                initial: 12.min(evaluations),
+                ..AutoEmaParams::default()
+            };
+            let t = cpu_seconds();
+            let r = auto_ema(&d, &p, &|| {}).map_err(|e| e.to_string())?;
+            let f: Vec<String> = r
+                .best
+                .roots
+                .iter()
+                .map(|x| format!("{:.1}", x.pole(&r.orders).frequency_hz))
+                .collect();
+            println!(
+                "  design {design}: {:>2} modes, {:>3} evaluations, order {:>3} of {:?}, mean FRAC {:.4}, {:.1} s CPU: {}",
+                f.len(),
+                r.trace.len(),
+                r.best.hyperparameters.max_order,
+                r.bounds[8],
+                r.best.mean_frac,
+                cpu_seconds() - t,
+                f.join(" ")
+            );
+        }
+    }
+    Ok(())
+}
+
 /// `export DIR FAMILY SEED NOISE [POSITIONS]`.
 fn export(args: &[String]) -> Result<(), String> {
     let [dir, name, seed, noise, rest @ ..] = args else {
@@ -331,6 +386,12 @@ fn main() {
             }
         }
         Some("families") => families(&args[1..]),
+        Some("real") => {
+            if let Err(e) = real(&args[1..]) {
+                eprintln!("real: {e}");
+                std::process::exit(2);
+            }
+        }
         Some("scale") => scale(),
         _ => polymax_reuse(),
     }

@@ -177,15 +177,7 @@ fn synthetic_families_with_default_settings() {
     ] {
         let c = case(family, seed).unwrap();
         let d = frf_data(&c, noise, seed);
-        let r = auto_ema(
-            &d,
-            &AutoEmaParams {
-                seed,
-                ..AutoEmaParams::default()
-            },
-            &|| {},
-        )
-        .unwrap();
+        let r = auto_ema(&d, &AutoEmaParams::default(), &|| {}).unwrap();
         let s = score(&c, noise, &estimates(&r), r.best.mean_frac);
         assert!(
             s.success,
@@ -272,4 +264,262 @@ fn autoema_outputs_say_what_was_decided() {
     ] {
         assert!(svg.contains(needle), "{needle}");
     }
+}
+
+/// Rows of modes.csv: (frequency, damping) per mode.
+fn modes_csv(ws: &Workspace, stage: &str) -> Vec<(f64, f64)> {
+    let csv = ws.read(&format!("results/ema/{stage}/modes/modes.csv"));
+    csv.lines()
+        .skip(1)
+        .map(|l| {
+            let r: Vec<f64> = l.split(',').map(|v| v.parse().unwrap()).collect();
+            (r[1], r[2])
+        })
+        .collect()
+}
+
+/// Shapes of mode_shapes.csv: per mode, (node, direction) → complex value.
+fn shapes_csv(
+    ws: &Workspace,
+    stage: &str,
+) -> Vec<std::collections::BTreeMap<(u32, String), num_complex::Complex64>> {
+    let csv = ws.read(&format!("results/ema/{stage}/modes/mode_shapes.csv"));
+    let mut out: Vec<std::collections::BTreeMap<_, _>> = Vec::new();
+    for l in csv.lines().skip(1) {
+        let r: Vec<&str> = l.split(',').collect();
+        let m: usize = r[0].parse().unwrap();
+        if out.len() < m {
+            out.resize(m, Default::default());
+        }
+        out[m - 1].insert(
+            (r[1].parse().unwrap(), r[2].to_string()),
+            num_complex::Complex64::new(r[3].parse().unwrap(), r[4].parse().unwrap()),
+        );
+    }
+    out
+}
+
+fn shape_mac(
+    a: &std::collections::BTreeMap<(u32, String), num_complex::Complex64>,
+    b: &std::collections::BTreeMap<(u32, String), num_complex::Complex64>,
+) -> f64 {
+    assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
+    let dot: num_complex::Complex64 = a.values().zip(b.values()).map(|(x, y)| x.conj() * y).sum();
+    let n = |v: &std::collections::BTreeMap<_, num_complex::Complex64>| {
+        v.values().map(|x| x.norm_sqr()).sum::<f64>()
+    };
+    dot.norm_sqr() / (n(a) * n(b))
+}
+
+/// A roving-hammer test (5 references × 1 response) gives the modes of the
+/// roving-accelerometer test it mirrors by reciprocity: same frequencies,
+/// damping and shapes (now at the hammer DOFs), the layout stated in
+/// metrics.json and modes/layout.json, the fitted FRFs as measured;
+/// `reciprocity: never` fits the 1 × 5 matrix as before.
+#[test]
+fn roving_hammer_layout_gives_the_modes_of_its_transpose() {
+    let ws = Workspace::new();
+    let modes = four_mode_system();
+    let shaker = modal_superposition(&modes, &[2], &lines(10.0, 270.0, 0.25), 0.005, 7);
+    let mut hammer = shaker.clone();
+    for c in &mut hammer.channels {
+        std::mem::swap(&mut c.response, &mut c.reference);
+    }
+    std::fs::write(ws.path().join("hammer.uff"), write_frf_artifact(&[hammer])).unwrap();
+    std::fs::write(ws.path().join("shaker.uff"), write_frf_artifact(&[shaker])).unwrap();
+    let params = "band: [20, 260], max_order: [8, 24], iterations: 24, initial: 10, fixed: {max_damping: 0.1}";
+    ws.write(
+        "p.yaml",
+        &format!(
+            "name: ema\nstages:\n  h: {{kind: import, params: {{path: hammer.uff}}}}\n  s: {{kind: import, params: {{path: shaker.uff}}}}\n  \
+             hammer: {{kind: autoema, inputs: {{frf: h.frf}}, params: {{{params}}}}}\n  \
+             shaker: {{kind: autoema, inputs: {{frf: s.frf}}, params: {{{params}}}}}\n  \
+             never: {{kind: autoema, inputs: {{frf: h.frf}}, params: {{{params}, reciprocity: never}}}}\n"
+        ),
+    );
+    let report = ws.run(&[], 0);
+    assert_eq!(
+        report.stage("hammer")["counters"]["transposed_positions"],
+        1
+    );
+    assert_eq!(
+        report.stage("shaker")["counters"]["transposed_positions"],
+        0
+    );
+    let metrics = |stage: &str| -> serde_json::Value {
+        serde_json::from_str(&ws.read(&format!("results/ema/{stage}/metrics.json"))).unwrap()
+    };
+    assert_eq!(
+        metrics("hammer")["layout"],
+        "transposed by reciprocity (5 references × 1 response fitted as 5 outputs × 1 reference)"
+    );
+    assert_eq!(
+        metrics("shaker")["layout"],
+        "as measured (1 reference × 5 responses fitted as 5 outputs × 1 reference)"
+    );
+    assert_eq!(
+        metrics("never")["layout"],
+        "as measured (5 references × 1 response fitted as 1 output × 5 references)"
+    );
+    let layout: serde_json::Value =
+        serde_json::from_str(&ws.read("results/ema/hammer/modes/layout.json")).unwrap();
+    assert_eq!(layout["positions"][0]["transposed"], true);
+    assert_eq!(layout["positions"][0]["shape_dofs"], "measured references");
+
+    let (h, s) = (modes_csv(&ws, "hammer"), modes_csv(&ws, "shaker"));
+    assert_eq!(h.len(), modes.len(), "{h:?}");
+    assert_eq!(h.len(), s.len());
+    for ((fh, zh), ((fs, zs), m)) in h.iter().zip(s.iter().zip(&modes)) {
+        assert!((fh - fs).abs() <= 1e-9 * fs && (zh - zs).abs() <= 1e-9 * zs);
+        assert!((fh - m.frequency_hz).abs() < 5e-3 * m.frequency_hz);
+        assert!((zh - m.damping_ratio).abs() < 0.1 * m.damping_ratio);
+    }
+    let (sh, ss) = (shapes_csv(&ws, "hammer"), shapes_csv(&ws, "shaker"));
+    for (a, b) in sh.iter().zip(&ss) {
+        assert_eq!(a.len(), 5, "shapes at the five hammer DOFs");
+        assert!(shape_mac(a, b) > 0.9999);
+    }
+    // The fitted FRFs keep the measured orientation.
+    let fit = read_frf_artifact(
+        &std::fs::read(ws.path().join("results/ema/hammer/frf_fit.uff")).unwrap(),
+        "frf_fit.uff",
+    )
+    .unwrap();
+    assert_eq!(fit[0].responses().len(), 1);
+    assert_eq!(fit[0].references().len(), 5);
+
+    // never: one output, five references; the shapes at the one response.
+    let n = modes_csv(&ws, "never");
+    assert!(!n.is_empty());
+    assert!(shapes_csv(&ws, "never").iter().all(|m| m.len() == 1));
+}
+
+/// Partial matrices: a missing channel whose reciprocal was measured is
+/// taken from it; a response missing a channel both ways is left out (the
+/// largest complete sub-matrix), with warnings naming both; a matrix where
+/// less than half the channels would remain is refused, naming them.
+#[test]
+fn partial_matrices_are_completed_by_reciprocity_or_reduced() {
+    use modalflow::ema::synthetic::dof;
+    let ws = Workspace::new();
+    let mut set = modal_superposition(
+        &four_mode_system(),
+        &[0, 3],
+        &lines(10.0, 270.0, 0.25),
+        0.005,
+        5,
+    );
+    set.channels.retain(|c| {
+        let k = (c.response, c.reference);
+        k != (dof(0), dof(3)) && k != (dof(4), dof(3))
+    });
+    std::fs::write(ws.path().join("truth.uff"), write_frf_artifact(&[set])).unwrap();
+    ws.write("p.yaml", PIPELINE);
+    ws.run(&[], 0);
+    let m: serde_json::Value =
+        serde_json::from_str(&ws.read("results/ema/ema/metrics.json")).unwrap();
+    let layout = &m["positions"][0]["layout"];
+    assert_eq!(
+        layout["filled_by_reciprocity"],
+        serde_json::json!(["1+Z/4+Z"])
+    );
+    assert_eq!(layout["missing"], serde_json::json!(["5+Z/4+Z"]));
+    assert_eq!(layout["dropped_responses"], serde_json::json!(["5+Z"]));
+    let warnings = m["warnings"].to_string();
+    assert!(
+        warnings.contains("reciprocal") && warnings.contains("5+Z/4+Z"),
+        "{warnings}"
+    );
+    assert_eq!(modes_csv(&ws, "ema").len(), 4);
+    assert!(shapes_csv(&ws, "ema").iter().all(|s| s.len() == 4));
+
+    // Every reference at two responses of its own (no reciprocal filling
+    // with `never`): at most 2 of the 6 channels are complete, refused.
+    let mut set = modal_superposition(
+        &four_mode_system(),
+        &[0, 2, 4],
+        &lines(10.0, 270.0, 0.25),
+        0.0,
+        1,
+    );
+    let pairs = [(0, 0), (1, 0), (2, 2), (3, 2), (4, 4), (0, 4)];
+    set.channels.retain(|c| {
+        pairs
+            .iter()
+            .any(|&(r, q)| (c.response, c.reference) == (dof(r), dof(q)))
+    });
+    std::fs::write(ws.path().join("truth.uff"), write_frf_artifact(&[set])).unwrap();
+    ws.write(
+        "p.yaml",
+        &PIPELINE.replace(
+            "fixed: {max_damping: 0.1}}",
+            "fixed: {max_damping: 0.1}, reciprocity: never}",
+        ),
+    );
+    let out = ws.cmd(&["run", "p.yaml", "--progress", "none"]);
+    assert_ne!(out.status.code(), Some(0));
+    let err = format!("{}{}", util::text(&out.stdout), util::text(&out.stderr));
+    assert!(err.contains("missing") && err.contains("`select`"), "{err}");
+}
+
+/// The real beam (tests data of ../shared), roving hammer as measured, on a
+/// narrow band with few iterations: the modes do not depend on the seed.
+#[test]
+fn real_beam_modes_do_not_depend_on_the_seed() {
+    let dir = std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/real/beam_ufsc_ss"
+    ));
+    if !dir.is_dir() {
+        // CI always has ../shared beside the clone.
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "{} missing in CI",
+            dir.display()
+        );
+        eprintln!("skipping: {} not found", dir.display());
+        return;
+    }
+    let dir = dir.canonicalize().unwrap();
+    let ws = Workspace::new();
+    std::os::unix::fs::symlink(&dir, ws.path().join("data")).unwrap();
+    let mut yaml = format!(
+        "name: ema\nread_outside: [{}]\nstages:\n  beam: {{kind: import, params: {{path: data/frf_hammer_as_measured.uff, band: [5, 180]}}}}\n",
+        dir.display()
+    );
+    for seed in 1..=4 {
+        yaml.push_str(&format!(
+            "  s{seed}: {{kind: autoema, inputs: {{frf: beam.frf}}, params: {{seed: {seed}, iterations: 12, initial: 6}}}}\n"
+        ));
+    }
+    ws.write("p.yaml", &yaml);
+    ws.run(&[], 0);
+    let first = modes_csv(&ws, "s1");
+    assert!(first.len() >= 3, "{first:?}");
+    for (f, want) in [17.2, 68.8, 155.4].iter().zip([0.02, 0.02, 0.01]) {
+        assert!(
+            first.iter().any(|(x, _)| (x - f).abs() <= want * f),
+            "no mode near {f} Hz: {first:?}"
+        );
+    }
+    for seed in 2..=4 {
+        let other = modes_csv(&ws, &format!("s{seed}"));
+        assert_eq!(
+            other.len(),
+            first.len(),
+            "seed {seed}: {other:?} vs {first:?}"
+        );
+        for ((a, _), (b, _)) in other.iter().zip(&first) {
+            assert!(
+                (a - b).abs() <= 1e-3 * b,
+                "seed {seed}: {other:?} vs {first:?}"
+            );
+        }
+    }
+    let m: serde_json::Value =
+        serde_json::from_str(&ws.read("results/ema/s1/metrics.json")).unwrap();
+    assert_eq!(
+        m["layout"],
+        "transposed by reciprocity (30 references × 1 response fitted as 30 outputs × 1 reference)"
+    );
 }

@@ -4,7 +4,7 @@
 //! et al. 2004, eq. 6).
 
 use super::EmaError;
-use crate::frf::{Dof, FrfSet};
+use crate::frf::{Dof, FrfChannel, FrfSet};
 use num_complex::Complex64;
 
 /// How the equation error of each output and line is weighted.
@@ -80,51 +80,86 @@ impl FrfData {
     }
 
     /// The channels of `set` with lines inside `band_hz` (inclusive; all
-    /// lines when `None`). Every response must be measured for every reference.
+    /// lines when `None`). Every response must be measured for every
+    /// reference; [`super::layout::frf_data`] also takes partial matrices
+    /// and fits by reciprocity.
     pub fn from_set(
         set: &FrfSet,
         band_hz: Option<(f64, f64)>,
         weighting: Weighting,
     ) -> Result<FrfData, EmaError> {
-        let (lo, hi) = band_hz.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
-        let lines: Vec<usize> = (0..set.frequencies_hz.len())
-            .filter(|&f| (lo..=hi).contains(&set.frequencies_hz[f]))
-            .collect();
         let responses = set.responses();
         let references = set.references();
-        let nf = lines.len();
-        let mut h = Vec::with_capacity(responses.len() * references.len() * nf);
-        let mut coherence: Vec<Option<&Vec<f64>>> = Vec::new();
+        let mut channels = Vec::with_capacity(responses.len() * references.len());
         for &r in &responses {
             for &q in &references {
-                let c = set.channel(r, q).ok_or_else(|| {
+                channels.push(set.channel(r, q).ok_or_else(|| {
                     EmaError::InvalidData(format!(
                         "position {}: channel {r}/{q} is missing; PolyMAX needs every response measured for every reference (select a complete set with the import stage's `select`)",
                         set.position.index
                     ))
-                })?;
-                h.extend(lines.iter().map(|&f| c.values[f]));
-                coherence.push(c.coherence.as_ref());
+                })?);
             }
         }
+        FrfData::from_channels(
+            &set.frequencies_hz,
+            band_hz,
+            responses,
+            references,
+            &channels,
+            weighting,
+        )
+    }
+
+    /// Build from `channels[o · n_ref + i]`, the FRF of output `o` for
+    /// reference `i`, keeping the lines inside `band_hz` (inclusive; all
+    /// lines when `None`).
+    pub(crate) fn from_channels(
+        frequencies_hz: &[f64],
+        band_hz: Option<(f64, f64)>,
+        responses: Vec<Dof>,
+        references: Vec<Dof>,
+        channels: &[&FrfChannel],
+        weighting: Weighting,
+    ) -> Result<FrfData, EmaError> {
+        let (lo, hi) = band_hz.unwrap_or((f64::NEG_INFINITY, f64::INFINITY));
+        let lines: Vec<usize> = (0..frequencies_hz.len())
+            .filter(|&f| (lo..=hi).contains(&frequencies_hz[f]))
+            .collect();
+        let nf = lines.len();
+        let mut h = Vec::with_capacity(channels.len() * nf);
+        for c in channels {
+            h.extend(lines.iter().map(|&f| c.values[f]));
+        }
         let mut d = FrfData {
-            frequencies_hz: lines.iter().map(|&f| set.frequencies_hz[f]).collect(),
+            frequencies_hz: lines.iter().map(|&f| frequencies_hz[f]).collect(),
             responses,
             references,
             h,
             weight: Vec::new(),
         };
+        if channels.len() != d.n_out() * d.n_ref() {
+            return Err(EmaError::InvalidData(format!(
+                "{} channels for {} outputs × {} references",
+                channels.len(),
+                d.n_out(),
+                d.n_ref()
+            )));
+        }
         d.check()?;
         d.weight = d.uniform_weights();
-        if weighting == Weighting::Coherence && coherence.iter().all(Option::is_some) {
+        let coherence: Vec<&Vec<f64>> = channels
+            .iter()
+            .filter_map(|c| c.coherence.as_ref())
+            .collect();
+        if weighting == Weighting::Coherence && coherence.len() == channels.len() {
             let n_ref = d.n_ref();
             for o in 0..d.n_out() {
                 for (f, &line) in lines.iter().enumerate() {
                     // Mean relative variance over the references of this output.
                     let var: f64 = (0..n_ref)
                         .map(|i| {
-                            let g = coherence[o * n_ref + i].map_or(1.0, |c| c[line]);
-                            let g = g.clamp(1e-3, 1.0);
+                            let g = coherence[o * n_ref + i][line].clamp(1e-3, 1.0);
                             (1.0 - g) / g + 1e-4
                         })
                         .sum::<f64>()

@@ -18,13 +18,13 @@
 //! most of a 40-point search with empty selections.
 //! | damping_weight | [0, 1] | — |
 //! | mac_weight | [0, 1] | fixed at 0 with one reference |
-//! | max_order | [n_lo, n_hi] | from the number N of CMIF peaks and n_ref: n_lo = clamp(⌈1.5 N/n_ref⌉ + 4, 8, 60), n_hi = min(max(n_lo + 20, ⌈6 N/n_ref⌉ + 20), 100, n_f − 2) (a wide band needs several poles per mode before the low modes converge, and the second pole of a repeated root often stabilizes only at high orders) |
+//! | max_order | [n_lo, n_hi] | from the number N of CMIF peaks and n_ref: n_lo = clamp(⌈2 N/n_ref⌉ + 4, 8, 60), n_hi = min(max(n_lo + 24, ⌈6 N/n_ref⌉ + 30), 100, n_f − 2). N counts the prominent peaks of the first CMIF curve above the noise ([`super::noise::cmif_mode_peaks`]) and the peaks of the further curves: a lower bound of the modes (a close pair shares a peak, heavily damped modes merge), hence the margins; a wide band needs several poles per mode before the low modes converge, and the second pole of a repeated root often stabilizes only at high orders |
 //!
 //! A chosen value within 2 % (of the searched range) of a bound is "at the
 //! bound"; the search then evaluates the selection a quarter of the range
 //! beyond that bound and reports whether the result would change there.
 
-use super::noise::peaks;
+use super::noise::{cmif_mode_peaks, peaks};
 use super::FrfData;
 
 /// Searched on a log scale (tolerances spanning decades).
@@ -38,21 +38,33 @@ pub struct DataSummary {
     pub line_spacing_hz: f64,
     pub n_ref: usize,
     pub n_lines: usize,
-    /// Peaks of the CMIF curves (a first estimate of the number of modes).
+    /// Peaks of the CMIF curves (a first estimate of the number of modes):
+    /// prominent peaks of the first curve above the noise, and peaks of
+    /// the further ones (repeated roots).
     pub cmif_peaks: usize,
 }
 
 impl DataSummary {
-    pub fn of(data: &FrfData, cmif: &[Vec<f64>]) -> DataSummary {
+    /// The summary of `data` with its CMIF curves and per-channel noise
+    /// variances ([`super::noise`]).
+    pub fn of(data: &FrfData, cmif: &[Vec<f64>], noise: &[f64]) -> DataSummary {
         let f = &data.frequencies_hz;
         let mut steps: Vec<f64> = f.windows(2).map(|w| w[1] - w[0]).collect();
         steps.sort_by(f64::total_cmp);
         let reach = (data.n_lines() / 50).max(5);
-        // First curve: every mode; further curves: repeated roots.
+        // First curve: every mode, by prominence above the noise
+        // ([`cmif_mode_peaks`]); further curves: repeated roots.
+        let noise_power = noise.iter().sum::<f64>() / data.n_ref().max(1) as f64;
         let cmif_peaks = cmif
             .iter()
             .enumerate()
-            .map(|(k, c)| peaks(c, if k == 0 { 1.5 } else { 3.0 }, reach).len())
+            .map(|(k, c)| {
+                if k == 0 {
+                    cmif_mode_peaks(c, noise_power).len()
+                } else {
+                    peaks(c, 3.0, reach).len()
+                }
+            })
             .sum();
         DataSummary {
             band_hz: (
@@ -71,8 +83,8 @@ impl DataSummary {
         let per_ref =
             |k: f64| (k * self.cmif_peaks as f64 / self.n_ref.max(1) as f64).ceil() as usize;
         let cap = self.n_lines.saturating_sub(2).max(1);
-        let lo = (per_ref(1.5) + 4).clamp(8, 60).min(cap);
-        let hi = (lo + 20).max(per_ref(6.0) + 20).min(100).min(cap).max(lo);
+        let lo = (per_ref(2.0) + 4).clamp(8, 60).min(cap);
+        let hi = (lo + 24).max(per_ref(6.0) + 30).min(100).min(cap).max(lo);
         (lo, hi)
     }
 
@@ -159,8 +171,8 @@ mod tests {
             n_lines: 961,
             cmif_peaks: 8,
         };
-        assert_eq!(s.max_order_range(), (10, 44));
-        let b = s.bounds((10, 44));
+        assert_eq!(s.max_order_range(), (12, 54));
+        let b = s.bounds((12, 54));
         assert!((b[3].1 - 240.0 / 1040.0).abs() < 1e-12);
         assert!(s.implied().is_empty());
         let one = DataSummary {

@@ -16,10 +16,12 @@
 //! milliseconds even on hundreds of FRFs.
 
 pub mod clustering;
+pub mod design;
 pub mod families;
 pub mod frf_data;
 pub mod hermitian;
 pub mod hyperbox;
+pub mod layout;
 pub mod lsfd;
 pub mod noise;
 pub mod polymax;
@@ -37,6 +39,7 @@ pub mod synthetic;
 
 pub use clustering::{cluster_poles, Cluster, ClusterParams};
 pub use frf_data::{FrfData, Weighting};
+pub use layout::{Layout, Reciprocity};
 pub use lsfd::{lsfd, lsfd_roots, LsfdFit};
 pub use polymax::{polymax, polymax_rebuild_per_order, Pole, PoleOrder, PolymaxParams};
 pub use roots::Root;

@@ -130,6 +130,65 @@ pub fn peaks(curve: &[f64], prominence: f64, reach: usize) -> Vec<usize> {
         .collect()
 }
 
+/// Prominence ratio a peak of the first CMIF curve needs to count as a mode
+/// in [`cmif_mode_peaks`] (≈ 3.5 dB).
+pub const MODE_PROMINENCE: f64 = 1.5;
+
+/// Lines where the first CMIF curve `sigma1` shows a mode: local maxima
+/// (over ±2 lines) whose topographic prominence stands at least
+/// [`MODE_PROMINENCE`] times above the higher of the two lowest values
+/// between the peak and the nearest higher value on either side (the band
+/// edge when there is none) — the "key col" of topography, as in
+/// `scipy.signal.find_peaks` — on the curve smoothed by a 3-line moving
+/// geometric mean, and that stand above the noise: σ₁² ≥ 10 `noise_power`
+/// (the noise power summed over the channels of one reference column).
+///
+/// Unlike a fixed ±reach window, a key col follows each peak to where the
+/// curve rises again, so a mode between two stronger ones counts as long
+/// as it stands out of the valley between them, and a broad noisy plateau
+/// does not: a plateau's wiggles have no prominence. The smoothing keeps
+/// single-line noise spikes of finely resolved spectra from splitting a
+/// peak; a lightly damped mode two lines wide keeps ~⅔ of its height.
+pub fn cmif_mode_peaks(sigma1: &[f64], noise_power: f64) -> Vec<usize> {
+    let n = sigma1.len();
+    if n < 3 {
+        return Vec::new();
+    }
+    // 3-line geometric mean of σ₁ (log domain: multiplicative noise).
+    let log: Vec<f64> = sigma1.iter().map(|v| v.max(1e-300).ln()).collect();
+    let y: Vec<f64> = (0..n)
+        .map(|k| {
+            let (lo, hi) = (k.saturating_sub(1), (k + 2).min(n));
+            log[lo..hi].iter().sum::<f64>() / (hi - lo) as f64
+        })
+        .collect();
+    let floor = 0.5 * (10.0 * noise_power).max(1e-300).ln();
+    let threshold = MODE_PROMINENCE.ln();
+    (0..n)
+        .filter(|&k| {
+            let (lo, hi) = (k.saturating_sub(2), (k + 3).min(n));
+            let is_max = (lo..hi).all(|j| y[j] < y[k] || (y[j] == y[k] && j >= k));
+            if !is_max || log[k] < floor {
+                return false;
+            }
+            // Lowest value on each side before the curve exceeds the peak.
+            let col = |it: &mut dyn Iterator<Item = usize>| {
+                let mut low = y[k];
+                for j in it {
+                    if y[j] > y[k] {
+                        break;
+                    }
+                    low = low.min(y[j]);
+                }
+                low
+            };
+            let left = col(&mut (0..k).rev());
+            let right = col(&mut (k + 1..n));
+            y[k] - left.max(right) >= threshold
+        })
+        .collect()
+}
+
 /// Whether `curve` (over `freqs`) peaks within ±`hw` Hz of `f`: its largest
 /// value there is the largest within ±3·hw and at least twice the lowest
 /// value on either side within ±8·hw.
@@ -163,6 +222,7 @@ mod tests {
     use super::*;
     use crate::ema::synthetic::{four_mode_system, lines, modal_superposition, SyntheticMode};
     use crate::ema::Weighting;
+    use rand::SeedableRng;
 
     /// The synthetic noise is complex Gaussian with E|n|² = (r · RMS)²: the
     /// estimate recovers it within the sampling error of a median over ~1000
@@ -213,6 +273,33 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The mode count of the first CMIF curve finds the four modes at
+    /// every noise level, and nothing in a curve of noise alone, whether
+    /// its wiggles stand above the noise floor or not.
+    #[test]
+    fn cmif_mode_peaks_count_modes_not_wiggles() {
+        let modes = four_mode_system();
+        for (r, seed) in [(0.0, 1), (0.02, 2), (0.05, 3)] {
+            let set = modal_superposition(&modes, &[0, 3], &lines(20.0, 260.0, 0.25), r, seed);
+            let d = FrfData::from_set(&set, None, Weighting::Uniform).unwrap();
+            let power = noise_variance(&d).iter().sum::<f64>() / 2.0;
+            let found: Vec<f64> = cmif_mode_peaks(&cmif(&d)[0], power)
+                .iter()
+                .map(|&k| d.frequencies_hz[k])
+                .collect();
+            assert_eq!(found.len(), 4, "noise {r}: {found:?}");
+            for (f, m) in found.iter().zip(&modes) {
+                assert!((f - m.frequency_hz).abs() <= 1.0, "noise {r}: {found:?}");
+            }
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+        let wiggles: Vec<f64> = (0..800)
+            .map(|_| 1.0 + 0.2 * crate::ema::synthetic::gauss(&mut rng).clamp(-1.0, 1.0))
+            .collect();
+        assert!(cmif_mode_peaks(&wiggles, 1e-6).is_empty());
+        assert!(cmif_mode_peaks(&wiggles, 1.0).is_empty());
     }
 
     /// CMIF of a repeated root driven from two references: two curves peak

@@ -1,8 +1,10 @@
 //! AutoEMA end to end (seed section 5.2.2, PUB5): PolyMAX poles once up to
-//! the highest order, then Bayesian optimization
-//! ([`crate::optimize::bayesian`]) of the selection hyperparameters over a
-//! box fitted to the data ([`super::hyperbox`]), maximizing J(θ) of
-//! [`super::selection`].
+//! the highest order, then Bayesian optimization on a fixed Sobol design
+//! ([`super::design`]) of the selection hyperparameters over a box fitted
+//! to the data ([`super::hyperbox`]), maximizing J(θ) of
+//! [`super::selection`]. The result is a function of the data: there is no
+//! seed. The budget `evaluations` is extended (up to 3×) until the kept
+//! result has stood for a quarter of it ([`settled`]).
 //!
 //! Among the evaluated points whose score is within max(10⁻⁶, 1 % of
 //! 1 − J*) of the best J* and that have as many modes, the one farthest from
@@ -12,6 +14,7 @@
 //! fit is checked against the noise floor ([`super::residual`]); both go to
 //! the result's warnings.
 
+use super::design::SobolSearch;
 use super::hyperbox::{AtBound, DataSummary, LOG_SCALE};
 use super::lsfd::LsfdFit;
 use super::polymax::{polymax, PoleOrder, PolymaxParams};
@@ -21,7 +24,6 @@ use super::selection::{
     SelectionParams, HYPERPARAMETER_NAMES,
 };
 use super::{EmaError, FrfData};
-use crate::optimize::bayesian::{maximize, BayesianParams};
 use std::collections::BTreeMap;
 
 /// Settings of [`auto_ema`].
@@ -30,12 +32,17 @@ pub struct AutoEmaParams {
     /// Range of the maximum model order; `None`: fitted to the data
     /// ([`DataSummary::max_order_range`]).
     pub max_order: Option<(usize, usize)>,
-    /// Objective evaluations of the Bayesian optimization (initial design included).
+    /// Objective evaluations of the Bayesian optimization (initial design
+    /// included), at least: the search goes on, up to three times as many,
+    /// until its result has stood for a quarter of them ([`settled`]).
     pub evaluations: usize,
-    /// Latin-hypercube points before the surrogate takes over.
+    /// Sobol design points before the surrogate takes over.
     pub initial: usize,
     pub selection: SelectionParams,
-    pub seed: u64,
+    /// Variant of the Sobol design ([`super::design::SobolSearch::new`]):
+    /// 0, the method's design, in the stage; others only to study how much
+    /// a result owes to the design.
+    pub design: u32,
     /// Hyperparameters pinned to a value (names of [`HYPERPARAMETER_NAMES`]).
     pub fixed: BTreeMap<String, f64>,
     /// Search ranges replacing the fitted ones.
@@ -49,7 +56,7 @@ impl Default for AutoEmaParams {
             evaluations: 40,
             initial: 12,
             selection: SelectionParams::default(),
-            seed: 0,
+            design: 0,
             fixed: BTreeMap::new(),
             bounds: BTreeMap::new(),
         }
@@ -189,7 +196,7 @@ pub fn auto_ema(
         ));
     }
     let mut screening = Screening::new(data, p.selection.clone());
-    let summary = DataSummary::of(data, &screening.cmif);
+    let summary = DataSummary::of(data, &screening.cmif, &screening.noise);
     let (bounds, fixed) = search_space(p, &summary)?;
     let top_order = bounds[8].1.round().max(1.0) as usize;
     let orders = polymax(
@@ -228,19 +235,29 @@ pub fn auto_ema(
         });
         xs.push(x.to_vec());
         on_step();
-        s.objective
+        (s.objective, s.n_modes())
     };
     if free.is_empty() {
         objective(&[]);
     } else {
-        let params = BayesianParams {
-            initial: p.initial,
-            evaluations: p.evaluations.max(1),
-            seed: p.seed,
-            ..BayesianParams::default()
-        };
-        maximize(&mut objective, &search, &params)
-            .map_err(|e| invalid("iterations", e.to_string()))?;
+        let budget = p.evaluations.max(1);
+        let mut bo = SobolSearch::new(free.len(), p.initial.clamp(1, budget), p.design);
+        // (objective, modes) of every evaluation.
+        let mut values: Vec<(f64, usize)> = Vec::new();
+        loop {
+            let u = bo.ask();
+            let x: Vec<f64> = u
+                .iter()
+                .zip(&search)
+                .map(|(v, &(lo, hi))| lo + v.clamp(0.0, 1.0) * (hi - lo))
+                .collect();
+            let (y, n_modes) = objective(&x);
+            bo.tell(u, y);
+            values.push((y, n_modes));
+            if settled(&values, budget) {
+                break;
+            }
+        }
     }
     let chosen = choose(&trace, &xs, &search);
     let best = select_modes(&mut screening, &orders, &point(&xs[chosen]));
@@ -276,6 +293,38 @@ pub fn auto_ema(
         noise: screening.noise,
         warnings,
     })
+}
+
+/// Evaluations the best result must have stood before the search stops,
+/// and the budget multiple at which it stops regardless.
+const PATIENCE_FRACTION: f64 = 0.25;
+const MAX_BUDGET_FACTOR: usize = 3;
+
+/// Whether the search may stop after the evaluations `values` (objective,
+/// modes): the budget is spent and the result [`choose`] would keep (the
+/// best objective up to max(10⁻⁶, 1 % of 1 − J*), with its number of
+/// modes) was first reached at least max(4, ¼ budget) evaluations ago —
+/// or three budgets are spent. A result still changing when the budget
+/// ends is the one a different design would have missed.
+fn settled(values: &[(f64, usize)], budget: usize) -> bool {
+    let n = values.len();
+    if n < budget {
+        return false;
+    }
+    if n >= MAX_BUDGET_FACTOR * budget {
+        return true;
+    }
+    let Some(best) = (0..n).max_by(|&a, &b| values[a].0.total_cmp(&values[b].0).then(b.cmp(&a)))
+    else {
+        return true;
+    };
+    let (j, modes) = values[best];
+    let tol = (0.01 * (1.0 - j)).max(1e-6);
+    let first = (0..n)
+        .find(|&k| values[k].0 >= j - tol && values[k].1 == modes)
+        .unwrap_or(best);
+    let patience = ((PATIENCE_FRACTION * budget as f64).ceil() as usize).max(4);
+    n - 1 - first >= patience
 }
 
 /// Smallest distance to a face of the box in unit coordinates.

@@ -6,6 +6,7 @@
 //! in a log.
 
 use super::hyperbox::{AtBound, DataSummary};
+use super::layout::Layout;
 use super::residual::ResidualPeak;
 use super::search::{AutoEmaResult, TraceEntry};
 use super::selection::{Hyperparameters, HYPERPARAMETER_NAMES};
@@ -37,6 +38,8 @@ pub struct PositionSummary {
     pub index: u32,
     pub label: String,
     pub goal_reached: bool,
+    /// How references and responses were fitted ([`super::layout`]).
+    pub layout: Layout,
     pub mean_frac: f64,
     pub objective: f64,
     pub n_modes: usize,
@@ -83,12 +86,16 @@ impl PositionSummary {
         label: &str,
         h: &[Complex64],
         n_lines: usize,
+        layout: &Layout,
         r: &AutoEmaResult,
     ) -> PositionSummary {
+        let mut warnings = layout.warnings();
+        warnings.extend(r.warnings.iter().cloned());
         PositionSummary {
             index,
             label: label.to_string(),
             goal_reached: r.goal_reached(),
+            layout: layout.clone(),
             mean_frac: r.best.mean_frac,
             objective: r.best.objective,
             n_modes: r.best.n_modes(),
@@ -117,7 +124,7 @@ impl PositionSummary {
             data: r.summary.clone(),
             noise: noise_summary(h, n_lines, &r.noise),
             residual_peaks: r.residual_peaks.clone(),
-            warnings: r.warnings.clone(),
+            warnings,
             trace: r.trace.clone(),
         }
     }

@@ -170,11 +170,10 @@ fn auto_ema_finds_the_four_modes() {
         max_order: Some((8, 24)),
         evaluations: 30,
         initial: 10,
-        seed: 4,
         ..AutoEmaParams::default()
     };
     let r = auto_ema(&d, &params, &|| {}).unwrap();
-    assert_eq!(r.trace.len(), 30);
+    assert!((30..=90).contains(&r.trace.len()), "{}", r.trace.len());
     assert_eq!(
         r.best.roots.len(),
         4,
@@ -218,7 +217,6 @@ fn results_do_not_depend_on_the_thread_count() {
         max_order: Some((6, 14)),
         evaluations: 8,
         initial: 5,
-        seed: 1,
         ..AutoEmaParams::default()
     };
     let run = |threads: usize| {
@@ -270,7 +268,6 @@ fn auto_ema_separates_close_modes_with_two_references() {
         max_order: Some((8, 30)),
         evaluations: 40,
         initial: 12,
-        seed: 2,
         ..AutoEmaParams::default()
     };
     let r = auto_ema(&d, &params, &|| {}).unwrap();

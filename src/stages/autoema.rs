@@ -17,7 +17,8 @@ use super::{
 use crate::ema::stabilization_diagram::{render, Panel};
 use crate::ema::summary::PositionSummary;
 use crate::ema::{
-    auto_ema, AutoEmaParams, AutoEmaResult, FrfData, Weighting, HYPERPARAMETER_NAMES,
+    auto_ema, layout, AutoEmaParams, AutoEmaResult, FrfData, Layout, Reciprocity, Weighting,
+    HYPERPARAMETER_NAMES,
 };
 use crate::frf::{FrfChannel, FrfSet};
 use crate::modal::{ModalModel, Mode};
@@ -52,6 +53,15 @@ impl Numbers for MaxOrder {
 }
 
 crate::string_enum! {
+    /// Whether the transposed FRF matrix is fitted (Maxwell–Betti).
+    pub enum ReciprocityParam {
+        Auto = "auto",
+        Always = "always",
+        Never = "never",
+    }
+}
+
+crate::string_enum! {
     /// PolyMAX weighting of outputs and lines.
     pub enum WeightingParam {
         Uniform = "uniform",
@@ -70,9 +80,10 @@ crate::params! {
         /// CMIF peaks and references)
         pub max_order: Option<MaxOrder> = None; range Range::closed(1.0, 400.0),
         /// Bayesian-optimization evaluations per position, initial design
-        /// included
+        /// included, at least: the search goes on (up to 3×) until its
+        /// result has stood for a quarter of them
         pub iterations: usize = AutoEmaParams::default().evaluations; range Range::closed(1.0, 10_000.0),
-        /// Latin-hypercube points before the Gaussian process takes over
+        /// Sobol design points before the Gaussian process takes over
         pub initial: usize = AutoEmaParams::default().initial; range Range::closed(1.0, 10_000.0),
         /// false-alarm probability α of the test that keeps a root only when
         /// it explains more than the noise
@@ -80,7 +91,8 @@ crate::params! {
         /// optional objective penalty per mode as in PUB5: mean FRAC −
         /// penalty · modes (0: modes are admitted by significance instead)
         pub penalty: f64 = AutoEmaParams::default().selection.penalty; range Range::closed_open(0.0, 1.0),
-        /// seed of the optimization (default: the pipeline seed)
+        /// no effect: the search runs on a fixed Sobol design, so the
+        /// modes do not depend on a seed (accepted for older pipelines)
         pub seed: Option<u64> = None,
         /// hyperparameters pinned to a value: frequency_tol, damping_tol,
         /// mac_tol, max_damping, cluster_distance, min_cluster_fraction,
@@ -91,6 +103,15 @@ crate::params! {
         pub bounds: BTreeMap<String, (f64, f64)> = BTreeMap::new(); range Range::at_least(0.0),
         /// PolyMAX weighting: uniform per output, or by coherence when present
         pub weighting: WeightingParam = WeightingParam::Uniform,
+        /// fit references × responses as measured or transposed by
+        /// reciprocity (H_ij = H_ji, same poles; shapes then at the
+        /// reference DOFs): auto transposes when references outnumber
+        /// responses (a roving-hammer test), always, never. Missing
+        /// channels are taken from their reciprocal (unless never); then
+        /// the largest complete response × reference sub-matrix is fitted
+        /// and what was left out is a warning; data where that keeps less
+        /// than half the channels are refused, naming the missing ones
+        pub reciprocity: ReciprocityParam = ReciprocityParam::Auto,
     }
 }
 
@@ -99,12 +120,13 @@ const INPUTS: &[InputSpec] = &[InputSpec {
     required: true,
     list: false,
     artifact: Artifact::Frf,
-    doc: "FRFs (an `frf` artifact), every response measured for every reference",
+    doc: "FRFs (an `frf` artifact): responses × references, any ratio; partial matrices by the `reciprocity` rule",
 }];
 
 struct Settings {
     band: Option<(f64, f64)>,
     weighting: Weighting,
+    reciprocity: Reciprocity,
     ema: AutoEmaParams,
 }
 
@@ -159,9 +181,8 @@ fn check(p: &Params) -> Vec<ParamProblem> {
     out
 }
 
-fn settings(p: &Params, seed: u64) -> Settings {
+fn settings(p: &Params) -> Settings {
     let mut ema = AutoEmaParams {
-        seed,
         evaluations: p.iterations,
         initial: p.initial,
         fixed: p.fixed.clone(),
@@ -180,6 +201,11 @@ fn settings(p: &Params, seed: u64) -> Settings {
             WeightingParam::Uniform => Weighting::Uniform,
             WeightingParam::Coherence => Weighting::Coherence,
         },
+        reciprocity: match p.reciprocity {
+            ReciprocityParam::Auto => Reciprocity::Auto,
+            ReciprocityParam::Always => Reciprocity::Always,
+            ReciprocityParam::Never => Reciprocity::Never,
+        },
         ema,
     }
 }
@@ -189,7 +215,7 @@ impl Kind for AutoEma {
     const NAME: &'static str = "autoema";
 
     fn version(&self) -> u32 {
-        3
+        4
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"
@@ -208,14 +234,11 @@ impl Kind for AutoEma {
         check(p)
     }
     fn uses_seed(&self) -> bool {
-        true
-    }
-    fn seed(&self, p: &Params) -> Option<u64> {
-        p.seed
+        false
     }
 
     fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
-        let s = settings(p, ctx.seed);
+        let s = settings(p);
         let sets = artifacts::read_frf(ctx.input("frf")?, "frf")?;
         // Lines at 0 Hz are dropped: the LSFD lower residual −LR/ω² is singular there.
         let band = s
@@ -223,14 +246,16 @@ impl Kind for AutoEma {
             .map_or((f64::MIN_POSITIVE, f64::INFINITY), |(lo, hi)| {
                 (lo.max(f64::MIN_POSITIVE), hi)
             });
-        let data: Vec<FrfData> = sets
+        let (data, layouts): (Vec<FrfData>, Vec<Layout>) = sets
             .iter()
-            .map(|set| FrfData::from_set(set, Some(band), s.weighting))
-            .collect::<Result<_, _>>()
+            .map(|set| layout::frf_data(set, Some(band), s.weighting, s.reciprocity))
+            .collect::<Result<Vec<_>, _>>()
             .map_err(|e| StageError::InvalidInput {
                 input: "frf".into(),
                 message: e.to_string(),
-            })?;
+            })?
+            .into_iter()
+            .unzip();
         ctx.progress
             .set_length((s.ema.evaluations * sets.len()) as u64);
         let tick = || ctx.progress.inc(1);
@@ -246,13 +271,17 @@ impl Kind for AutoEma {
                 })
             })
             .collect::<Result<_, _>>()?;
-        write_outputs(ctx, &sets, &data, &results)
+        write_outputs(ctx, &sets, &data, &layouts, &results)
     }
 }
 
 /// The metrics.json of the stage.
 #[derive(serde::Serialize)]
 struct Metrics {
+    /// How references and responses were fitted
+    /// ([`crate::ema::layout`]): the positions' common description, or
+    /// each one's prefixed with its position.
+    layout: String,
     /// Every position reached its goal (no visible mode missed, no result
     /// limited by the search box).
     goal_reached: bool,
@@ -364,19 +393,33 @@ fn poles_csv(sets: &[FrfSet], results: &[AutoEmaResult]) -> String {
     out
 }
 
-fn fitted_sets(sets: &[FrfSet], data: &[FrfData], results: &[AutoEmaResult]) -> Vec<FrfSet> {
+/// The fitted FRFs, with responses and references as measured (a
+/// transposed fit's output o, reference i is the measured response i,
+/// reference o).
+fn fitted_sets(
+    sets: &[FrfSet],
+    data: &[FrfData],
+    layouts: &[Layout],
+    results: &[AutoEmaResult],
+) -> Vec<FrfSet> {
     sets.iter()
         .zip(data)
+        .zip(layouts)
         .zip(results)
-        .map(|((set, d), r)| {
+        .map(|(((set, d), l), r)| {
             let nf = d.n_lines();
             let mut channels = Vec::new();
-            for (o, &resp) in d.responses.iter().enumerate() {
-                for (i, &rf) in d.references.iter().enumerate() {
+            for (o, &out) in d.responses.iter().enumerate() {
+                for (i, &input) in d.references.iter().enumerate() {
                     let c = o * d.n_ref() + i;
+                    let (response, reference) = if l.transposed {
+                        (input, out)
+                    } else {
+                        (out, input)
+                    };
                     channels.push(FrfChannel {
-                        response: resp,
-                        reference: rf,
+                        response,
+                        reference,
                         values: r.fit.reconstructed[c * nf..(c + 1) * nf].to_vec(),
                         coherence: None,
                     });
@@ -392,22 +435,30 @@ fn fitted_sets(sets: &[FrfSet], data: &[FrfData], results: &[AutoEmaResult]) -> 
         .collect()
 }
 
-fn metrics(sets: &[FrfSet], data: &[FrfData], results: &[AutoEmaResult]) -> Metrics {
+fn metrics(
+    sets: &[FrfSet],
+    data: &[FrfData],
+    layouts: &[Layout],
+    results: &[AutoEmaResult],
+) -> Metrics {
     let positions: Vec<PositionSummary> = sets
         .iter()
         .zip(data)
+        .zip(layouts)
         .zip(results)
-        .map(|((set, d), r)| {
+        .map(|(((set, d), l), r)| {
             PositionSummary::of(
                 set.position.index,
                 &set.position.label,
                 &d.h,
                 d.n_lines(),
+                l,
                 r,
             )
         })
         .collect();
     Metrics {
+        layout: layout::describe(&positions_of(sets, layouts)),
         goal_reached: positions.iter().all(|p| p.goal_reached),
         mean_frac: positions.iter().map(|p| p.mean_frac).sum::<f64>()
             / positions.len().max(1) as f64,
@@ -424,19 +475,30 @@ fn metrics(sets: &[FrfSet], data: &[FrfData], results: &[AutoEmaResult]) -> Metr
     }
 }
 
+/// Each position's index with its layout.
+fn positions_of<'a>(sets: &[FrfSet], layouts: &'a [Layout]) -> Vec<(u32, &'a Layout)> {
+    sets.iter().map(|s| s.position.index).zip(layouts).collect()
+}
+
 fn write_outputs(
     ctx: &StageContext,
     sets: &[FrfSet],
     data: &[FrfData],
+    layouts: &[Layout],
     results: &[AutoEmaResult],
 ) -> Result<StageOutputs, StageError> {
     let modes_dir = ctx.scratch.join(artifacts::MODES_DIR);
     artifacts::write_modes(&modes_dir, &modal_models(sets, data, results))?;
     artifacts::write_mode_spread(&modes_dir, &mode_spread(sets, results))?;
+    write(
+        &modes_dir.join("layout.json"),
+        &serde_json::to_vec_pretty(&layout::to_json(&positions_of(sets, layouts)))
+            .map_err(|e| StageError::Failed(e.to_string()))?,
+    )?;
     let poles_path = ctx.scratch.join("poles.csv");
     write(&poles_path, poles_csv(sets, results).as_bytes())?;
     let fit_path = ctx.scratch.join("frf_fit.uff");
-    artifacts::write_frf(&fit_path, &fitted_sets(sets, data, results))?;
+    artifacts::write_frf(&fit_path, &fitted_sets(sets, data, layouts, results))?;
     let panels: Vec<Panel> = sets
         .iter()
         .zip(data)
@@ -452,7 +514,7 @@ fn write_outputs(
         .collect();
     let svg_path = ctx.scratch.join("stabilization.svg");
     write(&svg_path, render(&panels).as_bytes())?;
-    let m = metrics(sets, data, results);
+    let m = metrics(sets, data, layouts, results);
     let metrics_path = ctx.scratch.join("metrics.json");
     write(
         &metrics_path,
@@ -471,6 +533,10 @@ fn write_outputs(
         counters: [
             ("bo_iterations".to_string(), iterations as u64),
             ("orders".to_string(), orders as u64),
+            (
+                "transposed_positions".to_string(),
+                layouts.iter().filter(|l| l.transposed).count() as u64,
+            ),
         ]
         .into(),
     })
@@ -492,17 +558,17 @@ mod tests {
 
     #[test]
     fn settings_parse_order_ranges_and_reject_bad_values() {
-        let s = settings(
-            &params("{max_order: 30, iterations: 5, fixed: {mac_weight: 0.5}}"),
-            9,
-        );
+        let s = settings(&params(
+            "{max_order: 30, iterations: 5, fixed: {mac_weight: 0.5}, seed: 9}",
+        ));
         assert_eq!(s.ema.max_order, Some((30, 30)));
-        assert_eq!((s.ema.evaluations, s.ema.seed), (5, 9));
+        assert_eq!((s.ema.evaluations, s.ema.design), (5, 0), "no seed");
+        assert_eq!(s.reciprocity, Reciprocity::Auto);
         assert_eq!(s.ema.fixed.get("mac_weight"), Some(&0.5));
-        let s = settings(
-            &params("{max_order: [10, 50], band: [5, 400], weighting: coherence}"),
-            0,
-        );
+        let s = settings(&params(
+            "{max_order: [10, 50], band: [5, 400], weighting: coherence, reciprocity: never}",
+        ));
+        assert_eq!(s.reciprocity, Reciprocity::Never);
         assert_eq!(s.ema.max_order, Some((10, 50)));
         assert_eq!(s.band, Some((5.0, 400.0)));
         assert_eq!(s.weighting, Weighting::Coherence);
@@ -517,6 +583,7 @@ mod tests {
             "{bounds: {max_damping: [0.3, 0.1]}}",
             "{fixed: {max_damp: 0.1}}",
             "{iterations: 0}",
+            "{reciprocity: sometimes}",
         ] {
             let problems = AutoEma
                 .parse(&serde_yaml_ng::from_str(bad).unwrap())
