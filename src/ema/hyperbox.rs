@@ -144,7 +144,7 @@ impl AtBound {
     pub fn warning(&self) -> String {
         let beyond = match (self.beyond, self.modes_beyond, self.objective_beyond) {
             (Some(b), Some(m), Some(o)) => format!(
-                "; at {b:.4} beyond it the selection has {m} modes and objective {o:.6} (here {} and {:.6}){}",
+                "; at {b:.4} beyond it the screening selects {m} modes with objective {o:.6} (here {} and {:.6}, before the final refinement){}",
                 self.modes_at,
                 self.objective_at,
                 if self.sensitive { ": the box limits the result, widen it with `bounds`" } else { ": the result does not depend on it" }

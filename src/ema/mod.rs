@@ -24,6 +24,7 @@ pub mod hyperbox;
 pub mod layout;
 pub mod lsfd;
 pub mod noise;
+pub mod peak_evidence;
 pub mod polymax;
 pub mod projection;
 pub mod refine;

@@ -17,8 +17,10 @@
 use super::design::SobolSearch;
 use super::hyperbox::{AtBound, DataSummary, LOG_SCALE};
 use super::lsfd::LsfdFit;
+use super::noise::relative_noise;
+use super::peak_evidence::unresolved_pairs;
 use super::polymax::{polymax, PoleOrder, PolymaxParams};
-use super::residual::{residual_peaks, ResidualPeak};
+use super::residual::{relative_misfit, residual_peaks, ResidualPeak};
 use super::selection::{
     final_fit, refine_selection, select_modes, Hyperparameters, Screening, Selection,
     SelectionParams, HYPERPARAMETER_NAMES,
@@ -87,6 +89,10 @@ pub struct AutoEmaResult {
     pub at_bound: Vec<AtBound>,
     /// Lines where the final fit leaves structure above the noise.
     pub residual_peaks: Vec<ResidualPeak>,
+    /// Relative error ε at the resonances: the larger of the data's
+    /// ([`super::noise::relative_noise`]) and the fit's misfit
+    /// ([`super::residual::relative_misfit`]), as an amplitude ratio.
+    pub relative_error: f64,
     /// CMIF curves (singular values per line).
     pub cmif: Vec<Vec<f64>>,
     /// Noise variance per channel.
@@ -96,11 +102,11 @@ pub struct AutoEmaResult {
 }
 
 impl AutoEmaResult {
-    /// Whether the analysis reached its goal: no fit residual standing 10×
-    /// above the noise (a visible mode missed) and no result limited by the box.
+    /// Whether the analysis reached its goal: none of its warnings stands
+    /// (a visible mode missed, a result limited by the box, references that
+    /// do not share their poles); each asks the user to act.
     pub fn goal_reached(&self) -> bool {
-        self.residual_peaks.iter().all(|p| p.ratio < 10.0)
-            && self.at_bound.iter().all(|b| !b.sensitive)
+        self.warnings.is_empty()
     }
 }
 
@@ -272,14 +278,28 @@ pub fn auto_ema(
     );
     let best = refine_selection(&mut screening, &orders, &best);
     let fit = final_fit(data, &orders, &best)?;
-    let residual_peaks = residual_peaks(data, &fit.reconstructed, &screening.noise);
-    let mut warnings: Vec<String> = at_bound.iter().map(AtBound::warning).collect();
+    let relative_error = relative_noise(data, &screening.noise).max(relative_misfit(
+        data,
+        &fit.reconstructed,
+        &screening.noise,
+    ));
+    let residual_peaks = residual_peaks(data, &fit.reconstructed, &screening.noise, relative_error);
+    // Warnings ask the user to act: a box that limits the result (widen
+    // `bounds`), a mode the data show and the fit misses (look at that band).
+    // A bound the result does not depend on, and residual structure below
+    // the visibility limit, stay in metrics.json only.
+    let mut warnings: Vec<String> = at_bound
+        .iter()
+        .filter(|b| b.sensitive)
+        .map(AtBound::warning)
+        .collect();
     warnings.extend(
         residual_peaks
             .iter()
-            .filter(|r| r.ratio >= 5.0)
+            .filter(|r| r.missing_mode())
             .map(ResidualPeak::warning),
     );
+    warnings.extend(inconsistent_references(&screening, &orders, &best));
     Ok(AutoEmaResult {
         orders,
         best,
@@ -289,9 +309,40 @@ pub fn auto_ema(
         bounds,
         at_bound,
         residual_peaks,
+        relative_error: relative_error.sqrt(),
         cmif: screening.cmif,
         noise: screening.noise,
         warnings,
+    })
+}
+
+/// Pairs of modes that close together on a single CMIF peak (see
+/// [`unresolved_pairs`]) from which the references are called inconsistent.
+const INCONSISTENT_PAIRS: usize = 3;
+
+/// The warning that the references do not share their poles, when
+/// [`INCONSISTENT_PAIRS`] or more modes appear twice within 1.5 lines.
+fn inconsistent_references(
+    screening: &Screening<'_>,
+    orders: &[PoleOrder],
+    best: &Selection,
+) -> Option<String> {
+    let f: Vec<f64> = best
+        .roots
+        .iter()
+        .map(|r| r.pole(orders).frequency_hz)
+        .collect();
+    let pairs = unresolved_pairs(screening.evidence.step_hz, &f);
+    (pairs.len() >= INCONSISTENT_PAIRS).then(|| {
+        let list: Vec<String> = pairs
+            .iter()
+            .map(|(a, b)| format!("{a:.2}/{b:.2}"))
+            .collect();
+        format!(
+            "{} modes appear twice within 1.5 line spacings ({} Hz), each kept because another reference sees its own version: the references do not share their poles (measured in different set-ups, moving mass loading, or a structure that changed during the test); analyse each reference column on its own, or check the test",
+            pairs.len(),
+            list.join(", ")
+        )
     })
 }
 
@@ -399,9 +450,14 @@ fn probe_bounds(
             y[i] = beyond_s;
             select_modes(screening, orders, &point(&y))
         });
+        // The box limits the result when the search would have gone beyond
+        // it: a better objective there, or one within the tie tolerance of
+        // [`choose`] with other modes. A worse objective beyond the bound
+        // (with whatever modes) is a point the search would not pick.
+        let tie = (0.01 * (1.0 - best.objective)).max(1e-6);
         let sensitive = probe.as_ref().is_some_and(|s| {
-            s.n_modes() != best.n_modes()
-                || s.objective > best.objective + (0.01 * (1.0 - best.objective)).max(1e-6)
+            s.objective > best.objective + tie
+                || (s.objective >= best.objective - tie && s.n_modes() != best.n_modes())
         });
         out.push(AtBound {
             name: HYPERPARAMETER_NAMES[k].to_string(),

@@ -19,11 +19,12 @@
 use super::clustering::{cluster_poles, Cluster, ClusterParams};
 use super::lsfd::{lsfd_roots, LsfdFit};
 use super::noise::{cmif, noise_variance, peak_at};
+use super::peak_evidence::PeakEvidence;
 use super::polymax::{Pole, PoleOrder};
 use super::projection::{FitOutcome, Projector};
 use super::refine::{nested_statistic, refine_sweep};
 use super::roots::{multiplicity_over_all_orders, roots_from_clusters, Root};
-use super::significance::{chi2_isf, Reason, Rejection, Validation};
+use super::significance::{chi2_isf, holds_peak, Acceptance, Reason, Rejection, Validation};
 use super::stabilization::{stabilize, PoleFlags, StabilizationParams};
 use super::{EmaError, FrfData};
 use num_complex::Complex64;
@@ -116,16 +117,23 @@ pub struct Screening<'d> {
     pub noise: Vec<f64>,
     /// CMIF curves ([`cmif`]).
     pub cmif: Vec<Vec<f64>>,
+    /// Their prominent peaks ([`PeakEvidence`]).
+    pub evidence: PeakEvidence,
     pub params: SelectionParams,
 }
 
 impl<'d> Screening<'d> {
     pub fn new(data: &'d FrfData, params: SelectionParams) -> Screening<'d> {
+        let noise = noise_variance(data);
+        let cmif = cmif(data);
+        // The floor of the CMIF peak count: noise power of one reference column.
+        let noise_power = noise.iter().sum::<f64>() / data.n_ref().max(1) as f64;
         Screening {
             data,
             projector: Projector::new(data),
-            noise: noise_variance(data),
-            cmif: cmif(data),
+            evidence: PeakEvidence::new(&data.frequencies_hz, &cmif, noise_power),
+            noise,
+            cmif,
             params,
         }
     }
@@ -142,6 +150,8 @@ pub struct Selection {
     /// Roots that passed validation, by frequency; each holds
     /// `multiplicity` modes.
     pub roots: Vec<Root>,
+    /// Why each root was kept.
+    pub accepted: Vec<Acceptance>,
     /// Roots removed or changed by validation, with the reason.
     pub rejected: Vec<Rejection>,
     pub mean_frac: f64,
@@ -209,6 +219,7 @@ pub fn select_modes(
         n_ref: data.n_ref(),
         n_lines: data.n_lines(),
         alpha: screening.params.alpha,
+        evidence: &screening.evidence,
     }
     .run(roots);
     let mean_frac = validated.fit.mean_frac();
@@ -219,6 +230,7 @@ pub fn select_modes(
         clusters,
         objective: mean_frac - screening.params.penalty * n_modes as f64,
         roots: validated.roots,
+        accepted: validated.accepted,
         rejected: validated.rejected,
         mean_frac,
     }
@@ -302,6 +314,7 @@ pub fn refine_selection(
         n_ref: data.n_ref(),
         n_lines: data.n_lines(),
         alpha: screening.params.alpha,
+        evidence: &screening.evidence,
     }
     .run(roots);
     let mean_frac = validated.fit.mean_frac();
@@ -313,6 +326,7 @@ pub fn refine_selection(
         clusters: s.clusters.clone(),
         objective: mean_frac - screening.params.penalty * n_modes as f64,
         roots: validated.roots,
+        accepted: validated.accepted,
         rejected,
         mean_frac,
     }
@@ -356,7 +370,9 @@ fn weakest_nested(
         return None;
     };
     let n = roots.len().max(1) as f64;
+    let holds = holds_peak(&screening.evidence, orders, roots, &fit, &screening.noise);
     (0..roots.len())
+        .filter(|&k| !holds[k])
         .filter_map(|k| {
             let (t, dof) = nested_statistic(screening.data, &screening.noise, &lambdas, &fit, k)?;
             let threshold = chi2_isf(dof, screening.params.alpha / (2.0 * n));

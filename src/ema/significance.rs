@@ -18,9 +18,17 @@
 //! (Bonferroni over the n_r roots and the two statistics; T_sum finds global
 //! modes seen weakly everywhere, T_max local modes seen strongly at a few
 //! sensors). While the least significant root, by max(T_sum/thr, T_max/thr),
-//! fails both, it is removed and the rest refitted.
+//! fails both, it is removed and the rest refitted. A root that keeps a
+//! prominent CMIF peak of its own ([`super::peak_evidence`]) is exempt: the
+//! peak, tested against the noise floor, is the evidence, while this test,
+//! counting the misfit of strong peaks as noise everywhere, is blind to a
+//! weak mode between strong ones (real data: the 118.9 Hz mode of the UFSC
+//! beam).
 //!
-//! **Duplicates** are two roots within each other's half-power band,
+//! **Shared peaks.** Before the elimination, roots on another root's CMIF
+//! peak without a peak of their own are removed ([`super::peak_evidence`]).
+//!
+//! **Duplicates** are two roots on no two different CMIF peaks within each other's half-power band,
 //! |f_a − f_b| ≤ max(ζ_a f_a, ζ_b f_b), whose participation vectors
 //! (with ≥ 2 references) and shapes both have MAC ≥ 0.9: one mode seen twice.
 //! The root with the shorter stable column is dropped. Numerically coincident
@@ -32,6 +40,7 @@
 //! noise edge (√n_out + √n_ref)² (Marchenko–Pastur; Edelman 1988).
 
 use super::hermitian::left_singular;
+use super::peak_evidence::{PeakEvidence, RootPeak};
 use super::projection::{FitOutcome, GramFit, Projector};
 use super::roots::Root;
 use super::PoleOrder;
@@ -60,6 +69,9 @@ pub enum Reason {
     NotSignificantNested { t: f64, threshold: f64 },
     /// Fewer independent modes than the participation vectors suggested.
     MultiplicityReduced { from: usize, to: usize },
+    /// On the CMIF peak of the stronger root at `of_hz` with no peak of its
+    /// own ([`super::peak_evidence`]): a pole split off that mode.
+    SamePeak { of_hz: f64 },
 }
 
 /// One decision about a root.
@@ -73,10 +85,25 @@ pub struct Rejection {
     pub reason: Reason,
 }
 
+/// Why a root was kept.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[serde(tag = "accepted_by", rename_all = "snake_case")]
+pub enum Acceptance {
+    /// It keeps a prominent peak of the first CMIF curve at `peak_hz`
+    /// ([`super::peak_evidence`]); `score` is its significance score
+    /// max(T_sum/threshold, T_max/threshold) all the same.
+    CmifPeak { peak_hz: f64, score: f64 },
+    /// Its contribution to the fit stands above the noise (score ≥ 1);
+    /// a root between peaks or sharing one with a second CMIF curve peak.
+    Significance { score: f64 },
+}
+
 /// The roots kept, their fit and what was removed.
 #[derive(Clone, Debug)]
 pub struct Validated {
     pub roots: Vec<Root>,
+    /// Why each root was kept.
+    pub accepted: Vec<Acceptance>,
     pub fit: GramFit,
     pub rejected: Vec<Rejection>,
 }
@@ -114,6 +141,8 @@ pub struct Validation<'p, 'd> {
     pub n_lines: usize,
     /// Family-wise false-alarm probability α.
     pub alpha: f64,
+    /// The CMIF peaks roots must earn a place on.
+    pub evidence: &'p PeakEvidence,
 }
 
 impl Validation<'_, '_> {
@@ -182,6 +211,12 @@ impl Validation<'_, '_> {
             {
                 continue;
             }
+            if self.evidence.separate(
+                (pa.frequency_hz, pa.damping_ratio),
+                (pb.frequency_hz, pb.damping_ratio),
+            ) {
+                continue;
+            }
             let same_participation =
                 self.n_ref < 2 || mac(&pa.participation, &pb.participation) >= SAME_SHAPE;
             if !same_participation || mac(&self.shape(fit, a), &self.shape(fit, b)) < SAME_SHAPE {
@@ -198,6 +233,24 @@ impl Validation<'_, '_> {
             return true;
         }
         false
+    }
+
+    /// Drops the weakest root that shares its CMIF peak with the root
+    /// keeping it and has no peak of its own; true when one was dropped.
+    fn drop_shared_peak(
+        &self,
+        roots: &mut Vec<Root>,
+        fit: &GramFit,
+        rejected: &mut Vec<Rejection>,
+    ) -> bool {
+        let peaks = root_peaks(self.orders, roots, fit, &self.sigma2(fit));
+        let Some(&(drop, keep)) = self.evidence.shared_peak_losers(&peaks).first() else {
+            return false;
+        };
+        let of_hz = peaks[keep].frequency_hz;
+        rejected.push(self.record(&roots[drop], Reason::SamePeak { of_hz }));
+        roots.remove(drop);
+        true
     }
 
     /// Effective noise variance per channel for a fit.
@@ -267,10 +320,15 @@ impl Validation<'_, '_> {
         while self.drop_duplicate(&mut roots, &fit, &mut rejected) {
             fit = self.fit(&mut roots, &mut rejected);
         }
+        while self.drop_shared_peak(&mut roots, &fit, &mut rejected) {
+            fit = self.fit(&mut roots, &mut rejected);
+        }
         loop {
             let s2 = self.sigma2(&fit);
             let n = roots.len();
+            let holds = holds_peak(self.evidence, self.orders, &roots, &fit, &s2);
             let weakest = (0..n)
+                .filter(|&k| !holds[k])
                 .map(|k| (k, self.significance(&fit, k, n, &s2)))
                 .min_by(|a, b| a.1 .0.total_cmp(&b.1 .0).then(a.0.cmp(&b.0)));
             match weakest {
@@ -296,12 +354,78 @@ impl Validation<'_, '_> {
                 roots[k].multiplicity = to;
             }
         }
+        let accepted = self.acceptance(&roots, &fit);
         Validated {
             roots,
+            accepted,
             fit,
             rejected,
         }
     }
+
+    /// Why each root of the final fit is kept.
+    fn acceptance(&self, roots: &[Root], fit: &GramFit) -> Vec<Acceptance> {
+        let s2 = self.sigma2(fit);
+        let peaks = root_peaks(self.orders, roots, fit, &s2);
+        let keepers = self.evidence.keepers(&peaks);
+        (0..roots.len())
+            .map(|k| {
+                let score = self.significance(fit, k, roots.len(), &s2).0;
+                match keepers[k] {
+                    Some(j) if j == k => {
+                        let p = &peaks[k];
+                        let peak_hz = self
+                            .evidence
+                            .peak_of(p.frequency_hz, p.damping_ratio)
+                            .map_or(p.frequency_hz, |i| self.evidence.peaks_hz[i]);
+                        Acceptance::CmifPeak { peak_hz, score }
+                    }
+                    _ => Acceptance::Significance { score },
+                }
+            })
+            .collect()
+    }
+}
+
+/// What [`PeakEvidence`] needs of every root of a fit: frequency, damping,
+/// multiplicity and Σ_c ΔRSS_c/σ_c².
+pub fn root_peaks(
+    orders: &[PoleOrder],
+    roots: &[Root],
+    fit: &GramFit,
+    s2: &[f64],
+) -> Vec<RootPeak> {
+    roots
+        .iter()
+        .enumerate()
+        .map(|(k, r)| {
+            let p = r.pole(orders);
+            RootPeak {
+                frequency_hz: p.frequency_hz,
+                damping_ratio: p.damping_ratio,
+                strength: fit.delta_rss(k).iter().zip(s2).map(|(d, s)| d / s).sum(),
+                multiplicity: r.multiplicity,
+            }
+        })
+        .collect()
+}
+
+/// Whether each root keeps a prominent CMIF peak of its own: such a root is
+/// not removed as insignificant (module docs).
+pub fn holds_peak(
+    evidence: &PeakEvidence,
+    orders: &[PoleOrder],
+    roots: &[Root],
+    fit: &GramFit,
+    s2: &[f64],
+) -> Vec<bool> {
+    let peaks = root_peaks(orders, roots, fit, s2);
+    evidence
+        .keepers(&peaks)
+        .into_iter()
+        .enumerate()
+        .map(|(k, keeper)| keeper == Some(k))
+        .collect()
 }
 
 #[cfg(test)]

@@ -10,7 +10,7 @@ use super::layout::Layout;
 use super::residual::ResidualPeak;
 use super::search::{AutoEmaResult, TraceEntry};
 use super::selection::{Hyperparameters, HYPERPARAMETER_NAMES};
-use super::significance::Rejection;
+use super::significance::{Acceptance, Rejection};
 use num_complex::Complex64;
 use std::collections::BTreeMap;
 
@@ -23,13 +23,20 @@ pub struct ModeSummary {
     pub multiplicity: usize,
     /// Model orders in the root's stable column.
     pub stable_orders: usize,
+    /// Why it was kept: its own CMIF peak, or significance alone.
+    #[serde(flatten)]
+    pub acceptance: Option<Acceptance>,
 }
 
-/// Noise floor of the data, relative to each channel's RMS.
+/// Noise of the data: the additive floor relative to each channel's RMS,
+/// and the relative error ε at the resonances
+/// ([`super::noise::relative_noise`]; the residual check uses
+/// σ² = σ_c² + ε²|H|²).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct NoiseSummary {
     pub median_relative: f64,
     pub max_relative: f64,
+    pub relative_error: f64,
 }
 
 /// Everything metrics.json says about one position.
@@ -56,7 +63,7 @@ pub struct PositionSummary {
     pub trace: Vec<TraceEntry>,
 }
 
-fn noise_summary(h: &[Complex64], n_lines: usize, noise: &[f64]) -> NoiseSummary {
+fn noise_summary(h: &[Complex64], n_lines: usize, noise: &[f64], misfit: f64) -> NoiseSummary {
     let mut rel: Vec<f64> = noise
         .iter()
         .enumerate()
@@ -77,6 +84,7 @@ fn noise_summary(h: &[Complex64], n_lines: usize, noise: &[f64]) -> NoiseSummary
     NoiseSummary {
         median_relative: rel.get(rel.len() / 2).copied().unwrap_or(0.0),
         max_relative: rel.last().copied().unwrap_or(0.0),
+        relative_error: misfit,
     }
 }
 
@@ -103,13 +111,15 @@ impl PositionSummary {
                 .best
                 .roots
                 .iter()
-                .map(|root| {
+                .enumerate()
+                .map(|(k, root)| {
                     let p = root.pole(&r.orders);
                     ModeSummary {
                         frequency_hz: p.frequency_hz,
                         damping_ratio: p.damping_ratio,
                         multiplicity: root.multiplicity,
                         stable_orders: root.n_orders,
+                        acceptance: r.best.accepted.get(k).cloned(),
                     }
                 })
                 .collect(),
@@ -122,7 +132,7 @@ impl PositionSummary {
                 .collect(),
             at_bound: r.at_bound.clone(),
             data: r.summary.clone(),
-            noise: noise_summary(h, n_lines, &r.noise),
+            noise: noise_summary(h, n_lines, &r.noise, r.relative_error),
             residual_peaks: r.residual_peaks.clone(),
             warnings,
             trace: r.trace.clone(),
