@@ -523,6 +523,7 @@ fn write_outputs(
     let iterations: usize = results.iter().map(|r| r.trace.len()).sum();
     let orders: usize = results.iter().map(|r| r.orders.len()).sum();
     Ok(StageOutputs {
+        warnings: Vec::new(),
         files: vec![
             ("modes".into(), modes_dir),
             ("poles".into(), poles_path),

@@ -128,6 +128,7 @@ impl Kind for Export {
             }
         }
         Ok(StageOutputs {
+            warnings: Vec::new(),
             files: vec![("files".into(), dir)],
             counters: Default::default(),
         })

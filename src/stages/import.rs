@@ -234,6 +234,7 @@ impl Kind for Import {
             .map_err(|e| StageError::io("write geometry.json", e))?;
         let channels: usize = sets.iter().map(|s| s.channels.len()).sum();
         Ok(StageOutputs {
+            warnings: Vec::new(),
             files: vec![
                 ("frf".into(), out),
                 ("summary".into(), summary_path),

@@ -321,6 +321,7 @@ impl Kind for Synthesize {
         write_model_json(ctx, &model, &text, &p.model, &x, &prepared)?;
         write_truth_csv(ctx, &model, &x)?;
         Ok(StageOutputs {
+            warnings: Vec::new(),
             files: vec![
                 ("frf".into(), artifacts::FRF_FILE.into()),
                 ("modes".into(), artifacts::MODES_DIR.into()),

@@ -65,9 +65,10 @@ pub fn frf_sets_from_uff(
             continue;
         };
         let at = Location::new(source, block.at);
+        let head = Location::new(source, block.record1);
         match d.function {
-            FunctionType::Frf => b.add_frf(d, at, options)?,
-            FunctionType::Coherence => coherences.push((d.as_ref(), at)),
+            FunctionType::Frf => b.add_frf(d, at, &head, options)?,
+            FunctionType::Coherence => coherences.push((d.as_ref(), at, head)),
             other => match unused.iter_mut().find(|(t, _)| *t == other.code()) {
                 Some((_, n)) => *n += 1,
                 None => unused.push((other.code(), 1)),
@@ -94,8 +95,8 @@ pub fn frf_sets_from_uff(
             },
         });
     }
-    for (d, at) in coherences {
-        b.attach_coherence(d, at, options, &mut warnings)?;
+    for (d, at, head) in coherences {
+        b.attach_coherence(d, at, &head, options, &mut warnings)?;
     }
     for (function_type, count) in unused {
         warnings.push(UffWarning::UnusedFunctions {
@@ -177,22 +178,25 @@ impl Builder {
 }
 
 impl Builder {
+    /// `at` is the dataset's opening line, `head` its record 1 (errors
+    /// about one field name that field's record line).
     fn add_frf(
         &mut self,
         d: &Uff58,
         at: Location,
+        head: &Location,
         options: &FrfImportOptions,
     ) -> Result<(), IoError> {
-        let response = dof(&d.response, "response", &at)?;
-        let reference = dof(&d.reference, "reference", &at)?;
-        let position = position_of(d, &at, options)?;
-        let units = ordinate_units(d, self.units.as_ref(), &at)?;
+        let response = dof(&d.response, "response", &head.record(6))?;
+        let reference = dof(&d.reference, "reference", &head.record(6))?;
+        let position = position_of(d, &head.record(6), options)?;
+        let units = ordinate_units(d, self.units.as_ref(), head)?;
         let quantity = units.quantity;
         let values = match &d.ordinate {
             Ordinate::Complex(v) => v.iter().map(|x| x * units.factor).collect(),
             Ordinate::Real(v) => v.iter().map(|&x| (x * units.factor).into()).collect(),
         };
-        let hz = abscissa_factor(d, &at)?;
+        let hz = abscissa_factor(d, head)?;
         let mut freqs = d.abscissa_values();
         if hz != 1.0 {
             freqs.iter_mut().for_each(|f| *f *= hz);
@@ -244,7 +248,7 @@ impl Builder {
         )?;
         if quantity != set.quantity {
             return Err(IoError::InvalidField {
-                at,
+                at: head.record(9),
                 field: format!("FRF {name} ordinate quantity (record 9)"),
                 value: format!("{quantity:?}"),
                 expected: format!(
@@ -275,12 +279,13 @@ impl Builder {
         &mut self,
         d: &Uff58,
         at: Location,
+        head: &Location,
         options: &FrfImportOptions,
         warnings: &mut Vec<UffWarning>,
     ) -> Result<(), IoError> {
-        let response = dof(&d.response, "response", &at)?;
-        let reference = dof(&d.reference, "reference", &at)?;
-        let position = position_of(d, &at, options)?;
+        let response = dof(&d.response, "response", &head.record(6))?;
+        let reference = dof(&d.reference, "reference", &head.record(6))?;
+        let position = position_of(d, &head.record(6), options)?;
         let name = channel_name(response, reference);
         let target = self
             .positions
@@ -297,7 +302,7 @@ impl Builder {
             });
             return Ok(());
         };
-        let hz = abscissa_factor(d, &at)?;
+        let hz = abscissa_factor(d, head)?;
         let coherence_axis: Vec<f64> = d.abscissa_values().iter().map(|f| f * hz).collect();
         same_axis(
             freqs,

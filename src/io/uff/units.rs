@@ -137,8 +137,8 @@ pub struct OrdinateUnits {
     pub assumed_si: bool,
 }
 
-/// The SI factor and quantity of a dataset 58 FRF (module docs). `at` names
-/// the dataset in errors.
+/// The SI factor and quantity of a dataset 58 FRF (module docs). `at` is
+/// the dataset's record 1; errors name the line of the record at fault.
 pub fn ordinate_units(
     d: &Uff58,
     units: Option<&Units164>,
@@ -155,7 +155,7 @@ pub fn ordinate_units(
         d.denominator_axis.units.trim(),
     );
     let unknown = |record: u8, label: &str, what: &str| IoError::InvalidField {
-        at: at.clone(),
+        at: at.record(usize::from(record)),
         field: format!("units label of the {what} (dataset 58 record {record})"),
         value: format!("{label:?}"),
         expected: "a known unit: m, mm, µm, in (displacement), m/s, mm/s, in/s (velocity), \
@@ -181,7 +181,7 @@ pub fn ordinate_units(
     if let (Some((q, _)), Some(t)) = (response, by_type) {
         if q != t {
             return Err(IoError::InvalidField {
-                at: at.clone(),
+                at: at.record(9),
                 field: "ordinate specific data type (record 9 field 1)".into(),
                 value: format!("{} ({t:?})", d.ordinate_axis.data_type),
                 expected: format!("a type matching the units label {num:?} ({q:?})"),
@@ -217,7 +217,8 @@ pub fn ordinate_units(
 }
 
 /// The SI factor of a dataset 58's abscissa: Hz (or no label) 1, kHz 1000,
-/// rad/s 1/2π; anything else is an error.
+/// rad/s 1/2π; anything else is an error naming record 8's line (`at` is
+/// the dataset's record 1).
 pub fn abscissa_factor(d: &Uff58, at: &Location) -> Result<f64, IoError> {
     let label = d.abscissa_axis.units.trim();
     if blank(label) {
@@ -228,7 +229,7 @@ pub fn abscissa_factor(d: &Uff58, at: &Location) -> Result<f64, IoError> {
         "khz" => Ok(1e3),
         "rad/s" => Ok(1.0 / (2.0 * std::f64::consts::PI)),
         _ => Err(IoError::InvalidField {
-            at: at.clone(),
+            at: at.record(8),
             field: "units label of the abscissa (dataset 58 record 8)".into(),
             value: format!("{label:?}"),
             expected: "a frequency: Hz, kHz or rad/s".into(),

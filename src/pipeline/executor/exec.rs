@@ -226,6 +226,7 @@ fn run_in(
         outputs,
         seconds: seconds + job.partial_seconds,
         counters: produced.counters,
+        warnings: produced.warnings,
         modalflow_version: env!("CARGO_PKG_VERSION").to_string(),
         checksum: String::new(),
     };

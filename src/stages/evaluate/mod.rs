@@ -241,6 +241,7 @@ impl Kind for Evaluate {
             .map_err(|e| StageError::Failed(format!("cannot encode metrics.json: {e}")))?;
         write(&path, &json)?;
         Ok(StageOutputs {
+            warnings: Vec::new(),
             files: vec![
                 ("metrics".into(), path),
                 ("tables".into(), tables),

@@ -288,6 +288,7 @@ impl Kind for Identify {
         crate::stages::updated_model::write(ctx, p.model.as_deref(), &parameters, &model_dir)?;
         files.push(("updated_model".to_string(), model_dir));
         Ok(StageOutputs {
+            warnings: Vec::new(),
             files,
             counters: [("evaluations".to_string(), u.evaluations as u64)].into(),
         })
