@@ -89,7 +89,10 @@ pub use csv_modal::{read_modal_csv, write_modal_csv, ModalCsv};
 pub use dof_text::{format_channel, parse_channel, parse_dof};
 pub use error::{IoError, Location, Place};
 pub use select::{select_frf_sets, select_functions, DofPattern, Selection};
-pub use uff::artifact::{read_frf_artifact, uff58_from_frf_sets, write_frf_artifact};
+pub use uff::artifact::{
+    read_frf_artifact, read_frf_artifact_scaled, uff58_from_frf_sets, write_frf_artifact,
+    write_frf_artifact_scaled,
+};
 pub use uff::ds15_2411::{NodeTable, UffNode};
 pub use uff::ds55::{Uff55, Uff55Mode};
 pub use uff::ds58::{
@@ -98,5 +101,6 @@ pub use uff::ds58::{
 };
 pub use uff::frf_sets::{frf_sets_from_uff, FrfImport, FrfImportOptions};
 pub use uff::modal_models::{modal_models_from_uff, uff55_from_modal_models, ModalImport};
+pub use uff::units::{check_override_labels, UnitsOverride};
 pub use uff::{read_uff, write_uff55, write_uff58, UffBlock, UffDataset, UffFile, UffWarning};
 pub use validity::{check_abscissa, check_coherence, check_even_abscissa, check_frequency};

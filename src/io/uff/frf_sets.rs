@@ -16,24 +16,27 @@
 
 use super::artifact::{unescape_label, LABEL_KEY};
 use super::ds58::{Entity58, FunctionType, Ordinate, Uff58};
-use super::units::{abscissa_factor, ordinate_units, Units164};
+use super::units::{abscissa_factor, ordinate_units, Units164, UnitsOverride};
 use super::{UffDataset, UffFile, UffWarning};
 use crate::frf::{Dof, FrfChannel, FrfSet, Position};
 use crate::io::error::{IoError, Location, Place};
 use std::collections::HashMap;
 
-/// How datasets 58 are grouped into positions.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// How datasets 58 are grouped into positions and their units read.
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct FrfImportOptions {
     /// One position per load case id (and label); `false` puts every FRF in
     /// position 0 (for tools that number load cases per measurement run).
     pub split_by_load_case: bool,
+    /// Units from the file, given instead, or uncalibrated data.
+    pub units: UnitsOverride,
 }
 
 impl Default for FrfImportOptions {
     fn default() -> Self {
         FrfImportOptions {
             split_by_load_case: true,
+            units: UnitsOverride::FromFile,
         }
     }
 }
@@ -45,6 +48,11 @@ pub struct FrfImport {
     pub warnings: Vec<UffWarning>,
     /// Unit conversions to SI and unit assumptions, one line per kind.
     pub notes: Vec<String>,
+    /// `false` when the FRFs are uncalibrated (no physical scale): voltage
+    /// data imported with [`UnitsOverride`], or modalflow's own mark.
+    pub calibrated: bool,
+    /// FRFs without any units label or dataset 164, read as SI.
+    pub unlabelled: usize,
 }
 
 /// Builds FRF sets from the datasets 58 of `file` (`source` names it in errors).
@@ -113,6 +121,8 @@ pub fn frf_sets_from_uff(
         sets: b.sets.into_iter().map(|(s, _)| s).collect(),
         warnings,
         notes,
+        calibrated: b.uncalibrated == 0,
+        unlabelled: b.unlabelled,
     })
 }
 
@@ -166,6 +176,9 @@ struct Builder {
     units: Option<Units164>,
     /// Conversion notes with their FRF counts, in first-seen order.
     notes: Vec<(String, usize)>,
+    /// FRFs read as uncalibrated, and FRFs read as SI for want of labels.
+    uncalibrated: usize,
+    unlabelled: usize,
 }
 
 impl Builder {
@@ -190,7 +203,7 @@ impl Builder {
         let response = dof(&d.response, "response", &head.record(6))?;
         let reference = dof(&d.reference, "reference", &head.record(6))?;
         let position = position_of(d, &head.record(6), options)?;
-        let units = ordinate_units(d, self.units.as_ref(), head)?;
+        let units = ordinate_units(d, self.units.as_ref(), head, &options.units)?;
         let quantity = units.quantity;
         let values = match &d.ordinate {
             Ordinate::Complex(v) => v.iter().map(|x| x * units.factor).collect(),
@@ -212,7 +225,16 @@ impl Builder {
                 units.factor
             ));
         }
+        if !units.calibrated {
+            self.uncalibrated += 1;
+            self.note(format!(
+                "{}/{} kept as measured: uncalibrated, no physical scale",
+                d.ordinate_axis.units.trim(),
+                d.denominator_axis.units.trim()
+            ));
+        }
         if units.assumed_si {
+            self.unlabelled += 1;
             self.note(format!(
                 "no units label and no dataset 164: read as SI {}",
                 quantity.si_unit()
