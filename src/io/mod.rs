@@ -101,6 +101,6 @@ pub use uff::ds58::{
 };
 pub use uff::frf_sets::{frf_sets_from_uff, FrfImport, FrfImportOptions};
 pub use uff::modal_models::{modal_models_from_uff, uff55_from_modal_models, ModalImport};
-pub use uff::units::{check_override_labels, UnitsOverride};
+pub use uff::units::{check_override_labels, UnitsOverride, UNCALIBRATED_LABEL};
 pub use uff::{read_uff, write_uff55, write_uff58, UffBlock, UffDataset, UffFile, UffWarning};
 pub use validity::{check_abscissa, check_coherence, check_even_abscissa, check_frequency};

@@ -239,7 +239,9 @@ impl Kind for AutoEma {
 
     fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
         let s = settings(p);
-        let sets = artifacts::read_frf(ctx.input("frf")?, "frf")?;
+        // Uncalibrated FRFs (no physical scale) are fine for AutoEMA; the
+        // fitted FRFs carry the same mark.
+        let (sets, calibrated) = artifacts::read_frf_scaled(ctx.input("frf")?, "frf")?;
         // Lines at 0 Hz are dropped: the LSFD lower residual −LR/ω² is singular there.
         let band = s
             .band
@@ -271,7 +273,7 @@ impl Kind for AutoEma {
                 })
             })
             .collect::<Result<_, _>>()?;
-        write_outputs(ctx, &sets, &data, &layouts, &results)
+        write_outputs(ctx, (&sets, calibrated), &data, &layouts, &results)
     }
 }
 
@@ -482,7 +484,7 @@ fn positions_of<'a>(sets: &[FrfSet], layouts: &'a [Layout]) -> Vec<(u32, &'a Lay
 
 fn write_outputs(
     ctx: &StageContext,
-    sets: &[FrfSet],
+    (sets, calibrated): (&[FrfSet], bool),
     data: &[FrfData],
     layouts: &[Layout],
     results: &[AutoEmaResult],
@@ -498,7 +500,8 @@ fn write_outputs(
     let poles_path = ctx.scratch.join("poles.csv");
     write(&poles_path, poles_csv(sets, results).as_bytes())?;
     let fit_path = ctx.scratch.join("frf_fit.uff");
-    artifacts::write_frf(&fit_path, &fitted_sets(sets, data, layouts, results))?;
+    let fitted = fitted_sets(sets, data, layouts, results);
+    artifacts::write_frf_scaled(&fit_path, &fitted, calibrated)?;
     let panels: Vec<Panel> = sets
         .iter()
         .zip(data)

@@ -178,7 +178,7 @@ impl Kind for Identify {
         })?;
         let model = load_model(ctx, p.model.as_deref())?;
         let reference_dir = ctx.input("reference")?;
-        let reference = artifacts::read_modes(reference_dir, "reference")?;
+        let reference = artifacts::read_damped_modes(reference_dir, "reference", "identify")?;
         let invalid_reference = |e: crate::identify::IdentifyError| StageError::InvalidInput {
             input: "reference".into(),
             message: e.to_string(),
@@ -240,7 +240,12 @@ impl Kind for Identify {
             .get("frf")
             .and_then(|v| v.first())
             .map(|path| {
-                let sets = artifacts::read_frf(path, "frf")?;
+                let sets = artifacts::read_calibrated_frf(
+                    path,
+                    "frf",
+                    "identify",
+                    "FRF fit against the model",
+                )?;
                 let prepared = objective.prepared();
                 let noise = FrfNoise {
                     averages: spec.frf_averages,
