@@ -58,16 +58,18 @@
 //! # CSV modal formats (`modes.csv`, `mode_shapes.csv`)
 //!
 //! ```text
-//! position,mode,frequency_hz,damping_ratio
-//! 0,1,42.5,0.012
+//! position,position_label,mode,frequency_hz,damping_ratio
+//! 0,wpt=0.250,1,42.5,0.012
 //! position,mode,node,direction,real,imag
 //! 0,1,101,+X,0.71,0
 //! ```
 //!
 //! - `modes.csv`: `mode` is the 1-based mode number within its position,
-//!   `frequency_hz` the undamped natural frequency, `damping_ratio` ζ. The
-//!   `position` column may be left out for a single configuration; an optional
-//!   `position_label` column carries labels.
+//!   `frequency_hz` the undamped natural frequency, `damping_ratio` ζ (an
+//!   empty cell: not given, NaN in memory). Every writer writes these
+//!   columns; the reader also takes hand-written tables without `position`
+//!   (one configuration), `position_label` or `damping_ratio`, and an empty
+//!   `mode_shapes.csv` (modes without shapes).
 //! - `mode_shapes.csv`: one row per mode and DOF; `direction` is `+X … -RZ`,
 //!   `S`, or the UFF code (`-3`); `real`/`imag` the shape coefficient. Every
 //!   mode of a position lists the same DOFs; their first-appearance order is

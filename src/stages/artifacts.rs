@@ -2,10 +2,11 @@
 //! every kind agrees on them:
 //!
 //! - `frf`: a UFF 58b file (see [`crate::io::write_frf_artifact`]), one data
-//!   set per position;
-//! - `modes`: a directory with `modes.csv` (`position,mode,frequency_hz,
-//!   damping_ratio`) and `mode_shapes.csv` (`position,mode,node,direction,
-//!   real,imag`), and, when the estimate states it, `uncertainty.csv`
+//!   set per position; uncalibrated FRFs carry a mark
+//!   ([`read_frf_scaled`], [`read_calibrated_frf`]);
+//! - `modes`: a directory with `modes.csv` (`position,position_label,mode,
+//!   frequency_hz,damping_ratio`; an empty damping cell: not given) and
+//!   `mode_shapes.csv` (`position,mode,node,direction,real,imag`), and, when the estimate states it, `uncertainty.csv`
 //!   (`position,mode,frequency_spread,damping_spread`: relative standard
 //!   deviations per mode, see [`ModeSpread`]), and, when the shapes are known
 //!   to be mass-normalized (computed modes), `scaling.json`

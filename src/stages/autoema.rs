@@ -214,8 +214,10 @@ impl Kind for AutoEma {
     type Params = Params;
     const NAME: &'static str = "autoema";
 
+    /// 5: modes.csv always has the position columns (issue 31);
+    /// frf_fit keeps the input's uncalibrated mark.
     fn version(&self) -> u32 {
-        4
+        5
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"

@@ -49,8 +49,10 @@ impl Kind for Export {
 
     /// 2: dataset 55 per its definition (data type 2/5, shapes in E25.16,
     /// modal mass / modal A of mass-normalized shapes, exact ID line 5).
+    /// 3: modes.csv always has the position columns (issue 31); the
+    /// uncalibrated mark on FRFs kept in UFF, refused in CSV.
     fn version(&self) -> u32 {
-        2
+        3
     }
 
     fn summary(&self) -> &'static str {

@@ -154,8 +154,9 @@ impl Kind for Synthesize {
     /// change, issue 16).
     fn version(&self) -> u32 {
         // v5: Lanczos orthogonalization/basis/tolerance (issue 16) change
-        // eigenpairs in the last bits.
-        5
+        // eigenpairs in the last bits. v6: modes.csv always has the
+        // position columns (one shape for every writer, issue 31).
+        6
     }
     fn summary(&self) -> &'static str {
         "solve a model file and write reference FRFs (with noise or a simulated impact test), modes and the truth"

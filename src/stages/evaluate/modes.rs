@@ -116,7 +116,7 @@ pub fn compare_modes(
     write(&tables.join("mac.csv"), &mac_csv)?;
     let total = |f: fn(&PositionModes) -> usize| positions.iter().map(f).sum::<usize>();
     Ok(ModeMetrics {
-        paired: all_mac.len(),
+        paired: all_nfd.len(),
         reference_modes: reference.iter().map(|m| m.modes.len()).sum(),
         candidate_modes: total(|p| p.candidate_modes),
         unpaired_reference: total(|p| p.unpaired_reference.len()),
@@ -209,10 +209,17 @@ fn drawn<'a>(m: &'a ModalModel, k: usize, what: &str, mode: &crate::modal::Mode)
         model: m,
         mode: k,
         heading: format!(
-            "{what} mode {} · {} · ζ {} %",
+            "{what} mode {} · {} · ζ {}",
             k + 1,
             hz(mode.frequency_hz),
-            crate::report::format::sig(100.0 * mode.damping_ratio, 3)
+            if mode.damping_ratio.is_nan() {
+                "not given".to_string()
+            } else {
+                format!(
+                    "{} %",
+                    crate::report::format::sig(100.0 * mode.damping_ratio, 3)
+                )
+            }
         ),
     }
 }

@@ -83,8 +83,11 @@ impl Kind for Identify {
     /// 11: per-line FRF noise from coherence (`frf_averages`), the noise
     /// model in cost.json, a warning for coherence left unused.
     /// 12: eigenpairs from the faster Lanczos (issue 16), last bits.
+    /// 13: updated_modes' modes.csv always has the position columns
+    /// (issue 31); uncalibrated FRFs and reference modes without damping
+    /// are refused.
     fn version(&self) -> u32 {
-        12
+        13
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
