@@ -373,13 +373,8 @@ impl Kind for Import {
             "units": units,
             "warnings": warnings,
         });
-        let summary_path = ctx.scratch.join("import.json");
-        let text = serde_json::to_vec_pretty(&summary).unwrap_or_default();
-        std::fs::write(&summary_path, text).map_err(|e| StageError::io("write import.json", e))?;
-        let geometry_path = ctx.scratch.join("geometry.json");
-        let text = serde_json::to_vec_pretty(&geometry).unwrap_or_default();
-        std::fs::write(&geometry_path, text)
-            .map_err(|e| StageError::io("write geometry.json", e))?;
+        let summary_path = write_json(ctx, "import.json", &summary)?;
+        let geometry_path = write_json(ctx, "geometry.json", &geometry)?;
         let channels: usize = sets.iter().map(|s| s.channels.len()).sum();
         Ok(StageOutputs {
             warnings,
@@ -395,6 +390,18 @@ impl Kind for Import {
             .into(),
         })
     }
+}
+
+/// Writes `value` as pretty JSON to `name` in the scratch directory.
+pub(super) fn write_json(
+    ctx: &StageContext,
+    name: &str,
+    value: &impl Serialize,
+) -> Result<std::path::PathBuf, StageError> {
+    let path = ctx.scratch.join(name);
+    let text = serde_json::to_vec_pretty(value).unwrap_or_default();
+    std::fs::write(&path, text).map_err(|e| StageError::io(format!("write {name}"), e))?;
+    Ok(path)
 }
 
 pub(super) fn by_extension(path: &Path) -> Format {

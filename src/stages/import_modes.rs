@@ -15,7 +15,7 @@
 //! NDD and MACXP for such pairs and says so. Modes without shapes are paired
 //! by frequency alone. `band` keeps the modes inside it.
 
-use super::import::{by_extension, Format, Params};
+use super::import::{by_extension, write_json, Format, Params};
 use super::{artifacts, StageContext, StageError, StageOutputs};
 use crate::io;
 use crate::modal::ModalModel;
@@ -95,12 +95,8 @@ pub fn run(params: &Params, ctx: &StageContext) -> Result<StageOutputs, StageErr
         })).collect::<Vec<_>>(),
         "warnings": warnings,
     });
-    let summary_path = ctx.scratch.join("import.json");
-    let text = serde_json::to_vec_pretty(&summary).unwrap_or_default();
-    std::fs::write(&summary_path, text).map_err(|e| StageError::io("write import.json", e))?;
-    let geometry_path = ctx.scratch.join("geometry.json");
-    let text = serde_json::to_vec_pretty(&geometry).unwrap_or_default();
-    std::fs::write(&geometry_path, text).map_err(|e| StageError::io("write geometry.json", e))?;
+    let summary_path = write_json(ctx, "import.json", &summary)?;
+    let geometry_path = write_json(ctx, "geometry.json", &geometry)?;
     let count: usize = models.iter().map(|m| m.modes.len()).sum();
     Ok(StageOutputs {
         warnings,
