@@ -48,7 +48,7 @@ pub enum Role {
 /// What a run committed.
 #[derive(Debug)]
 pub enum Finished {
-    Record(RunRecord),
+    Record(Box<RunRecord>),
     Shard(ShardRecord),
 }
 
@@ -231,7 +231,7 @@ fn run_in(
         checksum: String::new(),
     };
     store.write_record(&record)?;
-    Ok(Finished::Record(record))
+    Ok(Finished::Record(Box::new(record)))
 }
 
 type RunResult = std::thread::Result<Result<stages::StageOutputs, StageError>>;
