@@ -9,7 +9,8 @@ use num_complex::Complex64;
 pub struct Mode {
     /// Undamped natural frequency f_r = ω_r / 2π in Hz.
     pub frequency_hz: f64,
-    /// Viscous modal damping ratio ζ_r (equivalent ratio η_r/2 for hysteretic damping).
+    /// Viscous modal damping ratio ζ_r (equivalent ratio η_r/2 for hysteretic
+    /// damping); NaN when not given (imported reference modes).
     pub damping_ratio: f64,
     /// Shape coefficients in the order of [`ModalModel::dofs`]; mass-normalized
     /// for computed modes, arbitrary scale for identified ones.

@@ -272,8 +272,9 @@ fn modes_csv(ws: &Workspace, stage: &str) -> Vec<(f64, f64)> {
     csv.lines()
         .skip(1)
         .map(|l| {
-            let r: Vec<f64> = l.split(',').map(|v| v.parse().unwrap()).collect();
-            (r[1], r[2])
+            // position,position_label,mode,frequency_hz,damping_ratio
+            let r: Vec<&str> = l.split(',').collect();
+            (r[3].parse().unwrap(), r[4].parse().unwrap())
         })
         .collect()
 }
@@ -287,13 +288,14 @@ fn shapes_csv(
     let mut out: Vec<std::collections::BTreeMap<_, _>> = Vec::new();
     for l in csv.lines().skip(1) {
         let r: Vec<&str> = l.split(',').collect();
-        let m: usize = r[0].parse().unwrap();
+        // position,mode,node,direction,real,imag
+        let m: usize = r[1].parse().unwrap();
         if out.len() < m {
             out.resize(m, Default::default());
         }
         out[m - 1].insert(
-            (r[1].parse().unwrap(), r[2].to_string()),
-            num_complex::Complex64::new(r[3].parse().unwrap(), r[4].parse().unwrap()),
+            (r[2].parse().unwrap(), r[3].to_string()),
+            num_complex::Complex64::new(r[4].parse().unwrap(), r[5].parse().unwrap()),
         );
     }
     out

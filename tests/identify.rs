@@ -317,7 +317,7 @@ fn the_updated_model_file_reproduces_the_updated_modes() {
         ws.read(path)
             .lines()
             .skip(1)
-            .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+            .map(|l| l.split(',').nth(3).unwrap().parse().unwrap())
             .collect()
     };
     let (updated, again) = (

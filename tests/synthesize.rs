@@ -44,7 +44,7 @@ fn clean_frfs_peak_at_the_true_modes_and_the_truth_is_written() {
     let freqs: Vec<f64> = modes
         .lines()
         .skip(1)
-        .map(|l| l.split(',').nth(1).unwrap().parse().unwrap())
+        .map(|l| l.split(',').nth(3).unwrap().parse().unwrap())
         .collect();
     assert_eq!(freqs.len(), 3);
     let sets = frf(&ws, "truth");
@@ -57,14 +57,14 @@ fn clean_frfs_peak_at_the_true_modes_and_the_truth_is_written() {
     let phi = |mode: usize, node: u32| -> f64 {
         let row = shapes
             .lines()
-            .find(|l| l.starts_with(&format!("{mode},{node},")))
+            .find(|l| l.starts_with(&format!("0,{mode},{node},")))
             .unwrap();
-        row.split(',').nth(3).unwrap().parse().unwrap()
+        row.split(',').nth(4).unwrap().parse().unwrap()
     };
     let zetas: Vec<f64> = modes
         .lines()
         .skip(1)
-        .map(|l| l.split(',').nth(2).unwrap().parse().unwrap())
+        .map(|l| l.split(',').nth(4).unwrap().parse().unwrap())
         .collect();
     for (ch, node) in [(0usize, 1u32), (2, 3)] {
         for k in [0usize, 301, 700, 1072, 1400] {

@@ -15,6 +15,8 @@ mod fe_formats;
 mod gsa;
 mod identify;
 mod import;
+mod import_modes;
+mod import_units;
 mod metrics_properties;
 mod optimize;
 mod path_safety;

@@ -1,5 +1,12 @@
 //! The CSV modal tables `modes.csv` and `mode_shapes.csv` (format in the
 //! [`io`](crate::io) module docs) to and from [`ModalModel`]s.
+//!
+//! One shape is written everywhere: `position,position_label,mode,
+//! frequency_hz,damping_ratio` and `position,mode,node,direction,real,imag`.
+//! The reader also takes hand-written tables: without the position columns
+//! (one position, 0), without `damping_ratio` or with empty damping cells
+//! (damping not given: NaN in memory, an empty cell when written), and
+//! without any shapes (an empty `mode_shapes.csv`: modes with no DOFs).
 
 use crate::frf::{Dof, Position};
 use crate::io::csv_table::{csv_err, fmt_f64, from_csv_error, int_cell, real_cell, Table};
@@ -9,6 +16,17 @@ use crate::io::validity::check_natural_frequency;
 use crate::modal::{ModalModel, Mode};
 use num_complex::Complex64;
 use std::collections::HashMap;
+
+/// The columns of `modes.csv` as every writer writes them.
+pub const MODES_HEADER: [&str; 5] = [
+    "position",
+    "position_label",
+    "mode",
+    "frequency_hz",
+    "damping_ratio",
+];
+/// The columns of `mode_shapes.csv` as every writer writes them.
+pub const SHAPES_HEADER: [&str; 6] = ["position", "mode", "node", "direction", "real", "imag"];
 
 /// The two tables of a modal model export.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -25,19 +43,13 @@ pub fn read_modal_csv(
     shapes_source: &str,
 ) -> Result<Vec<ModalModel>, IoError> {
     let src = modes_source;
-    let known = [
-        "position",
-        "position_label",
-        "mode",
-        "frequency_hz",
-        "damping_ratio",
-    ];
-    let (t, mut rdr) = Table::open(modes_csv, src, &known, &known[2..])?;
+    let known = MODES_HEADER;
+    let (t, mut rdr) = Table::open(modes_csv, src, &known, &known[2..4])?;
     let (c_pos, c_label) = (t.col("position"), t.col("position_label"));
     let (c_mode, c_f, c_z) = (
         t.col("mode").unwrap_or(0),
         t.col("frequency_hz").unwrap_or(0),
-        t.col("damping_ratio").unwrap_or(0),
+        t.col("damping_ratio"),
     );
     // Per model: the mode numbers next to the modes, sorted at the end.
     let mut models: Vec<(ModalModel, Vec<u32>)> = Vec::new();
@@ -59,9 +71,13 @@ pub fn read_modal_csv(
         check_natural_frequency(frequency_hz).map_err(|m| {
             IoError::implausible(src, Place::Line(line), format!("frequency_hz: {m}"))
         })?;
+        let damping_ratio = match c_z.map(cell).filter(|c| !c.trim().is_empty()) {
+            Some(c) => real_cell(src, line, "damping_ratio", c)?,
+            None => f64::NAN,
+        };
         let mode = Mode {
             frequency_hz,
-            damping_ratio: real_cell(src, line, "damping_ratio", cell(c_z))?,
+            damping_ratio,
             shape: Vec::new(),
         };
         let m = match model_of.get(&index) {
@@ -101,15 +117,17 @@ pub fn read_modal_csv(
         numbers.push(number);
         model.modes.push(mode);
     }
-    read_shapes(
-        &mut models,
-        &Lookup {
-            model_of: &model_of,
-            slots: &slots,
-        },
-        shapes_csv,
-        shapes_source,
-    )?;
+    if !shapes_csv.trim_ascii().is_empty() {
+        read_shapes(
+            &mut models,
+            &Lookup {
+                model_of: &model_of,
+                slots: &slots,
+            },
+            shapes_csv,
+            shapes_source,
+        )?;
+    }
     Ok(models
         .into_iter()
         .map(|(mut m, numbers)| {
@@ -134,7 +152,7 @@ fn read_shapes(
     bytes: &[u8],
     src: &str,
 ) -> Result<(), IoError> {
-    let known = ["position", "mode", "node", "direction", "real", "imag"];
+    let known = SHAPES_HEADER;
     let (t, mut rdr) = Table::open(bytes, src, &known, &["mode", "node", "direction", "real"])?;
     let c = |n: &str| t.col(n).unwrap_or(0);
     let (c_pos, c_imag) = (t.col("position"), t.col("imag"));
@@ -235,56 +253,46 @@ fn read_shapes(
     Ok(())
 }
 
-/// Writes modal models as `modes.csv` and `mode_shapes.csv`.
+/// Writes modal models as `modes.csv` and `mode_shapes.csv`, always with
+/// the position columns (module docs); a damping ratio not given (NaN) is an
+/// empty cell.
 pub fn write_modal_csv(models: &[ModalModel]) -> Result<ModalCsv, IoError> {
-    let with_position = models.len() > 1 || models.iter().any(|m| m.position.index != 0);
-    let with_label = models.iter().any(|m| !m.position.label.is_empty());
     let err = |e: csv::Error| IoError::Unwritable {
         what: format!("CSV: {e}"),
     };
     let mut modes = csv::Writer::from_writer(Vec::new());
     let mut shapes = csv::Writer::from_writer(Vec::new());
-    let mut h1: Vec<&str> = Vec::new();
-    let mut h2: Vec<&str> = Vec::new();
-    if with_position {
-        h1.push("position");
-        h2.push("position");
-    }
-    if with_label {
-        h1.push("position_label");
-    }
-    h1.extend(["mode", "frequency_hz", "damping_ratio"]);
-    h2.extend(["mode", "node", "direction", "real", "imag"]);
-    modes.write_record(&h1).map_err(err)?;
-    shapes.write_record(&h2).map_err(err)?;
+    modes.write_record(MODES_HEADER).map_err(err)?;
+    shapes.write_record(SHAPES_HEADER).map_err(err)?;
     for m in models {
+        let position = m.position.index.to_string();
         for (k, mode) in m.modes.iter().enumerate() {
-            let mut row: Vec<String> = Vec::new();
-            if with_position {
-                row.push(m.position.index.to_string());
-            }
-            if with_label {
-                row.push(m.position.label.clone());
-            }
-            row.extend([
-                (k + 1).to_string(),
-                fmt_f64(mode.frequency_hz),
-                fmt_f64(mode.damping_ratio),
-            ]);
-            modes.write_record(&row).map_err(err)?;
+            let damping = if mode.damping_ratio.is_nan() {
+                String::new()
+            } else {
+                fmt_f64(mode.damping_ratio)
+            };
+            let number = (k + 1).to_string();
+            modes
+                .write_record([
+                    position.as_str(),
+                    &m.position.label,
+                    &number,
+                    &fmt_f64(mode.frequency_hz),
+                    &damping,
+                ])
+                .map_err(err)?;
             for (dof, v) in m.dofs.iter().zip(&mode.shape) {
-                let mut row: Vec<String> = Vec::new();
-                if with_position {
-                    row.push(m.position.index.to_string());
-                }
-                row.extend([
-                    (k + 1).to_string(),
-                    dof.node.to_string(),
-                    dof.direction_label(),
-                    fmt_f64(v.re),
-                    fmt_f64(v.im),
-                ]);
-                shapes.write_record(&row).map_err(err)?;
+                shapes
+                    .write_record([
+                        position.clone(),
+                        number.clone(),
+                        dof.node.to_string(),
+                        dof.direction_label(),
+                        fmt_f64(v.re),
+                        fmt_f64(v.im),
+                    ])
+                    .map_err(err)?;
             }
         }
     }
@@ -332,13 +340,33 @@ mod tests {
                 read_modal_csv(&csv.modes, "modes.csv", &csv.mode_shapes, "shapes.csv").unwrap();
             assert_eq!(back, models);
         }
+        // One shape for every writer: the position columns are always there.
         let single = write_modal_csv(&[model(0, "")]).unwrap();
         assert!(single
             .modes
-            .starts_with(b"mode,frequency_hz,damping_ratio\n"));
+            .starts_with(b"position,position_label,mode,frequency_hz,damping_ratio\n0,,1,"));
         assert!(single
             .mode_shapes
-            .starts_with(b"mode,node,direction,real,imag\n1,1,+X,"));
+            .starts_with(b"position,mode,node,direction,real,imag\n0,1,1,+X,"));
+    }
+
+    #[test]
+    fn damping_and_shapes_are_optional() {
+        let modes = b"mode,frequency_hz\n1,10\n2,20\n";
+        let m = read_modal_csv(modes, "m.csv", b"", "s.csv").unwrap();
+        assert_eq!(m[0].modes.len(), 2);
+        assert!(m[0].modes[1].damping_ratio.is_nan() && m[0].dofs.is_empty());
+        let modes = b"mode,frequency_hz,damping_ratio\n1,10,\n2,20,0.02\n";
+        let m = read_modal_csv(modes, "m.csv", b"\n", "s.csv").unwrap();
+        assert!(m[0].modes[0].damping_ratio.is_nan());
+        assert_eq!(m[0].modes[1].damping_ratio, 0.02);
+        let csv = write_modal_csv(&m).unwrap();
+        assert!(csv.modes.starts_with(
+            b"position,position_label,mode,frequency_hz,damping_ratio\n0,,1,10,\n0,,2,20,0.02\n"
+        ));
+        let back = read_modal_csv(&csv.modes, "m.csv", &csv.mode_shapes, "s.csv").unwrap();
+        assert!(back[0].modes[0].damping_ratio.is_nan());
+        assert_eq!(back[0].modes[1], m[0].modes[1]);
     }
 
     #[test]

@@ -42,6 +42,22 @@ impl Location {
     }
 }
 
+impl Location {
+    /// Record `r` (1-based) of a UFF dataset whose record 1 is at `self`
+    /// (the header records are one line each); a byte offset or the whole
+    /// file stays as it is.
+    pub fn record(&self, r: usize) -> Location {
+        let place = match self.place {
+            Place::Line(l) => Place::Line(l + r.saturating_sub(1)),
+            other => other,
+        };
+        Location {
+            source: self.source.clone(),
+            place,
+        }
+    }
+}
+
 impl fmt::Display for Location {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self.place {

@@ -58,16 +58,18 @@
 //! # CSV modal formats (`modes.csv`, `mode_shapes.csv`)
 //!
 //! ```text
-//! position,mode,frequency_hz,damping_ratio
-//! 0,1,42.5,0.012
+//! position,position_label,mode,frequency_hz,damping_ratio
+//! 0,wpt=0.250,1,42.5,0.012
 //! position,mode,node,direction,real,imag
 //! 0,1,101,+X,0.71,0
 //! ```
 //!
 //! - `modes.csv`: `mode` is the 1-based mode number within its position,
-//!   `frequency_hz` the undamped natural frequency, `damping_ratio` ζ. The
-//!   `position` column may be left out for a single configuration; an optional
-//!   `position_label` column carries labels.
+//!   `frequency_hz` the undamped natural frequency, `damping_ratio` ζ (an
+//!   empty cell: not given, NaN in memory). Every writer writes these
+//!   columns; the reader also takes hand-written tables without `position`
+//!   (one configuration), `position_label` or `damping_ratio`, and an empty
+//!   `mode_shapes.csv` (modes without shapes).
 //! - `mode_shapes.csv`: one row per mode and DOF; `direction` is `+X … -RZ`,
 //!   `S`, or the UFF code (`-3`); `real`/`imag` the shape coefficient. Every
 //!   mode of a position lists the same DOFs; their first-appearance order is
@@ -89,7 +91,10 @@ pub use csv_modal::{read_modal_csv, write_modal_csv, ModalCsv};
 pub use dof_text::{format_channel, parse_channel, parse_dof};
 pub use error::{IoError, Location, Place};
 pub use select::{select_frf_sets, select_functions, DofPattern, Selection};
-pub use uff::artifact::{read_frf_artifact, uff58_from_frf_sets, write_frf_artifact};
+pub use uff::artifact::{
+    read_frf_artifact, read_frf_artifact_scaled, uff58_from_frf_sets, write_frf_artifact,
+    write_frf_artifact_scaled,
+};
 pub use uff::ds15_2411::{NodeTable, UffNode};
 pub use uff::ds55::{Uff55, Uff55Mode};
 pub use uff::ds58::{
@@ -98,5 +103,6 @@ pub use uff::ds58::{
 };
 pub use uff::frf_sets::{frf_sets_from_uff, FrfImport, FrfImportOptions};
 pub use uff::modal_models::{modal_models_from_uff, uff55_from_modal_models, ModalImport};
+pub use uff::units::{check_override_labels, UnitsOverride, UNCALIBRATED_LABEL};
 pub use uff::{read_uff, write_uff55, write_uff58, UffBlock, UffDataset, UffFile, UffWarning};
 pub use validity::{check_abscissa, check_coherence, check_even_abscissa, check_frequency};

@@ -47,6 +47,10 @@ pub struct StageReport {
     pub error: Option<String>,
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub counters: BTreeMap<String, u64>,
+    /// The stage's own warnings (from its run record), also printed as
+    /// `warning:` lines.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
 }
 
 /// What finishing a stage yields for the scheduler.
@@ -167,6 +171,7 @@ impl Engine<'_> {
             reason: String::new(),
             error: None,
             counters: BTreeMap::new(),
+            warnings: Vec::new(),
         };
         let fail = |mut report: StageReport, msg: String, warnings| {
             report.status = Status::Failed;
@@ -244,6 +249,13 @@ impl Engine<'_> {
         };
         report.seconds = record.seconds;
         report.counters = record.counters.clone();
+        report.warnings = record.warnings.clone();
+        warnings.extend(
+            record
+                .warnings
+                .iter()
+                .map(|w| format!("stage {}: {w}", node.name)),
+        );
         if let Err(e) = self.place(node, &material, &key, &record, done) {
             return fatal(report, e.into(), warnings);
         }

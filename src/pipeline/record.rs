@@ -27,6 +27,10 @@ pub struct RunRecord {
     pub outputs: BTreeMap<String, OutputRecord>,
     pub seconds: f64,
     pub counters: BTreeMap<String, u64>,
+    /// The stage's warnings ([`crate::stages::StageOutputs::warnings`]);
+    /// absent in records without any.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     pub modalflow_version: String,
     /// blake3 of the record file's text without this field (the last one):
     /// a record edited after it was written (a swapped output hash that

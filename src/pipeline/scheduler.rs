@@ -384,6 +384,7 @@ fn skipped(plan: &Plan, i: usize, reason: String) -> StageReport {
         reason,
         error: None,
         counters: BTreeMap::new(),
+        warnings: Vec::new(),
     }
 }
 

@@ -34,6 +34,7 @@ fn put_verify_checkout_roundtrip_and_corruption() {
         // serde_json's fast float path: the seal must not care.
         seconds: 0.009991630000000001,
         counters: BTreeMap::new(),
+        warnings: Vec::new(),
         modalflow_version: "0".into(),
         checksum: String::new(),
     };

@@ -2,10 +2,11 @@
 //! every kind agrees on them:
 //!
 //! - `frf`: a UFF 58b file (see [`crate::io::write_frf_artifact`]), one data
-//!   set per position;
-//! - `modes`: a directory with `modes.csv` (`position,mode,frequency_hz,
-//!   damping_ratio`) and `mode_shapes.csv` (`position,mode,node,direction,
-//!   real,imag`), and, when the estimate states it, `uncertainty.csv`
+//!   set per position; uncalibrated FRFs carry a mark
+//!   ([`read_frf_scaled`], [`read_calibrated_frf`]);
+//! - `modes`: a directory with `modes.csv` (`position,position_label,mode,
+//!   frequency_hz,damping_ratio`; an empty damping cell: not given) and
+//!   `mode_shapes.csv` (`position,mode,node,direction,real,imag`), and, when the estimate states it, `uncertainty.csv`
 //!   (`position,mode,frequency_spread,damping_spread`: relative standard
 //!   deviations per mode, see [`ModeSpread`]), and, when the shapes are known
 //!   to be mass-normalized (computed modes), `scaling.json`
@@ -31,14 +32,54 @@ pub fn write_frf(path: &Path, sets: &[FrfSet]) -> Result<(), StageError> {
     write(path, &io::write_frf_artifact(sets))
 }
 
+/// Write an `frf` artifact, marked uncalibrated when `calibrated` is false
+/// ([`io::write_frf_artifact_scaled`]).
+pub fn write_frf_scaled(path: &Path, sets: &[FrfSet], calibrated: bool) -> Result<(), StageError> {
+    write(path, &io::write_frf_artifact_scaled(sets, calibrated))
+}
+
 /// Read the `frf` artifact bound to input `input`.
 pub fn read_frf(path: &Path, input: &str) -> Result<Vec<FrfSet>, StageError> {
+    Ok(read_frf_scaled(path, input)?.0)
+}
+
+/// Read the `frf` artifact bound to input `input` and whether its FRFs are
+/// calibrated (`false`: imported as voltage or uncalibrated data).
+pub fn read_frf_scaled(path: &Path, input: &str) -> Result<(Vec<FrfSet>, bool), StageError> {
     let bytes = std::fs::read(path)
         .map_err(|e| StageError::io(format!("cannot read input `{input}`"), e))?;
-    io::read_frf_artifact(&bytes, input).map_err(|e| StageError::InvalidInput {
+    io::read_frf_artifact_scaled(&bytes, input).map_err(|e| StageError::InvalidInput {
         input: input.to_string(),
         message: e.to_string(),
     })
+}
+
+/// The refusal of uncalibrated FRFs where `need` (what the stage `kind`
+/// does with them) requires a physical scale.
+pub fn uncalibrated_refused(kind: &str, input: &str, need: &str) -> StageError {
+    StageError::InvalidInput {
+        input: input.to_string(),
+        message: format!(
+            "the FRFs are uncalibrated (imported with `calibrated: false` or voltage `units`), \
+             but {kind}'s {need} needs FRFs in physical units (m/N, m/s/N or m/s²/N); \
+             re-import them with the sensors' units (`units: {{response: g, reference: N}}`), \
+             or compare modes only (frequencies, damping, shapes and MAC need no scale)"
+        ),
+    }
+}
+
+/// Read an `frf` artifact that must have a physical scale: uncalibrated
+/// FRFs are refused naming the stage kind and what needs the scale.
+pub fn read_calibrated_frf(
+    path: &Path,
+    input: &str,
+    kind: &str,
+    need: &str,
+) -> Result<Vec<FrfSet>, StageError> {
+    match read_frf_scaled(path, input)? {
+        (sets, true) => Ok(sets),
+        (_, false) => Err(uncalibrated_refused(kind, input, need)),
+    }
 }
 
 /// Write a `modes` artifact directory.
@@ -103,6 +144,38 @@ pub fn read_modes(dir: &Path, input: &str) -> Result<Vec<ModalModel>, StageError
             message: e.to_string(),
         }
     })
+}
+
+/// Read a `modes` artifact whose every mode must state its damping ratio
+/// (`kind` uses it): imported reference modes may leave it out.
+pub fn read_damped_modes(
+    dir: &Path,
+    input: &str,
+    kind: &str,
+) -> Result<Vec<ModalModel>, StageError> {
+    let models = read_modes(dir, input)?;
+    let missing: Vec<String> = models
+        .iter()
+        .flat_map(|m| {
+            m.modes
+                .iter()
+                .enumerate()
+                .filter(|(_, x)| x.damping_ratio.is_nan())
+                .map(move |(k, _)| format!("position {} mode {}", m.position.index, k + 1))
+        })
+        .collect();
+    if let Some(first) = missing.first() {
+        return Err(StageError::InvalidInput {
+            input: input.to_string(),
+            message: format!(
+                "{} mode(s) without a damping ratio (first: {first}); {kind} fits the damping \
+                 of every reference mode: give damping_ratio in the imported table, or compare \
+                 these modes with `evaluate` (which skips NDD for them)",
+                missing.len()
+            ),
+        });
+    }
+    Ok(models)
 }
 
 /// The stated uncertainty of one identified mode (`uncertainty.csv` of a

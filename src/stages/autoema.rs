@@ -214,8 +214,10 @@ impl Kind for AutoEma {
     type Params = Params;
     const NAME: &'static str = "autoema";
 
+    /// 5: modes.csv always has the position columns (issue 31);
+    /// frf_fit keeps the input's uncalibrated mark.
     fn version(&self) -> u32 {
-        4
+        5
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"
@@ -239,7 +241,9 @@ impl Kind for AutoEma {
 
     fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
         let s = settings(p);
-        let sets = artifacts::read_frf(ctx.input("frf")?, "frf")?;
+        // Uncalibrated FRFs (no physical scale) are fine for AutoEMA; the
+        // fitted FRFs carry the same mark.
+        let (sets, calibrated) = artifacts::read_frf_scaled(ctx.input("frf")?, "frf")?;
         // Lines at 0 Hz are dropped: the LSFD lower residual −LR/ω² is singular there.
         let band = s
             .band
@@ -271,7 +275,7 @@ impl Kind for AutoEma {
                 })
             })
             .collect::<Result<_, _>>()?;
-        write_outputs(ctx, &sets, &data, &layouts, &results)
+        write_outputs(ctx, (&sets, calibrated), &data, &layouts, &results)
     }
 }
 
@@ -482,7 +486,7 @@ fn positions_of<'a>(sets: &[FrfSet], layouts: &'a [Layout]) -> Vec<(u32, &'a Lay
 
 fn write_outputs(
     ctx: &StageContext,
-    sets: &[FrfSet],
+    (sets, calibrated): (&[FrfSet], bool),
     data: &[FrfData],
     layouts: &[Layout],
     results: &[AutoEmaResult],
@@ -498,7 +502,8 @@ fn write_outputs(
     let poles_path = ctx.scratch.join("poles.csv");
     write(&poles_path, poles_csv(sets, results).as_bytes())?;
     let fit_path = ctx.scratch.join("frf_fit.uff");
-    artifacts::write_frf(&fit_path, &fitted_sets(sets, data, layouts, results))?;
+    let fitted = fitted_sets(sets, data, layouts, results);
+    artifacts::write_frf_scaled(&fit_path, &fitted, calibrated)?;
     let panels: Vec<Panel> = sets
         .iter()
         .zip(data)
@@ -523,6 +528,7 @@ fn write_outputs(
     let iterations: usize = results.iter().map(|r| r.trace.len()).sum();
     let orders: usize = results.iter().map(|r| r.orders.len()).sum();
     Ok(StageOutputs {
+        warnings: Vec::new(),
         files: vec![
             ("modes".into(), modes_dir),
             ("poles".into(), poles_path),

@@ -169,6 +169,7 @@ impl Kind for Command {
             files.push((out.clone(), path));
         }
         Ok(StageOutputs {
+            warnings: Vec::new(),
             files,
             counters: Default::default(),
         })

@@ -2,7 +2,7 @@
 //! — UFF 58 (ASCII with the standard fixed-width layout, or 58b), UFF 55,
 //! or CSV — so results open in test and FE software.
 
-use super::artifacts::{read_frf, read_modes, read_shape_scaling};
+use super::artifacts::{read_modes, read_shape_scaling};
 use super::{Artifact, InputSpec, Kind, StageContext, StageError, StageOutputs};
 use crate::io::{self, ByteOrder, NumberText, Storage, Uff58Format};
 
@@ -49,8 +49,10 @@ impl Kind for Export {
 
     /// 2: dataset 55 per its definition (data type 2/5, shapes in E25.16,
     /// modal mass / modal A of mass-normalized shapes, exact ID line 5).
+    /// 3: modes.csv always has the position columns (issue 31); the
+    /// uncalibrated mark on FRFs kept in UFF, refused in CSV.
     fn version(&self) -> u32 {
-        2
+        3
     }
 
     fn summary(&self) -> &'static str {
@@ -90,8 +92,15 @@ impl Kind for Export {
         };
         let failed = |e: io::IoError| StageError::Failed(e.to_string());
         if ctx.inputs.contains_key("frf") {
-            let sets = read_frf(ctx.input("frf")?, "frf")?;
+            let (sets, calibrated) = super::artifacts::read_frf_scaled(ctx.input("frf")?, "frf")?;
             match format {
+                Format::Csv if !calibrated => {
+                    return Err(super::artifacts::uncalibrated_refused(
+                        "export",
+                        "frf",
+                        "CSV format (whose values are SI by definition)",
+                    ))
+                }
                 Format::Csv => write("frf.csv", &io::write_frf_csv(&sets).map_err(failed)?)?,
                 _ => {
                     let storage = if format == Format::Uff {
@@ -103,10 +112,17 @@ impl Kind for Export {
                         storage,
                         digits: NumberText::Standard,
                     };
-                    write(
-                        "frf.uff",
-                        &io::write_uff58(&io::uff58_from_frf_sets(&sets), &fmt),
-                    )?;
+                    let mut datasets = io::uff58_from_frf_sets(&sets);
+                    if !calibrated {
+                        // The mark modalflow reads back; other tools see the label.
+                        for d in &mut datasets {
+                            if d.function == io::FunctionType::Frf {
+                                d.ordinate_axis.units = io::UNCALIBRATED_LABEL.into();
+                                d.denominator_axis.units = "NONE".into();
+                            }
+                        }
+                    }
+                    write("frf.uff", &io::write_uff58(&datasets, &fmt))?;
                 }
             }
         }
@@ -128,6 +144,7 @@ impl Kind for Export {
             }
         }
         Ok(StageOutputs {
+            warnings: Vec::new(),
             files: vec![("files".into(), dir)],
             counters: Default::default(),
         })

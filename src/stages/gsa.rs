@@ -278,7 +278,12 @@ pub(super) fn build_model(
     };
     let frf_bands = match ctx.inputs.get("reference_frf") {
         Some(_) => {
-            let sets = artifacts::read_frf(ctx.input("reference_frf")?, "reference_frf")?;
+            let sets = artifacts::read_calibrated_frf(
+                ctx.input("reference_frf")?,
+                "reference_frf",
+                "gsa",
+                "FRAC/CSF of model FRFs against the reference",
+            )?;
             FrfBands::from_reference(m.prepared(), &sets, &options)
         }
         None => FrfBands::from_model(

@@ -13,12 +13,20 @@
 //! and the record. The first UFF file's node coordinates (15/2411) and
 //! trace lines (82) become the `geometry` output (geometry.json, empty
 //! without nodes), which `evaluate` draws mode shapes on.
+//!
+//! Voltage or uncalibrated FRFs (`V/V`, no scale) import with `calibrated:
+//! false` or `units: {response: V, reference: V}`: values as measured, the
+//! `frf` artifact marked uncalibrated (see [`crate::io::UnitsOverride`]),
+//! so stages that need a physical scale refuse it while frequencies,
+//! damping, shapes and MAC work. FRFs read as SI for want of any unit label
+//! are a stage warning. `content: modes` reads reference modes instead
+//! ([`super::import_modes`]).
 
 use super::{
     Artifact, FileRef, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
 };
 use crate::frf::{FrfSet, Position};
-use crate::io::{self, DofPattern, FrfImportOptions, Selection};
+use crate::io::{self, DofPattern, FrfImportOptions, Selection, UnitsOverride};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -29,6 +37,14 @@ crate::string_enum! {
     pub enum Format {
         Uff = "uff",
         Csv = "csv",
+    }
+}
+
+crate::string_enum! {
+    /// What the files hold.
+    pub enum Content {
+        Frf = "frf",
+        Modes = "modes",
     }
 }
 
@@ -60,6 +76,23 @@ impl super::params::TypeName for Select {
     }
 }
 
+/// Units of every FRF, instead of the file's labels.
+#[derive(Clone, Debug, Deserialize, Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Units {
+    /// Response (numerator) unit: m, mm, µm, in, m/s, mm/s, in/s, m/s^2,
+    /// mm/s^2, in/s^2, g; V or mV for uncalibrated data.
+    pub response: String,
+    /// Reference (denominator) unit: N, kN, lbf, kgf; V or mV.
+    pub reference: String,
+}
+
+impl super::params::TypeName for Units {
+    fn type_name() -> String {
+        "mapping {response, reference}".into()
+    }
+}
+
 crate::params! {
     /// The `import` kind's params.
     pub struct Params {
@@ -76,7 +109,77 @@ crate::params! {
         /// how positions are formed: per UFF load case, per file, or one;
         /// auto = per file for several files, else per load case
         pub positions: Positions = Positions::Auto,
+        /// false for voltage or uncalibrated FRFs (V/V, unknown scale):
+        /// values kept as measured and marked uncalibrated; stages needing
+        /// a physical scale (FRF amplitude against a model) refuse them
+        pub calibrated: bool = true,
+        /// units of every FRF instead of the file's labels, {response: g,
+        /// reference: N}; V or mV on either side = uncalibrated
+        pub units: Option<Units> = None,
+        /// what the file holds: frf (measurements) or modes (reference
+        /// modes: a modes.csv table or UFF 55 → output `modes`)
+        pub content: Content = Content::Frf,
+        /// with content modes and a CSV table: the mode_shapes.csv table
+        /// (position,mode,node,direction,real,imag); optional
+        pub shapes: Option<String> = None,
     }
+}
+
+impl Params {
+    /// How the FRFs' units are read.
+    pub fn units_override(&self) -> UnitsOverride {
+        match (&self.units, self.calibrated) {
+            (Some(u), _) => UnitsOverride::Labels {
+                response: u.response.clone(),
+                reference: u.reference.clone(),
+            },
+            (None, false) => UnitsOverride::Uncalibrated,
+            (None, true) => UnitsOverride::FromFile,
+        }
+    }
+}
+
+/// Problems of the units and content params (beyond each one's type).
+fn check_units_and_content(p: &Params) -> Vec<ParamProblem> {
+    let mut problems = Vec::new();
+    if let Some(u) = &p.units {
+        match io::check_override_labels(&u.response, &u.reference) {
+            Err(m) => problems.push(ParamProblem::new(
+                &["units"],
+                m,
+                "give the sensors' units, e.g. {response: g, reference: N}",
+            )),
+            Ok(true) if !p.calibrated => problems.push(ParamProblem::new(
+                &["calibrated"],
+                "`calibrated: false` contradicts physical `units`",
+                "drop `calibrated: false`, or give V / mV units",
+            )),
+            _ => {}
+        }
+    }
+    if p.content == Content::Modes {
+        let frf_only = [
+            ("select", p.select.is_some()),
+            ("units", p.units.is_some()),
+            ("calibrated", !p.calibrated),
+        ];
+        for (name, set) in frf_only {
+            if set {
+                problems.push(ParamProblem::new(
+                    &[name],
+                    format!("`{name}` applies to FRFs, not to `content: modes`"),
+                    "remove it, or import FRFs with `content: frf`",
+                ));
+            }
+        }
+    } else if p.shapes.is_some() {
+        problems.push(ParamProblem::new(
+            &["shapes"],
+            "`shapes` belongs to reference modes",
+            "set `content: modes`, or remove `shapes`",
+        ));
+    }
+    problems
 }
 
 fn selection(p: &Params) -> Result<Selection, Vec<ParamProblem>> {
@@ -133,12 +236,14 @@ impl Kind for Import {
     const NAME: &'static str = "import";
 
     /// 2: UFF units converted to SI, `units` and `quantity` in import.json.
+    /// 3: `calibrated` in import.json, the reader's warnings as stage
+    /// warnings, errors name the record's line; `content: modes`.
     fn version(&self) -> u32 {
-        2
+        3
     }
 
     fn summary(&self) -> &'static str {
-        "read measured FRFs (UFF 58/58b or CSV) into an frf artifact"
+        "read measured FRFs (UFF 58/58b or CSV) into an frf artifact, or reference modes (CSV or UFF 55) into a modes artifact"
     }
 
     fn inputs(&self) -> Option<&'static [InputSpec]> {
@@ -147,23 +252,49 @@ impl Kind for Import {
 
     const OUTPUTS: &'static [(&'static str, Artifact)] = &[
         ("frf", Artifact::Frf),
+        ("modes", Artifact::Modes),
         ("summary", Artifact::Json),
         ("geometry", Artifact::Json),
     ];
 
+    fn outputs(&self, p: &Params) -> Vec<super::Output> {
+        let skip = match p.content {
+            Content::Frf => "modes",
+            Content::Modes => "frf",
+        };
+        Self::OUTPUTS
+            .iter()
+            .filter(|(n, _)| *n != skip)
+            .map(|(n, a)| super::Output::new(*n, *a))
+            .collect()
+    }
+
     fn files(&self, p: &Params) -> Vec<FileRef> {
-        vec![FileRef {
+        let mut out = vec![FileRef {
             param: "path".into(),
             path: p.path.clone(),
             glob: true,
-        }]
+        }];
+        if let Some(s) = &p.shapes {
+            out.push(FileRef {
+                param: "shapes".into(),
+                path: s.clone(),
+                glob: false,
+            });
+        }
+        out
     }
 
     fn check(&self, p: &Params) -> Vec<ParamProblem> {
-        selection(p).err().unwrap_or_default()
+        let mut problems = selection(p).err().unwrap_or_default();
+        problems.extend(check_units_and_content(p));
+        problems
     }
 
     fn run(&self, params: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+        if params.content == Content::Modes {
+            return super::import_modes::run(params, ctx);
+        }
         let sel = selection(params).map_err(|p| {
             StageError::Failed(
                 p.into_iter()
@@ -184,11 +315,20 @@ impl Kind for Import {
         let mut sets: Vec<FrfSet> = Vec::new();
         let mut warnings = Vec::new();
         let mut units = Vec::new();
+        let mut calibrated = true;
         let mut geometry = crate::geometry::Geometry::default();
         for (k, (rel, path)) in files.iter().enumerate() {
             let format = params.format.unwrap_or_else(|| by_extension(path));
-            let split = mode != Positions::Single;
-            let mut file_sets = read_one(path, rel, format, split, &mut warnings, &mut units)?;
+            let options = FrfImportOptions {
+                split_by_load_case: mode != Positions::Single,
+                units: params.units_override(),
+            };
+            let mut log = Log {
+                warnings: &mut warnings,
+                units: &mut units,
+                calibrated: &mut calibrated,
+            };
+            let mut file_sets = read_one(path, rel, format, &options, &mut log)?;
             if geometry.nodes.is_empty() && format == Format::Uff {
                 geometry = read_geometry(path, rel)?;
             }
@@ -208,8 +348,15 @@ impl Kind for Import {
             param: "select".into(),
             message: e.to_string(),
         })?;
+        if !calibrated {
+            warnings.push(
+                "FRFs imported uncalibrated (no physical scale): AutoEMA frequencies, damping, \
+                 shapes and MAC work; comparisons of FRF amplitude with a model are refused"
+                    .into(),
+            );
+        }
         let out = ctx.scratch.join("frf.uff");
-        std::fs::write(&out, io::write_frf_artifact(&sets))
+        std::fs::write(&out, io::write_frf_artifact_scaled(&sets, calibrated))
             .map_err(|e| StageError::io("write frf.uff", e))?;
         let summary = serde_json::json!({
             "files": files.iter().map(|(r, _)| r).collect::<Vec<_>>(),
@@ -222,18 +369,15 @@ impl Kind for Import {
                 "coherence": s.channels.iter().any(|c| c.coherence.is_some()),
             })).collect::<Vec<_>>(),
             "quantity": sets.first().map(|s| s.quantity.name()),
+            "calibrated": calibrated,
             "units": units,
             "warnings": warnings,
         });
-        let summary_path = ctx.scratch.join("import.json");
-        let text = serde_json::to_vec_pretty(&summary).unwrap_or_default();
-        std::fs::write(&summary_path, text).map_err(|e| StageError::io("write import.json", e))?;
-        let geometry_path = ctx.scratch.join("geometry.json");
-        let text = serde_json::to_vec_pretty(&geometry).unwrap_or_default();
-        std::fs::write(&geometry_path, text)
-            .map_err(|e| StageError::io("write geometry.json", e))?;
+        let summary_path = write_json(ctx, "import.json", &summary)?;
+        let geometry_path = write_json(ctx, "geometry.json", &geometry)?;
         let channels: usize = sets.iter().map(|s| s.channels.len()).sum();
         Ok(StageOutputs {
+            warnings,
             files: vec![
                 ("frf".into(), out),
                 ("summary".into(), summary_path),
@@ -248,7 +392,19 @@ impl Kind for Import {
     }
 }
 
-fn by_extension(path: &Path) -> Format {
+/// Writes `value` as pretty JSON to `name` in the scratch directory.
+pub(super) fn write_json(
+    ctx: &StageContext,
+    name: &str,
+    value: &impl Serialize,
+) -> Result<std::path::PathBuf, StageError> {
+    let path = ctx.scratch.join(name);
+    let text = serde_json::to_vec_pretty(value).unwrap_or_default();
+    std::fs::write(&path, text).map_err(|e| StageError::io(format!("write {name}"), e))?;
+    Ok(path)
+}
+
+pub(super) fn by_extension(path: &Path) -> Format {
     match path.extension().and_then(|e| e.to_str()) {
         Some(e) if e.eq_ignore_ascii_case("csv") => Format::Csv,
         _ => Format::Uff,
@@ -261,13 +417,20 @@ fn file_label(rel: &str) -> String {
         .map_or_else(|| rel.to_string(), |s| s.to_string_lossy().into_owned())
 }
 
+/// What reading the files tells the summary and the stage's warnings.
+struct Log<'a> {
+    warnings: &'a mut Vec<String>,
+    units: &'a mut Vec<String>,
+    /// Cleared when any file's FRFs are uncalibrated.
+    calibrated: &'a mut bool,
+}
+
 fn read_one(
     path: &Path,
     rel: &str,
     format: Format,
-    split: bool,
-    warnings: &mut Vec<String>,
-    units: &mut Vec<String>,
+    options: &FrfImportOptions,
+    log: &mut Log<'_>,
 ) -> Result<Vec<FrfSet>, StageError> {
     let bytes = std::fs::read(path).map_err(|e| StageError::io(format!("cannot read {rel}"), e))?;
     let invalid = |e: io::IoError| StageError::InvalidInput {
@@ -275,20 +438,51 @@ fn read_one(
         message: e.to_string(),
     };
     if format == Format::Csv {
+        match &options.units {
+            UnitsOverride::FromFile => {}
+            UnitsOverride::Labels {
+                response,
+                reference,
+            } if io::check_override_labels(response, reference) == Ok(true) => {
+                return Err(StageError::InvalidParam {
+                    param: "units".into(),
+                    message: format!(
+                        "{rel}: CSV FRFs are in SI units already; physical `units` apply to \
+                         UFF files only (use V / mV or `calibrated: false` for uncalibrated data)"
+                    ),
+                });
+            }
+            _ => *log.calibrated = false,
+        }
         return io::read_frf_csv(&bytes, rel).map_err(invalid);
     }
     let file = io::read_uff(&bytes, rel).map_err(invalid)?;
-    warnings.extend(file.warnings.iter().map(|w| format!("{rel}: {w}")));
-    let imported = io::frf_sets_from_uff(
-        &file,
-        rel,
-        &FrfImportOptions {
-            split_by_load_case: split,
-        },
-    )
-    .map_err(invalid)?;
-    warnings.extend(imported.warnings.iter().map(|w| format!("{rel}: {w}")));
-    units.extend(imported.notes.iter().map(|n| format!("{rel}: {n}")));
+    log.warnings
+        .extend(file.warnings.iter().map(|w| format!("{rel}: {w}")));
+    let imported = io::frf_sets_from_uff(&file, rel, options).map_err(invalid)?;
+    log.warnings
+        .extend(imported.warnings.iter().map(|w| format!("{rel}: {w}")));
+    log.units
+        .extend(imported.notes.iter().map(|n| format!("{rel}: {n}")));
+    if imported.unlabelled > 0 {
+        log.warnings.push(format!(
+            "{rel}: {} FRF(s) have no units label and the file no dataset 164: read as SI {} \
+             ({}); if they are not, give `units: {{response: g, reference: N}}` (the sensors' \
+             units) or `calibrated: false`",
+            imported.unlabelled,
+            imported
+                .sets
+                .first()
+                .map_or("m/N", |s| s.quantity.si_unit()),
+            imported
+                .sets
+                .first()
+                .map_or("receptance", |s| s.quantity.name()),
+        ));
+    }
+    if !imported.calibrated {
+        *log.calibrated = false;
+    }
     Ok(imported.sets)
 }
 

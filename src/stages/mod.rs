@@ -16,6 +16,7 @@ pub mod export;
 pub mod gsa;
 pub mod identify;
 pub mod import;
+pub mod import_modes;
 pub mod params;
 pub mod report;
 pub mod shard;

@@ -312,6 +312,10 @@ pub struct StageOutputs {
     pub files: Vec<(String, PathBuf)>,
     /// Work counters shown in progress bars and manifests (e.g. `evaluations`).
     pub counters: BTreeMap<String, u64>,
+    /// What the user should know about a result that did not fail: kept in
+    /// the run record and shown as `warning: stage <name>: …` lines (and in
+    /// `--json`'s stage reports) whenever the stage runs or is cached.
+    pub warnings: Vec<String>,
 }
 
 /// A stage's params after [`Stage::parse`]: the kind's typed

@@ -154,8 +154,9 @@ impl Kind for Synthesize {
     /// change, issue 16).
     fn version(&self) -> u32 {
         // v5: Lanczos orthogonalization/basis/tolerance (issue 16) change
-        // eigenpairs in the last bits.
-        5
+        // eigenpairs in the last bits. v6: modes.csv always has the
+        // position columns (one shape for every writer, issue 31).
+        6
     }
     fn summary(&self) -> &'static str {
         "solve a model file and write reference FRFs (with noise or a simulated impact test), modes and the truth"
@@ -321,6 +322,7 @@ impl Kind for Synthesize {
         write_model_json(ctx, &model, &text, &p.model, &x, &prepared)?;
         write_truth_csv(ctx, &model, &x)?;
         Ok(StageOutputs {
+            warnings: Vec::new(),
             files: vec![
                 ("frf".into(), artifacts::FRF_FILE.into()),
                 ("modes".into(), artifacts::MODES_DIR.into()),

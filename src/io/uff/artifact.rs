@@ -18,6 +18,7 @@ use super::ds58::{
     Abscissa, AxisInfo, Entity58, FunctionType, NumberText, Ordinate, Precision, Uff58, Uff58Format,
 };
 use super::frf_sets::{channel_name, frf_sets_from_uff, FrfImportOptions};
+use super::units::UNCALIBRATED_LABEL;
 use super::{read_uff, text};
 use crate::frf::{Dof, FrfQuantity, FrfSet};
 use crate::io::error::IoError;
@@ -154,18 +155,42 @@ pub fn uff58_from_frf_sets(sets: &[FrfSet]) -> Vec<Uff58> {
 
 /// Serializes FRF sets as the `frf` artifact (UFF 58b, see module docs).
 pub fn write_frf_artifact(sets: &[FrfSet]) -> Vec<u8> {
+    write_frf_artifact_scaled(sets, true)
+}
+
+/// Like [`write_frf_artifact`]; uncalibrated FRFs (`calibrated == false`)
+/// carry [`UNCALIBRATED_LABEL`] as their numerator units label (and `NONE`
+/// below), so every reader of the artifact knows they have no physical scale.
+pub fn write_frf_artifact_scaled(sets: &[FrfSet], calibrated: bool) -> Vec<u8> {
     let format = Uff58Format {
         digits: NumberText::RoundTrip,
         ..Uff58Format::default()
     };
-    super::write_uff58(&uff58_from_frf_sets(sets), &format)
+    let mut datasets = uff58_from_frf_sets(sets);
+    if !calibrated {
+        for d in datasets
+            .iter_mut()
+            .filter(|d| d.function == FunctionType::Frf)
+        {
+            d.ordinate_axis.units = UNCALIBRATED_LABEL.into();
+            d.denominator_axis.units = "NONE".into();
+        }
+    }
+    super::write_uff58(&datasets, &format)
 }
 
 /// Reads an `frf` artifact (or any UFF 58 file holding FRFs); `name` is used
 /// in errors.
 pub fn read_frf_artifact(bytes: &[u8], name: &str) -> Result<Vec<FrfSet>, IoError> {
+    Ok(read_frf_artifact_scaled(bytes, name)?.0)
+}
+
+/// Reads an `frf` artifact and whether its FRFs are calibrated (`false`
+/// for the mark [`write_frf_artifact_scaled`] writes).
+pub fn read_frf_artifact_scaled(bytes: &[u8], name: &str) -> Result<(Vec<FrfSet>, bool), IoError> {
     let file = read_uff(bytes, name)?;
-    Ok(frf_sets_from_uff(&file, name, &FrfImportOptions::default())?.sets)
+    let import = frf_sets_from_uff(&file, name, &FrfImportOptions::default())?;
+    Ok((import.sets, import.calibrated))
 }
 
 #[cfg(test)]
@@ -178,6 +203,26 @@ mod tests {
             let e = escape_label(l);
             assert!(!e.ends_with(' ') && !e.contains('\n'));
             assert_eq!(unescape_label(&e), l);
+        }
+    }
+
+    #[test]
+    fn uncalibrated_mark_round_trips() {
+        let set = FrfSet {
+            channels: vec![crate::frf::FrfChannel {
+                response: Dof::new(1, 3),
+                reference: Dof::new(2, -3),
+                values: vec![num_complex::Complex64::new(0.5, -2.0); 3],
+                coherence: Some(vec![0.9; 3]),
+            }],
+            frequencies_hz: vec![1.0, 2.0, 3.0],
+            ..Default::default()
+        };
+        for calibrated in [true, false] {
+            let bytes = write_frf_artifact_scaled(std::slice::from_ref(&set), calibrated);
+            let (back, c) = read_frf_artifact_scaled(&bytes, "frf.uff").unwrap();
+            assert_eq!(c, calibrated);
+            assert_eq!(back, vec![set.clone()], "values kept bit for bit");
         }
     }
 

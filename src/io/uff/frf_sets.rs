@@ -16,24 +16,27 @@
 
 use super::artifact::{unescape_label, LABEL_KEY};
 use super::ds58::{Entity58, FunctionType, Ordinate, Uff58};
-use super::units::{abscissa_factor, ordinate_units, Units164};
+use super::units::{abscissa_factor, ordinate_units, Units164, UnitsOverride};
 use super::{UffDataset, UffFile, UffWarning};
 use crate::frf::{Dof, FrfChannel, FrfSet, Position};
 use crate::io::error::{IoError, Location, Place};
 use std::collections::HashMap;
 
-/// How datasets 58 are grouped into positions.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// How datasets 58 are grouped into positions and their units read.
+#[derive(Clone, Debug, PartialEq, Eq)]
 pub struct FrfImportOptions {
     /// One position per load case id (and label); `false` puts every FRF in
     /// position 0 (for tools that number load cases per measurement run).
     pub split_by_load_case: bool,
+    /// Units from the file, given instead, or uncalibrated data.
+    pub units: UnitsOverride,
 }
 
 impl Default for FrfImportOptions {
     fn default() -> Self {
         FrfImportOptions {
             split_by_load_case: true,
+            units: UnitsOverride::FromFile,
         }
     }
 }
@@ -45,6 +48,11 @@ pub struct FrfImport {
     pub warnings: Vec<UffWarning>,
     /// Unit conversions to SI and unit assumptions, one line per kind.
     pub notes: Vec<String>,
+    /// `false` when the FRFs are uncalibrated (no physical scale): voltage
+    /// data imported with [`UnitsOverride`], or modalflow's own mark.
+    pub calibrated: bool,
+    /// FRFs without any units label or dataset 164, read as SI.
+    pub unlabelled: usize,
 }
 
 /// Builds FRF sets from the datasets 58 of `file` (`source` names it in errors).
@@ -65,9 +73,10 @@ pub fn frf_sets_from_uff(
             continue;
         };
         let at = Location::new(source, block.at);
+        let head = Location::new(source, block.record1);
         match d.function {
-            FunctionType::Frf => b.add_frf(d, at, options)?,
-            FunctionType::Coherence => coherences.push((d.as_ref(), at)),
+            FunctionType::Frf => b.add_frf(d, at, &head, options)?,
+            FunctionType::Coherence => coherences.push((d.as_ref(), at, head)),
             other => match unused.iter_mut().find(|(t, _)| *t == other.code()) {
                 Some((_, n)) => *n += 1,
                 None => unused.push((other.code(), 1)),
@@ -94,8 +103,8 @@ pub fn frf_sets_from_uff(
             },
         });
     }
-    for (d, at) in coherences {
-        b.attach_coherence(d, at, options, &mut warnings)?;
+    for (d, at, head) in coherences {
+        b.attach_coherence(d, at, &head, options, &mut warnings)?;
     }
     for (function_type, count) in unused {
         warnings.push(UffWarning::UnusedFunctions {
@@ -112,6 +121,8 @@ pub fn frf_sets_from_uff(
         sets: b.sets.into_iter().map(|(s, _)| s).collect(),
         warnings,
         notes,
+        calibrated: b.uncalibrated == 0,
+        unlabelled: b.unlabelled,
     })
 }
 
@@ -165,6 +176,9 @@ struct Builder {
     units: Option<Units164>,
     /// Conversion notes with their FRF counts, in first-seen order.
     notes: Vec<(String, usize)>,
+    /// FRFs read as uncalibrated, and FRFs read as SI for want of labels.
+    uncalibrated: usize,
+    unlabelled: usize,
 }
 
 impl Builder {
@@ -177,22 +191,25 @@ impl Builder {
 }
 
 impl Builder {
+    /// `at` is the dataset's opening line, `head` its record 1 (errors
+    /// about one field name that field's record line).
     fn add_frf(
         &mut self,
         d: &Uff58,
         at: Location,
+        head: &Location,
         options: &FrfImportOptions,
     ) -> Result<(), IoError> {
-        let response = dof(&d.response, "response", &at)?;
-        let reference = dof(&d.reference, "reference", &at)?;
-        let position = position_of(d, &at, options)?;
-        let units = ordinate_units(d, self.units.as_ref(), &at)?;
+        let response = dof(&d.response, "response", &head.record(6))?;
+        let reference = dof(&d.reference, "reference", &head.record(6))?;
+        let position = position_of(d, &head.record(6), options)?;
+        let units = ordinate_units(d, self.units.as_ref(), head, &options.units)?;
         let quantity = units.quantity;
         let values = match &d.ordinate {
             Ordinate::Complex(v) => v.iter().map(|x| x * units.factor).collect(),
             Ordinate::Real(v) => v.iter().map(|&x| (x * units.factor).into()).collect(),
         };
-        let hz = abscissa_factor(d, &at)?;
+        let hz = abscissa_factor(d, head)?;
         let mut freqs = d.abscissa_values();
         if hz != 1.0 {
             freqs.iter_mut().for_each(|f| *f *= hz);
@@ -208,7 +225,16 @@ impl Builder {
                 units.factor
             ));
         }
+        if !units.calibrated {
+            self.uncalibrated += 1;
+            self.note(format!(
+                "{}/{} kept as measured: uncalibrated, no physical scale",
+                d.ordinate_axis.units.trim(),
+                d.denominator_axis.units.trim()
+            ));
+        }
         if units.assumed_si {
+            self.unlabelled += 1;
             self.note(format!(
                 "no units label and no dataset 164: read as SI {}",
                 quantity.si_unit()
@@ -244,7 +270,7 @@ impl Builder {
         )?;
         if quantity != set.quantity {
             return Err(IoError::InvalidField {
-                at,
+                at: head.record(9),
                 field: format!("FRF {name} ordinate quantity (record 9)"),
                 value: format!("{quantity:?}"),
                 expected: format!(
@@ -275,12 +301,13 @@ impl Builder {
         &mut self,
         d: &Uff58,
         at: Location,
+        head: &Location,
         options: &FrfImportOptions,
         warnings: &mut Vec<UffWarning>,
     ) -> Result<(), IoError> {
-        let response = dof(&d.response, "response", &at)?;
-        let reference = dof(&d.reference, "reference", &at)?;
-        let position = position_of(d, &at, options)?;
+        let response = dof(&d.response, "response", &head.record(6))?;
+        let reference = dof(&d.reference, "reference", &head.record(6))?;
+        let position = position_of(d, &head.record(6), options)?;
         let name = channel_name(response, reference);
         let target = self
             .positions
@@ -297,7 +324,7 @@ impl Builder {
             });
             return Ok(());
         };
-        let hz = abscissa_factor(d, &at)?;
+        let hz = abscissa_factor(d, head)?;
         let coherence_axis: Vec<f64> = d.abscissa_values().iter().map(|f| f * hz).collect();
         same_axis(
             freqs,

@@ -47,7 +47,23 @@ pub enum UffDataset {
 #[derive(Clone, Debug, PartialEq)]
 pub struct UffBlock {
     pub at: Place,
+    /// The line of the dataset's record 1 (the line after the dataset
+    /// number): record r of the text header is line `record1 + r − 1`.
+    pub record1: Place,
     pub dataset: UffDataset,
+}
+
+impl UffBlock {
+    /// Where record `r` (1-based) of the dataset's text header is, so an
+    /// error about a field of record 9 names record 9's line, not the
+    /// dataset's first one. Records 1–11 of 58/58b and 1–8 of 55 are one
+    /// line each.
+    pub fn record(&self, r: usize) -> Place {
+        match self.record1 {
+            Place::Line(l) => Place::Line(l + r.saturating_sub(1)),
+            other => other,
+        }
+    }
 }
 
 /// Something the reader or a conversion left out, reported once per kind.
@@ -206,6 +222,7 @@ pub fn read_uff(bytes: &[u8], source: &str) -> Result<UffFile, IoError> {
                 IoError::not_numeric(source, number_line.place(), "dataset number", t)
             })?;
         let binary = t.get(digits).is_some_and(|b| b.eq_ignore_ascii_case(&b'b'));
+        let record1 = Place::Line(number_line.number + 1);
         let after_b = t.get(digits + 1..).unwrap_or(&[]);
         let dataset = match (number, binary) {
             (58, false) => UffDataset::Function(Box::new(ds58::parse(&mut cur, None)?.0)),
@@ -230,6 +247,7 @@ pub fn read_uff(bytes: &[u8], source: &str) -> Result<UffFile, IoError> {
         };
         file.blocks.push(UffBlock {
             at: open.place(),
+            record1,
             dataset,
         });
     }

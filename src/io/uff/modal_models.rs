@@ -61,13 +61,14 @@ pub fn modal_models_from_uff(file: &UffFile, source: &str) -> Result<ModalImport
             continue;
         };
         let at = Location::new(source, block.at);
+        let head = Location::new(source, block.record1);
         let (Some(mode), Some(dirs)) = (d.mode(), directions(d.data_characteristic)) else {
             note_unused(&mut warnings, d);
             continue;
         };
         if d.values_per_node != dirs.len() {
             return Err(IoError::InvalidField {
-                at,
+                at: head.record(6),
                 field: "dataset 55 values per node (record 6 field 6)".into(),
                 value: d.values_per_node.to_string(),
                 expected: format!(
@@ -78,7 +79,7 @@ pub fn modal_models_from_uff(file: &UffFile, source: &str) -> Result<ModalImport
             });
         }
         let index = u32::try_from(d.load_case()).map_err(|_| IoError::InvalidField {
-            at: at.clone(),
+            at: head.record(7),
             field: "dataset 55 load case (record 7)".into(),
             value: d.load_case().to_string(),
             expected: "0 to 4294967295 (it numbers the position)".into(),

@@ -20,6 +20,12 @@
 //!
 //! A label that names no known unit is an error naming the file, the dataset
 //! and the record: reading it as SI would be silently wrong.
+//!
+//! **Uncalibrated data** (`V/V`, a label naming no physical unit) import only
+//! when the caller says so ([`UnitsOverride`]): the values are kept as
+//! measured and the FRF is marked uncalibrated. modalflow's own `frf`
+//! artifact marks such FRFs with the numerator units label
+//! [`UNCALIBRATED_LABEL`], so the mark travels with the data.
 
 use super::ds58::{AxisInfo, Uff58};
 use super::text::{self, Cursor};
@@ -79,6 +85,51 @@ pub(crate) fn parse164(cur: &mut Cursor<'_>) -> Result<Units164, IoError> {
     })
 }
 
+/// The numerator units label that marks an uncalibrated FRF (no physical
+/// scale) in modalflow's `frf` artifact.
+pub const UNCALIBRATED_LABEL: &str = "uncalibrated";
+
+/// How the FRFs' scale is read: from the file (default), from unit labels
+/// given instead of the file's, or as uncalibrated data kept as measured.
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub enum UnitsOverride {
+    #[default]
+    FromFile,
+    /// The response (numerator) and reference (denominator) units of every
+    /// FRF, replacing the file's labels and dataset 164. A voltage unit
+    /// (`V`, `mV`) on either side makes the data uncalibrated.
+    Labels { response: String, reference: String },
+    /// Keep the values as measured whatever the labels say; uncalibrated.
+    Uncalibrated,
+}
+
+/// A voltage unit: a transducer's output before calibration.
+fn voltage_unit(s: &str) -> bool {
+    matches!(
+        s.trim().to_ascii_lowercase().as_str(),
+        "v" | "mv" | "volt" | "volts"
+    )
+}
+
+/// Checks override labels as a pipeline gives them: `Ok(true)` when they
+/// are physical units (calibrated), `Ok(false)` when either is a voltage,
+/// else the problem in words.
+pub fn check_override_labels(response: &str, reference: &str) -> Result<bool, String> {
+    let r_volt = voltage_unit(response);
+    let f_volt = voltage_unit(reference);
+    if !r_volt && response_unit(response).is_none() {
+        return Err(format!(
+            "response unit {response:?} is not known: use m, mm, µm, in, m/s, mm/s, in/s,              m/s^2, mm/s^2, in/s^2, g, or V / mV for uncalibrated data"
+        ));
+    }
+    if !f_volt && force_unit(reference).is_none() {
+        return Err(format!(
+            "reference unit {reference:?} is not known: use N, kN, lbf, kgf, or V / mV for              uncalibrated data"
+        ));
+    }
+    Ok(!(r_volt || f_volt))
+}
+
 /// What a response unit measures and its factor to SI.
 fn response_unit(s: &str) -> Option<(FrfQuantity, f64)> {
     use FrfQuantity::*;
@@ -135,14 +186,27 @@ pub struct OrdinateUnits {
     pub from: Option<String>,
     /// The file states no units at all (read as SI).
     pub assumed_si: bool,
+    /// `false` for uncalibrated data: the values have no physical scale.
+    pub calibrated: bool,
 }
 
-/// The SI factor and quantity of a dataset 58 FRF (module docs). `at` names
-/// the dataset in errors.
+fn uncalibrated(by_type: Option<FrfQuantity>) -> OrdinateUnits {
+    OrdinateUnits {
+        quantity: by_type.unwrap_or_default(),
+        factor: 1.0,
+        from: None,
+        assumed_si: false,
+        calibrated: false,
+    }
+}
+
+/// The SI factor and quantity of a dataset 58 FRF (module docs). `at` is
+/// the dataset's record 1; errors name the line of the record at fault.
 pub fn ordinate_units(
     d: &Uff58,
     units: Option<&Units164>,
     at: &Location,
+    given: &UnitsOverride,
 ) -> Result<OrdinateUnits, IoError> {
     let by_type = match d.ordinate_axis.data_type {
         8 => Some(FrfQuantity::Receptance),
@@ -150,17 +214,34 @@ pub fn ordinate_units(
         12 => Some(FrfQuantity::Accelerance),
         _ => None,
     };
-    let (num, den) = (
-        d.ordinate_axis.units.trim(),
-        d.denominator_axis.units.trim(),
-    );
+    let (num, den) = match given {
+        UnitsOverride::Uncalibrated => return Ok(uncalibrated(by_type)),
+        UnitsOverride::Labels {
+            response,
+            reference,
+        } => {
+            if voltage_unit(response) || voltage_unit(reference) {
+                return Ok(uncalibrated(by_type));
+            }
+            return labelled(response, reference, at);
+        }
+        UnitsOverride::FromFile => (
+            d.ordinate_axis.units.trim(),
+            d.denominator_axis.units.trim(),
+        ),
+    };
+    if num.eq_ignore_ascii_case(UNCALIBRATED_LABEL) {
+        return Ok(uncalibrated(by_type));
+    }
     let unknown = |record: u8, label: &str, what: &str| IoError::InvalidField {
-        at: at.clone(),
+        at: at.record(usize::from(record)),
         field: format!("units label of the {what} (dataset 58 record {record})"),
         value: format!("{label:?}"),
         expected: "a known unit: m, mm, µm, in (displacement), m/s, mm/s, in/s (velocity), \
                    m/s^2, mm/s^2, in/s^2, g (acceleration), over N, kN, lbf, kgf; \
-                   or NONE with a dataset 164 unit system"
+                   or NONE with a dataset 164 unit system; for voltage or uncalibrated \
+                   data import with `calibrated: false` (or give the sensors' units, \
+                   `units: {response: g, reference: N}`)"
             .into(),
     };
     // The numerator label may hold the whole ratio (`g/N`).
@@ -181,7 +262,7 @@ pub fn ordinate_units(
     if let (Some((q, _)), Some(t)) = (response, by_type) {
         if q != t {
             return Err(IoError::InvalidField {
-                at: at.clone(),
+                at: at.record(9),
                 field: "ordinate specific data type (record 9 field 1)".into(),
                 value: format!("{} ({t:?})", d.ordinate_axis.data_type),
                 expected: format!("a type matching the units label {num:?} ({q:?})"),
@@ -213,11 +294,34 @@ pub fn ordinate_units(
         factor,
         from,
         assumed_si: !stated && units.is_none(),
+        calibrated: true,
+    })
+}
+
+/// The factor of physical units given in the pipeline (checked by
+/// [`check_override_labels`]; an unknown one is still an error here).
+fn labelled(response: &str, reference: &str, at: &Location) -> Result<OrdinateUnits, IoError> {
+    let bad = |label: &str| IoError::InvalidField {
+        at: at.clone(),
+        field: "`units` param of the import".into(),
+        value: format!("{label:?}"),
+        expected: "a known unit (see `modalflow kinds import`)".into(),
+    };
+    let (quantity, r) = response_unit(response).ok_or_else(|| bad(response))?;
+    let f = force_unit(reference).ok_or_else(|| bad(reference))?;
+    let factor = r / f;
+    Ok(OrdinateUnits {
+        quantity,
+        factor,
+        from: Some(format!("{response}/{reference} (the `units` param)")),
+        assumed_si: false,
+        calibrated: true,
     })
 }
 
 /// The SI factor of a dataset 58's abscissa: Hz (or no label) 1, kHz 1000,
-/// rad/s 1/2π; anything else is an error.
+/// rad/s 1/2π; anything else is an error naming record 8's line (`at` is
+/// the dataset's record 1).
 pub fn abscissa_factor(d: &Uff58, at: &Location) -> Result<f64, IoError> {
     let label = d.abscissa_axis.units.trim();
     if blank(label) {
@@ -228,7 +332,7 @@ pub fn abscissa_factor(d: &Uff58, at: &Location) -> Result<f64, IoError> {
         "khz" => Ok(1e3),
         "rad/s" => Ok(1.0 / (2.0 * std::f64::consts::PI)),
         _ => Err(IoError::InvalidField {
-            at: at.clone(),
+            at: at.record(8),
             field: "units label of the abscissa (dataset 58 record 8)".into(),
             value: format!("{label:?}"),
             expected: "a frequency: Hz, kHz or rad/s".into(),
@@ -281,7 +385,8 @@ mod tests {
             ("in", "lbf", 8, FrfQuantity::Receptance, INCH / POUND_FORCE),
         ];
         for (num, den, ty, q, f) in cases {
-            let u = ordinate_units(&frf(num, den, ty), None, &at()).unwrap();
+            let u =
+                ordinate_units(&frf(num, den, ty), None, &at(), &UnitsOverride::FromFile).unwrap();
             assert_eq!(u.quantity, q, "{num}/{den}");
             assert!(
                 (u.factor - f).abs() <= 1e-15 * f,
@@ -306,28 +411,78 @@ mod tests {
         let mut d = frf("NONE", "NONE", 8);
         d.ordinate_axis.length_exp = 1;
         d.denominator_axis.force_exp = 1;
-        let u = ordinate_units(&d, Some(&u164), &at()).unwrap();
+        let u = ordinate_units(&d, Some(&u164), &at(), &UnitsOverride::FromFile).unwrap();
         assert_eq!(u.factor, 1.0);
         d.denominator_axis.force_exp = 0;
-        let u = ordinate_units(&d, Some(&u164), &at()).unwrap();
+        let u = ordinate_units(&d, Some(&u164), &at(), &UnitsOverride::FromFile).unwrap();
         assert_eq!(u.factor, 1e-3);
         assert!(u.from.unwrap().contains("164"));
-        let u = ordinate_units(&d, None, &at()).unwrap();
+        let u = ordinate_units(&d, None, &at(), &UnitsOverride::FromFile).unwrap();
         assert!(u.assumed_si && u.factor == 1.0);
     }
 
     #[test]
+    fn voltage_data_import_only_when_told_and_are_marked_uncalibrated() {
+        let d = frf("V", "V", 0);
+        let e = ordinate_units(&d, None, &at(), &UnitsOverride::FromFile).unwrap_err();
+        assert!(e.to_string().contains("calibrated: false"), "{e}");
+        // Record 9 of a dataset whose record 1 is line 3 is line 11.
+        assert!(e.to_string().contains("line 11"), "{e}");
+        for given in [
+            UnitsOverride::Uncalibrated,
+            UnitsOverride::Labels {
+                response: "V".into(),
+                reference: "V".into(),
+            },
+        ] {
+            let u = ordinate_units(&d, None, &at(), &given).unwrap();
+            assert!(
+                !u.calibrated && u.factor == 1.0 && !u.assumed_si,
+                "{given:?}"
+            );
+        }
+        let marked = frf(UNCALIBRATED_LABEL, "NONE", 12);
+        let u = ordinate_units(&marked, None, &at(), &UnitsOverride::FromFile).unwrap();
+        assert!(!u.calibrated && u.quantity == FrfQuantity::Accelerance);
+        // Physical units given in the pipeline replace the file's labels.
+        let given = UnitsOverride::Labels {
+            response: "g".into(),
+            reference: "N".into(),
+        };
+        let u = ordinate_units(&frf("NONE", "NONE", 0), None, &at(), &given).unwrap();
+        assert!(u.calibrated && u.factor == STANDARD_GRAVITY);
+        assert_eq!(u.quantity, FrfQuantity::Accelerance);
+        assert_eq!(check_override_labels("mV", "N"), Ok(false));
+        assert_eq!(check_override_labels("mm/s", "lbf"), Ok(true));
+        assert!(check_override_labels("furlong", "N").is_err());
+        assert!(check_override_labels("g", "stone").is_err());
+    }
+
+    #[test]
     fn unknown_or_contradicting_units_are_errors_naming_the_record() {
-        let e = ordinate_units(&frf("furlong", "N", 8), None, &at()).unwrap_err();
+        let e = ordinate_units(
+            &frf("furlong", "N", 8),
+            None,
+            &at(),
+            &UnitsOverride::FromFile,
+        )
+        .unwrap_err();
         let text = e.to_string();
         assert!(
             text.contains("test.uff") && text.contains("record 9"),
             "{text}"
         );
         assert!(text.contains("furlong"), "{text}");
-        let e = ordinate_units(&frf("g", "stone", 12), None, &at()).unwrap_err();
+        let e = ordinate_units(
+            &frf("g", "stone", 12),
+            None,
+            &at(),
+            &UnitsOverride::FromFile,
+        )
+        .unwrap_err();
         assert!(e.to_string().contains("record 10"), "{e}");
-        let e = ordinate_units(&frf("g", "N", 8), None, &at()).unwrap_err();
+        let e =
+            ordinate_units(&frf("g", "N", 8), None, &at(), &UnitsOverride::FromFile).unwrap_err();
         assert!(e.to_string().contains("record 9 field 1"), "{e}");
         let mut d = frf("m", "N", 8);
         d.abscissa_axis.units = "RPM".into();

@@ -48,7 +48,7 @@ pub enum Role {
 /// What a run committed.
 #[derive(Debug)]
 pub enum Finished {
-    Record(RunRecord),
+    Record(Box<RunRecord>),
     Shard(ShardRecord),
 }
 
@@ -226,11 +226,12 @@ fn run_in(
         outputs,
         seconds: seconds + job.partial_seconds,
         counters: produced.counters,
+        warnings: produced.warnings,
         modalflow_version: env!("CARGO_PKG_VERSION").to_string(),
         checksum: String::new(),
     };
     store.write_record(&record)?;
-    Ok(Finished::Record(record))
+    Ok(Finished::Record(Box::new(record)))
 }
 
 type RunResult = std::thread::Result<Result<stages::StageOutputs, StageError>>;

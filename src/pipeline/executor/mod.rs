@@ -92,7 +92,7 @@ pub fn local(store: &Store, job: &Job, progress: &dyn Progress) -> Result<RunRec
         scratch: None,
     };
     match exec::run(store, &call, progress)? {
-        Finished::Record(r) => Ok(r),
+        Finished::Record(r) => Ok(*r),
         Finished::Shard(_) => Err(JobError::Stage(
             "a whole run ended as a shard (a bug, please report)".into(),
         )),

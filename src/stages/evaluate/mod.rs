@@ -25,7 +25,7 @@ pub use schema::{
     PositionModes,
 };
 
-use super::artifacts::{read_frf, read_modes};
+use super::artifacts::{read_frf_scaled, read_modes, uncalibrated_refused};
 use super::{
     Artifact, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
 };
@@ -204,13 +204,27 @@ impl Kind for Evaluate {
             )?);
         }
         if has("reference_frf") && has("candidate_frf") {
-            let r = read_frf(ctx.input("reference_frf")?, "reference_frf")?;
-            let c = read_frf(ctx.input("candidate_frf")?, "candidate_frf")?;
-            let initial = if has("initial_frf") {
-                Some(read_frf(ctx.input("initial_frf")?, "initial_frf")?)
+            let (r, r_cal) = read_frf_scaled(ctx.input("reference_frf")?, "reference_frf")?;
+            let (c, c_cal) = read_frf_scaled(ctx.input("candidate_frf")?, "candidate_frf")?;
+            let (initial, i_cal) = if has("initial_frf") {
+                let (i, cal) = read_frf_scaled(ctx.input("initial_frf")?, "initial_frf")?;
+                (Some(i), cal)
             } else {
-                None
+                (None, r_cal)
             };
+            // Uncalibrated FRFs compare only with FRFs of the same scale
+            // (AutoEMA's fit of them), never with a model's in m/N.
+            if let Some(input) = [("candidate_frf", c_cal), ("initial_frf", i_cal)]
+                .iter()
+                .find(|(_, cal)| *cal != r_cal)
+                .map(|(n, cal)| if *cal { "reference_frf" } else { n })
+            {
+                return Err(uncalibrated_refused(
+                    "evaluate",
+                    input,
+                    "FRAC/CSF against a calibrated FRF (a model's or a measurement's in SI units)",
+                ));
+            }
             summary.frf = Some(frf::compare_frfs(
                 &r,
                 &c,
@@ -241,6 +255,7 @@ impl Kind for Evaluate {
             .map_err(|e| StageError::Failed(format!("cannot encode metrics.json: {e}")))?;
         write(&path, &json)?;
         Ok(StageOutputs {
+            warnings: Vec::new(),
             files: vec![
                 ("metrics".into(), path),
                 ("tables".into(), tables),

@@ -9,12 +9,18 @@
 //! `ambiguous`), `mac.csv`, one MAC heatmap per position (both axes
 //! labelled `mode · frequency`) and, with a geometry, the paired modes
 //! drawn on the structure side by side (`shapes_<position>.svg`).
+//!
+//! Imported reference modes may lack what the criteria need: a mode
+//! without a damping ratio (NaN, an empty cell) gets no NDD and no MACXP
+//! (empty cells in pairs.csv, left out of the means), and modes without
+//! shapes are paired by frequency alone (cost NFD/s_f, no MAC, no MAC
+//! matrix); `notes` in metrics.json says how many.
 
 use super::schema::{extreme, mean, AmbiguousPair, ModeMetrics, ModeRef, PositionModes};
 use super::write;
 use crate::geometry::Geometry;
 use crate::metrics;
-use crate::modal::ModalModel;
+use crate::modal::{ModalModel, SharedShapes};
 use crate::pairing::{self, Pair, Pairing};
 use crate::report::shapes::{self, Drawn};
 use crate::report::svg::heatmap;
@@ -38,6 +44,8 @@ pub fn compare_modes(
     let mut mac_csv = String::from("position,reference_mode,candidate_mode,MAC\n");
     let mut positions = Vec::new();
     let (mut all_mac, mut all_nfd, mut all_ndd) = (Vec::new(), Vec::new(), Vec::new());
+    let mut notes = Vec::new();
+    let mut no_damping = 0;
     for r in reference {
         let Some(c) = candidate
             .iter()
@@ -53,8 +61,17 @@ pub fn compare_modes(
             });
             continue;
         };
-        let shared = r.shared_shapes(c);
-        if shared.dofs.is_empty() {
+        let frequency_only = r.dofs.is_empty() || c.dofs.is_empty();
+        let shared = if frequency_only {
+            notes.push(format!(
+                "{}: modes without shapes, paired by frequency alone (no MAC, no MACXP)",
+                position_text(r)
+            ));
+            unit_shapes(r, c)
+        } else {
+            r.shared_shapes(c)
+        };
+        if shared.dofs.is_empty() && !frequency_only {
             return Err(StageError::InvalidInput {
                 input: "candidate".into(),
                 message: format!(
@@ -64,15 +81,20 @@ pub fn compare_modes(
             });
         }
         let macs = metrics::mac_matrix(&shared.first, &shared.second);
-        for (i, row) in macs.iter().enumerate() {
-            for (j, v) in row.iter().enumerate() {
-                let _ = writeln!(mac_csv, "{},{},{},{v}", r.position.index, i + 1, j + 1);
+        if !frequency_only {
+            for (i, row) in macs.iter().enumerate() {
+                for (j, v) in row.iter().enumerate() {
+                    let _ = writeln!(mac_csv, "{},{},{},{v}", r.position.index, i + 1, j + 1);
+                }
             }
+            mac_heatmap(r, c, &macs, plots)?;
         }
-        mac_heatmap(r, c, &macs, plots)?;
-        let p = compare_position(r, c, &shared.first, &shared.second, &macs, settings);
-        if let Some(g) = geometry.and_then(|g| g(r.position.index)) {
-            shape_figure(r, c, &p.pairs, &g, plots)?;
+        let p = compare_position(r, c, &shared, &macs, settings);
+        no_damping += p.no_damping;
+        if let Some(g) = geometry.filter(|_| !frequency_only) {
+            if let Some(g) = g(r.position.index) {
+                shape_figure(r, c, &p.pairs, &g, plots)?;
+            }
         }
         for row in &p.rows {
             pairs_csv.push_str(row);
@@ -85,11 +107,16 @@ pub fn compare_modes(
             ..p.summary
         });
     }
+    if no_damping > 0 {
+        notes.push(format!(
+            "{no_damping} pair(s) without a damping ratio on one side: no NDD, no MACXP"
+        ));
+    }
     write(&tables.join("pairs.csv"), &pairs_csv)?;
     write(&tables.join("mac.csv"), &mac_csv)?;
     let total = |f: fn(&PositionModes) -> usize| positions.iter().map(f).sum::<usize>();
     Ok(ModeMetrics {
-        paired: all_mac.len(),
+        paired: all_nfd.len(),
         reference_modes: reference.iter().map(|m| m.modes.len()).sum(),
         candidate_modes: total(|p| p.candidate_modes),
         unpaired_reference: total(|p| p.unpaired_reference.len()),
@@ -99,7 +126,29 @@ pub fn compare_modes(
         mean_nfd: mean(&all_nfd),
         mean_ndd: mean(&all_ndd),
         positions,
+        notes,
     })
+}
+
+/// Shapes for pairing by frequency alone: one shared unit coefficient per
+/// mode, so every MAC is 1 and the cost is NFD/s_f (the MACs are not
+/// reported).
+fn unit_shapes(r: &ModalModel, c: &ModalModel) -> SharedShapes {
+    let one = |m: &ModalModel| vec![vec![Complex64::new(1.0, 0.0)]; m.modes.len()];
+    SharedShapes {
+        first: one(r),
+        second: one(c),
+        dofs: Vec::new(),
+    }
+}
+
+/// A number for a CSV cell; empty when not available (NaN).
+fn cell(x: f64) -> String {
+    if x.is_nan() {
+        String::new()
+    } else {
+        x.to_string()
+    }
 }
 
 /// `ModeRef`s of the modes `indices` (0-based) of `m`.
@@ -160,10 +209,17 @@ fn drawn<'a>(m: &'a ModalModel, k: usize, what: &str, mode: &crate::modal::Mode)
         model: m,
         mode: k,
         heading: format!(
-            "{what} mode {} · {} · ζ {} %",
+            "{what} mode {} · {} · ζ {}",
             k + 1,
             hz(mode.frequency_hz),
-            crate::report::format::sig(100.0 * mode.damping_ratio, 3)
+            if mode.damping_ratio.is_nan() {
+                "not given".to_string()
+            } else {
+                format!(
+                    "{} %",
+                    crate::report::format::sig(100.0 * mode.damping_ratio, 3)
+                )
+            }
         ),
     }
 }
@@ -217,20 +273,28 @@ struct PositionResult {
     macs: Vec<f64>,
     nfds: Vec<f64>,
     ndds: Vec<f64>,
+    /// Pairs without a damping ratio on one side.
+    no_damping: usize,
 }
 
+/// Pairs of one position; `shared.dofs` empty means paired by frequency
+/// alone (see [`unit_shapes`]): no MAC, no MACXP.
 fn compare_position(
     r: &ModalModel,
     c: &ModalModel,
-    rs: &[Vec<Complex64>],
-    cs: &[Vec<Complex64>],
+    shared: &SharedShapes,
     macs: &[Vec<f64>],
     settings: &Pairing,
 ) -> PositionResult {
+    let (rs, cs) = (&shared.first, &shared.second);
+    let with_shapes = !shared.dofs.is_empty();
     let rf: Vec<f64> = r.modes.iter().map(|m| m.frequency_hz).collect();
     let cf: Vec<f64> = c.modes.iter().map(|m| m.frequency_hz).collect();
     let costs = pairing::cost_matrix(&rf, &cf, macs, settings);
-    let pairs = pairing::pair_modes(&rf, rs, &cf, cs, settings);
+    let mut pairs = pairing::pair_modes(&rf, rs, &cf, cs, settings);
+    if !with_shapes {
+        pairs.iter_mut().for_each(|p| p.mac = f64::NAN);
+    }
     let margins = pairing::margins(&costs, &pairs);
     let mut out = PositionResult {
         summary: PositionModes::default(),
@@ -239,37 +303,54 @@ fn compare_position(
         macs: Vec::new(),
         nfds: Vec::new(),
         ndds: Vec::new(),
+        no_damping: 0,
     };
     let mut ambiguous = Vec::new();
     for (p, &margin) in pairs.iter().zip(&margins) {
         let (a, b) = (&r.modes[p.reference], &c.modes[p.candidate]);
         let nfd = metrics::nfd(a.frequency_hz, b.frequency_hz);
-        let ndd = metrics::ndd(a.damping_ratio, b.damping_ratio);
-        let xp = metrics::macxp(
-            &rs[p.reference],
-            &cs[p.candidate],
-            metrics::pole(a.frequency_hz, a.damping_ratio),
-            metrics::pole(b.frequency_hz, b.damping_ratio),
-        );
+        let damped = !(a.damping_ratio.is_nan() || b.damping_ratio.is_nan());
+        out.no_damping += usize::from(!damped);
+        let ndd = if damped {
+            metrics::ndd(a.damping_ratio, b.damping_ratio)
+        } else {
+            f64::NAN
+        };
+        let xp = if damped && with_shapes {
+            metrics::macxp(
+                &rs[p.reference],
+                &cs[p.candidate],
+                metrics::pole(a.frequency_hz, a.damping_ratio),
+                metrics::pole(b.frequency_hz, b.damping_ratio),
+            )
+        } else {
+            f64::NAN
+        };
         let is_ambiguous = margin < settings.ambiguity;
         out.rows.push(format!(
-            "{},{},{},{},{},{nfd},{},{},{ndd},{},{xp},{},{margin},{is_ambiguous}\n",
+            "{},{},{},{},{},{nfd},{},{},{},{},{},{},{margin},{is_ambiguous}\n",
             r.position.index,
             p.reference + 1,
             p.candidate + 1,
             a.frequency_hz,
             b.frequency_hz,
-            a.damping_ratio,
-            b.damping_ratio,
-            p.mac,
+            cell(a.damping_ratio),
+            cell(b.damping_ratio),
+            cell(ndd),
+            cell(p.mac),
+            cell(xp),
             p.cost,
         ));
         if is_ambiguous {
             ambiguous.push(ambiguous_pair(p, margin, &costs, &rf, &cf));
         }
-        out.macs.push(p.mac);
+        if with_shapes {
+            out.macs.push(p.mac);
+        }
         out.nfds.push(nfd);
-        out.ndds.push(ndd);
+        if damped {
+            out.ndds.push(ndd);
+        }
     }
     let unpaired_reference: Vec<usize> = (0..r.modes.len())
         .filter(|&k| !pairs.iter().any(|p| p.reference == k))

@@ -70,6 +70,11 @@ pub struct ModeMetrics {
     pub mean_nfd: Option<f64>,
     pub mean_ndd: Option<f64>,
     pub positions: Vec<PositionModes>,
+    /// What was left out and why: pairs without a damping ratio (no NDD,
+    /// no MACXP), positions paired by frequency alone (modes without
+    /// shapes: no MAC).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub notes: Vec<String>,
 }
 
 /// Modes of one position.

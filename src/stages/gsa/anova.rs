@@ -263,6 +263,7 @@ fn run_table(
     let out = ctx.scratch.join("anova.csv");
     write(&out, &csv)?;
     Ok(StageOutputs {
+        warnings: Vec::new(),
         files: vec![("anova".into(), out)],
         counters: [("observations".to_string(), design.response.len() as u64)].into(),
     })
@@ -341,6 +342,7 @@ fn write_factorial(
     let heatmap = ctx.scratch.join("anova.svg");
     write(&heatmap, &svg)?;
     Ok(StageOutputs {
+        warnings: Vec::new(),
         files: vec![
             ("anova".into(), anova),
             ("runs".into(), runs),

@@ -175,6 +175,7 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
         evaluations += s.validation as u64 + 1;
     }
     Ok(StageOutputs {
+        warnings: Vec::new(),
         files,
         counters: [("evaluations".to_string(), evaluations)].into(),
     })

@@ -83,8 +83,11 @@ impl Kind for Identify {
     /// 11: per-line FRF noise from coherence (`frf_averages`), the noise
     /// model in cost.json, a warning for coherence left unused.
     /// 12: eigenpairs from the faster Lanczos (issue 16), last bits.
+    /// 13: updated_modes' modes.csv always has the position columns
+    /// (issue 31); uncalibrated FRFs and reference modes without damping
+    /// are refused.
     fn version(&self) -> u32 {
-        12
+        13
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -178,7 +181,7 @@ impl Kind for Identify {
         })?;
         let model = load_model(ctx, p.model.as_deref())?;
         let reference_dir = ctx.input("reference")?;
-        let reference = artifacts::read_modes(reference_dir, "reference")?;
+        let reference = artifacts::read_damped_modes(reference_dir, "reference", "identify")?;
         let invalid_reference = |e: crate::identify::IdentifyError| StageError::InvalidInput {
             input: "reference".into(),
             message: e.to_string(),
@@ -240,7 +243,12 @@ impl Kind for Identify {
             .get("frf")
             .and_then(|v| v.first())
             .map(|path| {
-                let sets = artifacts::read_frf(path, "frf")?;
+                let sets = artifacts::read_calibrated_frf(
+                    path,
+                    "frf",
+                    "identify",
+                    "FRF fit against the model",
+                )?;
                 let prepared = objective.prepared();
                 let noise = FrfNoise {
                     averages: spec.frf_averages,
@@ -288,6 +296,7 @@ impl Kind for Identify {
         crate::stages::updated_model::write(ctx, p.model.as_deref(), &parameters, &model_dir)?;
         files.push(("updated_model".to_string(), model_dir));
         Ok(StageOutputs {
+            warnings: Vec::new(),
             files,
             counters: [("evaluations".to_string(), u.evaluations as u64)].into(),
         })

@@ -222,6 +222,7 @@ impl Kind for Report {
         write(dir.join("index.html"), &doc.to_html())?;
         write(dir.join("report.md"), &doc.to_markdown("figures"))?;
         Ok(StageOutputs {
+            warnings: Vec::new(),
             files: vec![("report".into(), dir)],
             counters: [("figures".to_string(), doc.figures().count() as u64)].into(),
         })
