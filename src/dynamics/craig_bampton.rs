@@ -92,10 +92,10 @@ pub fn craig_bampton(
 mod tests {
     use super::*;
     use crate::dynamics::beam::{assemble_beam, local_axes};
-    use crate::dynamics::model_file::SectionSpec;
+    use crate::dynamics::beam::Section;
 
-    fn steel_section() -> SectionSpec {
-        SectionSpec {
+    fn steel_section() -> Section {
+        Section {
             A: 0.02,
             Iy: 4e-5,
             Iz: 6e-5,
