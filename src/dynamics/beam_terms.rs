@@ -157,7 +157,12 @@ mod tests {
         for i in 0..n {
             for j in 0..n {
                 let d = (S[(i, j)] - K[(i, j)]).abs();
-                assert!(d <= 1e-12 * scale, "K[{i},{j}]: {} vs {}", S[(i, j)], K[(i, j)]);
+                assert!(
+                    d <= 1e-12 * scale,
+                    "K[{i},{j}]: {} vs {}",
+                    S[(i, j)],
+                    K[(i, j)]
+                );
             }
         }
     }

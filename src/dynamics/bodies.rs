@@ -142,8 +142,22 @@ fn beam_body(
             "A, Iy, Iz, J, E, G, rho must all be positive (SI units)",
         ));
     }
-    let E = resolve(&s.E, ParameterKind::Stiffness, false, parameters, file, &field("E"))?;
-    let G = resolve(&s.G, ParameterKind::Stiffness, false, parameters, file, &field("G"))?;
+    let E = resolve(
+        &s.E,
+        ParameterKind::Stiffness,
+        false,
+        parameters,
+        file,
+        &field("E"),
+    )?;
+    let G = resolve(
+        &s.G,
+        ParameterKind::Stiffness,
+        false,
+        parameters,
+        file,
+        &field("G"),
+    )?;
     let loss = resolve(
         &bm.loss_factor,
         ParameterKind::Damping,
@@ -163,11 +177,14 @@ fn beam_body(
     };
     let fixed = section(E.number_or(0.0), G.number_or(0.0));
     let fe = assemble_beam(bm.start, bm.end, bm.elements, R, &fixed);
-    let columns = |e: f64, gm: f64| stiffness_columns(bm.start, bm.end, bm.elements, R, &section(e, gm));
+    let columns =
+        |e: f64, gm: f64| stiffness_columns(bm.start, bm.end, bm.elements, R, &section(e, gm));
     let mut terms = BodyTerms::default();
     for (value, unit) in [(E, (1.0, 0.0)), (G, (0.0, 1.0))] {
         if let Resolved::Parameter(p, _) = value {
-            terms.stiffness.extend(columns(unit.0, unit.1).into_iter().map(|c| (c, p)));
+            terms
+                .stiffness
+                .extend(columns(unit.0, unit.1).into_iter().map(|c| (c, p)));
         }
     }
     let eta = match loss {

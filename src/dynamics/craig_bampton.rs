@@ -91,8 +91,8 @@ pub fn craig_bampton(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::dynamics::beam::{assemble_beam, local_axes};
     use crate::dynamics::beam::Section;
+    use crate::dynamics::beam::{assemble_beam, local_axes};
 
     fn steel_section() -> Section {
         Section {
