@@ -49,15 +49,16 @@ pub fn symmetric_eigen_12(a: &[[f64; 12]; 12]) -> ([f64; 12], [[f64; 12]; 12]) {
                 let t = if tau == 0.0 { 1.0 } else { t };
                 let c = 1.0 / (1.0 + t * t).sqrt();
                 let s = t * c;
-                for k in 0..12 {
-                    let (akp, akq) = (A[k][p], A[k][q]);
-                    A[k][p] = c * akp - s * akq;
-                    A[k][q] = s * akp + c * akq;
+                // A ← Jᵀ A J: columns p, q, then rows p, q.
+                for row in A.iter_mut() {
+                    let (akp, akq) = (row[p], row[q]);
+                    row[p] = c * akp - s * akq;
+                    row[q] = s * akp + c * akq;
                 }
+                let (rp, rq) = (A[p], A[q]);
                 for k in 0..12 {
-                    let (apk, aqk) = (A[p][k], A[q][k]);
-                    A[p][k] = c * apk - s * aqk;
-                    A[q][k] = s * apk + c * aqk;
+                    A[p][k] = c * rp[k] - s * rq[k];
+                    A[q][k] = s * rp[k] + c * rq[k];
                 }
                 for row in V.iter_mut() {
                     let (vp, vq) = (row[p], row[q]);
