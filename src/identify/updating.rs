@@ -523,7 +523,7 @@ mod tests {
         let rf = [17.1, 118.9, 155.5];
         let matched = [paired(0), None, None, paired(2)];
         let w = unpaired_text(0, &idx, &rf, &matched).unwrap();
-        assert!(w.contains("modes without a model partner"), "{w}");
+        assert!(w.contains("reference mode without a model partner"), "{w}");
         assert!(
             w.contains("mode 3 (118.90 Hz)") && !w.contains("mode 2 "),
             "{w}"
