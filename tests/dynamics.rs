@@ -574,7 +574,8 @@ fn beam_modulus_parameter_scales_frequencies_as_sqrt_e() {
     }
     let stiffer = solve(SS_BEAM, &[8.0e11, 8.0e10, 1.0e12, 0.002]).frequencies_hz();
     for (a, b) in stiffer.iter().zip(&f) {
-        assert!((a / b - 2.0).abs() < 1e-6, "{a} / {b}");
+        // Exact but for the pins (springs of 1e12 N/m, not rigid): 1.3e-5.
+        assert!((a / b - 2.0).abs() < 1e-4, "{a} / {b}");
     }
     let numeric = SS_BEAM.replace("E: beam.E, G: beam.G", "E: 2.0e+11, G: 8.0e+10");
     for (a, b) in solve(&numeric, &x).frequencies_hz().iter().zip(&f) {
