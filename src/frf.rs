@@ -174,6 +174,34 @@ impl FrfSet {
             .iter()
             .find(|c| c.response == response && c.reference == reference)
     }
+
+    /// The channel measuring the same physical FRF as response/reference:
+    /// the exact channel, else the one at the same nodes and axes with
+    /// directions of opposite sign on either side, with the factor (±1)
+    /// that turns its values into the asked directions (a −Z transducer's
+    /// FRF is −1 times the +Z one's; both flipped cancel).
+    pub fn channel_signed(&self, response: Dof, reference: Dof) -> Option<(&FrfChannel, f64)> {
+        if let Some(c) = self.channel(response, reference) {
+            return Some((c, 1.0));
+        }
+        let flip = |asked: Dof, have: Dof| -> Option<f64> {
+            if asked.node != have.node
+                || asked.direction.unsigned_abs() != have.direction.unsigned_abs()
+            {
+                return None;
+            }
+            Some(if asked.direction == have.direction {
+                1.0
+            } else {
+                -1.0
+            })
+        };
+        self.channels.iter().find_map(|c| {
+            let a = flip(response, c.response)?;
+            let b = flip(reference, c.reference)?;
+            Some((c, a * b))
+        })
+    }
 }
 
 fn distinct(it: impl Iterator<Item = Dof>) -> Vec<Dof> {
@@ -231,5 +259,31 @@ mod tests {
             set.channels[0].values[2] * Complex64::new(0.0, 2.0 * std::f64::consts::PI * 25.0);
         assert_eq!(mob.channels[0].values[2], expect);
         assert_eq!(FrfQuantity::Mobility.si_unit(), "m/s/N");
+    }
+
+    /// The −Z response of a −Z excitation is the +Z/+Z FRF (signs cancel);
+    /// one flipped side negates it; another node or axis is no match.
+    #[test]
+    fn signed_channels_match_by_node_and_axis() {
+        let ch = |r: (u32, i8), q: (u32, i8)| FrfChannel {
+            response: Dof::new(r.0, r.1),
+            reference: Dof::new(q.0, q.1),
+            values: vec![Complex64::new(2.0, 1.0)],
+            coherence: None,
+        };
+        let set = FrfSet {
+            channels: vec![ch((3, -3), (5, -3)), ch((2, -3), (2, 3))],
+            ..FrfSet::default()
+        };
+        let (c, s) = set.channel_signed(Dof::new(3, 3), Dof::new(5, 3)).unwrap();
+        assert_eq!((c.response, s), (Dof::new(3, -3), 1.0));
+        let (_, s) = set.channel_signed(Dof::new(2, 3), Dof::new(2, 3)).unwrap();
+        assert_eq!(s, -1.0);
+        let (_, s) = set
+            .channel_signed(Dof::new(3, -3), Dof::new(5, -3))
+            .unwrap();
+        assert_eq!(s, 1.0);
+        assert!(set.channel_signed(Dof::new(3, 1), Dof::new(5, 3)).is_none());
+        assert!(set.channel_signed(Dof::new(4, 3), Dof::new(5, 3)).is_none());
     }
 }

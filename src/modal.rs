@@ -47,24 +47,89 @@ pub struct SharedShapes {
 
 impl ModalModel {
     /// Shapes of `self` and `other` restricted to the DOFs both have (the
-    /// comparison space of MAC pairing, eq. 2.62).
+    /// comparison space of MAC pairing, eq. 2.62): the same node and axis;
+    /// where the two give the axis opposite signs (a test's −Z transducer
+    /// against a model's +Z sensor) the second model's coefficient is
+    /// negated, so the shapes compare in the first model's directions. An
+    /// exact match wins over an opposite one.
     pub fn shared_shapes(&self, other: &ModalModel) -> SharedShapes {
-        let idx: Vec<(usize, usize)> = self
+        let idx: Vec<(usize, usize, f64)> = self
             .dofs
             .iter()
             .enumerate()
-            .filter_map(|(i, d)| other.dofs.iter().position(|x| x == d).map(|j| (i, j)))
+            .filter_map(|(i, d)| {
+                let exact = other.dofs.iter().position(|x| x == d);
+                let opposite = || {
+                    other.dofs.iter().position(|x| {
+                        x.node == d.node && d.direction != 0 && x.direction == -d.direction
+                    })
+                };
+                match exact {
+                    Some(j) => Some((i, j, 1.0)),
+                    None => opposite().map(|j| (i, j, -1.0)),
+                }
+            })
             .collect();
-        let pick = |m: &ModalModel, col: fn(&(usize, usize)) -> usize| -> Vec<Vec<Complex64>> {
+        let pick = |m: &ModalModel, first: bool| -> Vec<Vec<Complex64>> {
             m.modes
                 .iter()
-                .map(|mode| idx.iter().map(|p| mode.shape[col(p)]).collect())
+                .map(|mode| {
+                    idx.iter()
+                        .map(|&(i, j, sign)| {
+                            if first {
+                                mode.shape[i]
+                            } else {
+                                mode.shape[j] * sign
+                            }
+                        })
+                        .collect()
+                })
                 .collect()
         };
         SharedShapes {
-            first: pick(self, |p| p.0),
-            second: pick(other, |p| p.1),
+            first: pick(self, true),
+            second: pick(other, false),
             dofs: idx.iter().map(|p| self.dofs[p.0]).collect(),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(dofs: &[(u32, i8)], shape: &[f64]) -> ModalModel {
+        ModalModel {
+            position: Position::default(),
+            dofs: dofs.iter().map(|&(n, d)| Dof::new(n, d)).collect(),
+            modes: vec![Mode {
+                frequency_hz: 10.0,
+                damping_ratio: 0.01,
+                shape: shape.iter().map(|&x| Complex64::new(x, 0.0)).collect(),
+            }],
+        }
+    }
+
+    /// A −Z test DOF pairs with the model's +Z sensor at the same node with
+    /// its sign flipped (MAC 1 for the same physical motion); other nodes
+    /// and axes do not pair.
+    #[test]
+    fn opposite_directions_pair_with_a_sign_flip() {
+        let test = model(&[(3, -3), (4, -3), (5, 1)], &[1.0, -2.0, 7.0]);
+        let fe = model(&[(4, 3), (3, 3), (6, 1)], &[2.0, -1.0, 7.0]);
+        let s = test.shared_shapes(&fe);
+        assert_eq!(s.dofs, vec![Dof::new(3, -3), Dof::new(4, -3)]);
+        assert_eq!(
+            s.first[0],
+            vec![Complex64::new(1.0, 0.0), Complex64::new(-2.0, 0.0)]
+        );
+        assert_eq!(
+            s.second[0],
+            vec![Complex64::new(1.0, 0.0), Complex64::new(-2.0, 0.0)]
+        );
+        // Exact matches win over opposite ones.
+        let both = model(&[(3, 3), (3, -3)], &[5.0, 9.0]);
+        let s = model(&[(3, 3)], &[1.0]).shared_shapes(&both);
+        assert_eq!(s.second[0], vec![Complex64::new(5.0, 0.0)]);
     }
 }

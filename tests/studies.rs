@@ -183,3 +183,138 @@ fn model_updating_updates_from_measured_modes_and_reports() {
     assert!(html.contains("Accuracy per position"), "per-position table");
     assert!(html.contains("<script>"), "zoom of dense figures");
 }
+
+/// Frequencies of the reference modes paired in an evaluate stage's
+/// pairs.csv: (reference Hz, candidate Hz, MAC) per pair.
+fn paired(ws: &util::Workspace, stage: &str) -> Vec<(f64, f64, f64)> {
+    let rows = csv_rows(&ws.read(&format!("results/real_beam/{stage}/tables/pairs.csv")));
+    rows.iter()
+        .skip(1)
+        .map(|r| {
+            (
+                r[3].parse().unwrap(),
+                r[4].parse().unwrap(),
+                r[9].parse().unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// The pair of the measured mode nearest `hz` (within 3 %), if any.
+fn near(pairs: &[(f64, f64, f64)], hz: f64) -> Option<(f64, f64, f64)> {
+    pairs
+        .iter()
+        .copied()
+        .filter(|p| (p.0 - hz).abs() <= 0.03 * hz)
+        .min_by(|a, b| (a.0 - hz).abs().total_cmp(&(b.0 - hz).abs()))
+}
+
+/// The real beam (README "real_beam"): updated on the roving-hammer test,
+/// the model predicts the shaker test it never saw. CI size: a small
+/// screening and the guided update on half the budget, no black box.
+#[test]
+fn real_beam_updated_on_the_hammer_predicts_the_shaker() {
+    let dir = std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/real/beam_ufsc_ss"
+    ));
+    if !dir.is_dir() {
+        // CI always has ../shared beside the clone.
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "{} missing in CI",
+            dir.display()
+        );
+        eprintln!("skipping: {} not found", dir.display());
+        return;
+    }
+    let dir = dir.canonicalize().unwrap();
+    let read_outside = format!("read_outside: [{}]", dir.display());
+    let ws = study(
+        "real_beam",
+        &[
+            (
+                "read_outside: [../../shared/data/real/beam_ufsc_ss]",
+                &read_outside,
+            ),
+            ("path: ../../shared/data/real/beam_ufsc_ss/", "path: data/"),
+            ("samples: 64", "samples: 16"),
+            ("bootstrap: 50", "bootstrap: 10"),
+            (
+                "strategy: sensitivity_guided\n      budget: 8000",
+                "strategy: sensitivity_guided\n      budget: 4000",
+            ),
+            (
+                "[guided, guided_frf, pso, ga, guided_on_shaker]",
+                "[guided]",
+            ),
+        ],
+    );
+    std::os::unix::fs::symlink(&dir, ws.path().join("data")).unwrap();
+    ws.run(&["on_hammer", "on_shaker", "initial_on_hammer"], 0);
+    let hammer = paired(&ws, "on_hammer[run=guided]");
+    let shaker = paired(&ws, "on_shaker[run=guided]");
+    let initial = paired(&ws, "initial_on_hammer");
+    // Bending modes 2-5 (mode 1 is below the shaker's band edge there):
+    // updated within 2.5 % of the test fitted to, MAC >= 0.85, and closer
+    // than the model at its file values; on the test never seen within
+    // 3.5 % and MAC >= 0.8 — 5 % for mode 2, which the shaker test itself
+    // puts 2.1 % above the hammer test (70.6 vs 69.2 Hz: the stinger).
+    for (hz, unseen) in [(69.2, 0.05), (155.5, 0.035), (265.6, 0.035), (414.2, 0.035)] {
+        let h = near(&hammer, hz).unwrap_or_else(|| panic!("{hz} Hz unpaired: {hammer:?}"));
+        let s = near(&shaker, hz).unwrap_or_else(|| panic!("{hz} Hz unpaired: {shaker:?}"));
+        let e = |p: (f64, f64, f64)| (p.1 / p.0 - 1.0).abs();
+        assert!(e(h) < 0.025 && h.2 >= 0.85, "hammer {hz}: {h:?}");
+        assert!(e(s) < unseen && s.2 >= 0.8, "shaker {hz}: {s:?}");
+        if let Some(i) = near(&initial, hz) {
+            assert!(e(h) <= e(i) + 0.005, "{hz}: updated {h:?} vs initial {i:?}");
+        }
+    }
+    let f1 = near(&hammer, 17.1).expect("first bending mode");
+    assert!((f1.1 / f1.0 - 1.0).abs() < 0.02, "{f1:?}");
+    // E plausible for steel (the bending modes fix E h²), with its interval.
+    let params = csv_rows(&ws.read("results/real_beam/guided/parameters.csv"));
+    let e = params.iter().find(|r| r[0] == "beam.E").unwrap();
+    let (value, low, high): (f64, f64, f64) = (
+        e[1].parse().unwrap(),
+        e[8].parse().unwrap(),
+        e[9].parse().unwrap(),
+    );
+    // Full study: 187.3 GPa, 95 % interval 177.1-198.1 GPa.
+    assert!((1.75e11..2.15e11).contains(&value), "{e:?}");
+    assert!(
+        low < value && value < high && low > 1.6e11 && high < 2.2e11,
+        "{e:?}"
+    );
+    // What the model cannot explain is named, not absorbed: the verdict
+    // lists the measured modes left without a model partner.
+    let cost: Value = serde_json::from_str(&ws.read("results/real_beam/guided/cost.json")).unwrap();
+    assert!(
+        cost["verdict"]["modes"]["unpaired"].as_u64().unwrap() >= 3,
+        "{cost}"
+    );
+    // Editing one support bound reruns the screening and the updates, not
+    // the imports, the AutoEMA or the model-free stages.
+    let model = ws.read("models/ufsc_beam.yaml");
+    let edited = model.replacen(
+        "{name: left.k_z, value: 1.0e+07, lower: 1.0e+05, upper: 1.0e+09,",
+        "{name: left.k_z, value: 1.0e+07, lower: 1.0e+05, upper: 2.0e+09,",
+        1,
+    );
+    assert_ne!(edited, model, "left.k_z bound not found");
+    ws.write("models/ufsc_beam.yaml", &edited);
+    let status = ws.status();
+    for (name, cached) in [
+        ("hammer", true),
+        ("ema_hammer", true),
+        ("ema_shaker", true),
+        ("gsa", false),
+        ("guided", false),
+    ] {
+        let s = status.stage(name)["status"]
+            .as_str()
+            .unwrap_or_default()
+            .to_string();
+        assert_eq!(s == "cached", cached, "{name}: {s}");
+    }
+}

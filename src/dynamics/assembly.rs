@@ -538,6 +538,23 @@ fn configuration(
         JointTerms { columns, params }
     };
     let [k, b, d] = cols;
+    let (mut k, b, mut d) = (terms(k), terms(b), terms(d));
+    // Parameter-valued body stiffness and material damping (a beam whose E
+    // or G is a parameter), shifted to the body's place in the DOF vector.
+    for (bi, body) in model.bodies.iter().enumerate() {
+        if let BodyKind::Fe { terms: t, .. } = &body.kind {
+            let o = bodies[bi].offset;
+            let shift = |c: &Vec<(usize, f64)>| c.iter().map(|&(i, v)| (o + i, v)).collect();
+            for (c, p) in &t.stiffness {
+                k.columns.push(shift(c));
+                k.params.push(*p);
+            }
+            for (c, p) in &t.hysteretic {
+                d.columns.push(shift(c));
+                d.params.push(*p);
+            }
+        }
+    }
     let rows = |list: &[super::model::PointDof]| {
         let mut R = Mat::<f64>::zeros(list.len(), n);
         for (i, p) in list.iter().enumerate() {
@@ -555,9 +572,9 @@ fn configuration(
             index: index as u32,
             label: st.label.clone(),
         },
-        stiffness: terms(k),
-        viscous: terms(b),
-        hysteretic: terms(d),
+        stiffness: k,
+        viscous: b,
+        hysteretic: d,
         S: rows(&model.sensors),
         E: rows(&model.excitations),
     })

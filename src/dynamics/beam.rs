@@ -8,11 +8,30 @@
 #![allow(non_snake_case)]
 
 use super::fe_body::{FeBody, FeNode};
-use super::model_file::SectionSpec;
 use super::sparse::Csc;
 
+/// Cross-section and material of a beam, SI units: the numbers the element
+/// matrices need (the model file's section with every parameter resolved).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Section {
+    /// Area, m².
+    pub A: f64,
+    /// Second moment about local y (bending in the local x-z plane), m⁴.
+    pub Iy: f64,
+    /// Second moment about local z (bending in the local x-y plane), m⁴.
+    pub Iz: f64,
+    /// Torsion constant, m⁴.
+    pub J: f64,
+    /// Young's modulus, Pa.
+    pub E: f64,
+    /// Shear modulus, Pa.
+    pub G: f64,
+    /// Density, kg/m³.
+    pub rho: f64,
+}
+
 /// Local element stiffness and mass (12×12) of length `l`.
-pub fn element_matrices(s: &SectionSpec, l: f64) -> ([[f64; 12]; 12], [[f64; 12]; 12]) {
+pub fn element_matrices(s: &Section, l: f64) -> ([[f64; 12]; 12], [[f64; 12]; 12]) {
     let mut k = [[0.0; 12]; 12];
     let mut m = [[0.0; 12]; 12];
     let put = |mat: &mut [[f64; 12]; 12], idx: &[usize], vals: &[&[f64]], f: f64| {
@@ -102,17 +121,16 @@ pub fn local_axes(start: [f64; 3], end: [f64; 3], orientation: [f64; 3]) -> Opti
     Some([ex, ey, ez])
 }
 
-/// Assemble the full beam: `elements` equal elements from `start` to `end`,
-/// node i at start + i/elements·(end − start). Caller validated the inputs.
-pub fn assemble_beam(
+/// Element stiffness and mass (12×12) in global axes, Tᵀ k T with
+/// T = blockdiag(R, R, R, R), of one of `elements` equal elements from
+/// `start` to `end`.
+pub fn global_element_matrices(
     start: [f64; 3],
     end: [f64; 3],
     elements: usize,
     R: [[f64; 3]; 3],
-    s: &SectionSpec,
-) -> FeBody {
-    let n_nodes = elements + 1;
-    let n = 6 * n_nodes;
+    s: &Section,
+) -> ([[f64; 12]; 12], [[f64; 12]; 12]) {
     let d = sub(end, start);
     let l = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() / elements as f64;
     let (kl, ml) = element_matrices(s, l);
@@ -138,7 +156,22 @@ pub fn assemble_beam(
         }
         g
     };
-    let (kg, mg) = (rot(&kl), rot(&ml));
+    (rot(&kl), rot(&ml))
+}
+
+/// Assemble the full beam: `elements` equal elements from `start` to `end`,
+/// node i at start + i/elements·(end − start). Caller validated the inputs.
+pub fn assemble_beam(
+    start: [f64; 3],
+    end: [f64; 3],
+    elements: usize,
+    R: [[f64; 3]; 3],
+    s: &Section,
+) -> FeBody {
+    let n_nodes = elements + 1;
+    let n = 6 * n_nodes;
+    let d = sub(end, start);
+    let (kg, mg) = global_element_matrices(start, end, elements, R, s);
     let mut tk = Vec::with_capacity(144 * elements);
     let mut tm = Vec::with_capacity(144 * elements);
     for e in 0..elements {
@@ -178,7 +211,7 @@ mod tests {
     /// ω_n = (β_n L)² √(EI/(ρ A L⁴)), β_n L = 1.8751, 4.6941, 7.8548.
     #[test]
     fn cantilever_matches_euler_bernoulli() {
-        let s = SectionSpec {
+        let s = Section {
             A: 4e-4,
             Iy: 1.3e-8,
             Iz: 1.3e-8,

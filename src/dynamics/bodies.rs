@@ -5,10 +5,12 @@
 //! super-element matrices). Errors name the file and the field.
 #![allow(non_snake_case)]
 
-use super::beam::{assemble_beam, local_axes};
+use super::beam::{assemble_beam, local_axes, Section};
+use super::beam_terms::{stiffness_columns, Column};
 use super::error::DynamicsError;
 use super::fe_body::FeBody;
-use super::model_file::BodySpec;
+use super::model::{parameter_ref, Parameter};
+use super::model_file::{BeamSpec, BodySpec, ParameterKind, SectionValue};
 use super::rigid::inertia_is_positive_definite;
 use super::superelement::{load_superelement, Resolver};
 use std::collections::BTreeMap;
@@ -27,9 +29,191 @@ pub(crate) enum BodyKind {
         fe: FeBody,
         points: BTreeMap<String, (usize, [f64; 3])>,
         modes: Option<usize>,
-        /// Material loss factor η (D_body = η K_body).
+        /// Material loss factor η (D_body = η K_body) of the fixed part.
         loss_factor: f64,
+        /// Stiffness and material damping that vary with parameters.
+        terms: BodyTerms,
     },
+}
+
+/// The part of a body's stiffness K and material damping D that varies with
+/// parameters: rank-one columns g over the body's DOFs, each with the index
+/// p of the parameter that multiplies it (K += x_p g gᵀ, D likewise), the
+/// form of joint terms ([`super::beam_terms`]).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct BodyTerms {
+    pub stiffness: Vec<(Column, usize)>,
+    pub hysteretic: Vec<(Column, usize)>,
+}
+
+impl BodyTerms {
+    pub fn is_empty(&self) -> bool {
+        self.stiffness.is_empty() && self.hysteretic.is_empty()
+    }
+}
+
+/// A section value after validation: a number or a parameter (index and
+/// the model file's value of it).
+#[derive(Debug, Clone, Copy)]
+enum Resolved {
+    Number(f64),
+    Parameter(usize, f64),
+}
+
+impl Resolved {
+    fn number_or(self, other: f64) -> f64 {
+        match self {
+            Resolved::Number(x) => x,
+            Resolved::Parameter(..) => other,
+        }
+    }
+    fn nominal(self) -> f64 {
+        match self {
+            Resolved::Number(x) | Resolved::Parameter(_, x) => x,
+        }
+    }
+}
+
+/// Resolve a section value: a number (finite, > 0, or ≥ 0 when
+/// `zero_ok`) or the name of a parameter of `kind` (whose lower bound must
+/// be > 0 unless `zero_ok`), validated like a joint's parameter reference.
+fn resolve(
+    v: &SectionValue,
+    kind: ParameterKind,
+    zero_ok: bool,
+    parameters: &[Parameter],
+    file: &str,
+    field: &str,
+) -> Result<Resolved, DynamicsError> {
+    match v {
+        SectionValue::Number(x) => {
+            finite(file, field, &[*x])?;
+            if *x < 0.0 || (!zero_ok && *x == 0.0) {
+                let need = if zero_ok { ">= 0" } else { "> 0" };
+                return Err(DynamicsError::invalid(
+                    file,
+                    field,
+                    format!("must be {need} (SI units), got {x}"),
+                ));
+            }
+            Ok(Resolved::Number(*x))
+        }
+        SectionValue::Parameter(name) => {
+            let i = parameter_ref(parameters, name, kind, file, field)?;
+            let p = &parameters[i];
+            if !zero_ok && p.lower <= 0.0 {
+                return Err(DynamicsError::invalid(
+                    file,
+                    field,
+                    format!("parameter `{name}` needs a lower bound > 0 (a modulus of 0 has no stiffness)"),
+                ));
+            }
+            Ok(Resolved::Parameter(i, p.value))
+        }
+    }
+}
+
+/// A beam body: its fixed matrices (every numeric E, G), the loss factor of
+/// the fixed part, and the terms of parameter-valued E, G and loss factor.
+/// With a parameter loss factor η the material damping is D = η K(E₀, G₀),
+/// K at the model file's values of E and G (exact while E and G are
+/// numbers; with both varying, D is off by the factor E/E₀ — a few % for an
+/// updated modulus, small against the scatter of measured damping).
+fn beam_body(
+    bm: &BeamSpec,
+    g: &str,
+    file: &str,
+    parameters: &[Parameter],
+    R: [[f64; 3]; 3],
+) -> Result<(FeBody, f64, BodyTerms), DynamicsError> {
+    let s = &bm.section;
+    let field = |n: &str| format!("{g}.section.{n}");
+    let geometric = [s.A, s.Iy, s.Iz, s.J, s.rho];
+    let numbers = [&s.E, &s.G].into_iter().filter_map(|v| match v {
+        SectionValue::Number(x) => Some(*x),
+        SectionValue::Parameter(_) => None,
+    });
+    let all: Vec<f64> = geometric.into_iter().chain(numbers).collect();
+    finite(file, &format!("{g}.section"), &all)?;
+    if all.iter().any(|&x| x <= 0.0) {
+        return Err(DynamicsError::invalid(
+            file,
+            format!("{g}.section"),
+            "A, Iy, Iz, J, E, G, rho must all be positive (SI units)",
+        ));
+    }
+    let E = resolve(
+        &s.E,
+        ParameterKind::Stiffness,
+        false,
+        parameters,
+        file,
+        &field("E"),
+    )?;
+    let G = resolve(
+        &s.G,
+        ParameterKind::Stiffness,
+        false,
+        parameters,
+        file,
+        &field("G"),
+    )?;
+    let loss = resolve(
+        &bm.loss_factor,
+        ParameterKind::Damping,
+        true,
+        parameters,
+        file,
+        &format!("{g}.loss_factor"),
+    )?;
+    let section = |e: f64, gm: f64| Section {
+        A: s.A,
+        Iy: s.Iy,
+        Iz: s.Iz,
+        J: s.J,
+        E: e,
+        G: gm,
+        rho: s.rho,
+    };
+    let fixed = section(E.number_or(0.0), G.number_or(0.0));
+    let fe = assemble_beam(bm.start, bm.end, bm.elements, R, &fixed);
+    let columns =
+        |e: f64, gm: f64| stiffness_columns(bm.start, bm.end, bm.elements, R, &section(e, gm));
+    let mut terms = BodyTerms::default();
+    for (value, unit) in [(E, (1.0, 0.0)), (G, (0.0, 1.0))] {
+        if let Resolved::Parameter(p, _) = value {
+            terms
+                .stiffness
+                .extend(columns(unit.0, unit.1).into_iter().map(|c| (c, p)));
+        }
+    }
+    let eta = match loss {
+        Resolved::Number(eta) => {
+            // D = η K: the parametric part's columns scaled by √η.
+            let r = eta.sqrt();
+            terms.hysteretic = terms
+                .stiffness
+                .iter()
+                .filter(|_| eta > 0.0)
+                .map(|(c, p)| (c.iter().map(|&(i, v)| (i, r * v)).collect(), *p))
+                .collect();
+            eta
+        }
+        Resolved::Parameter(h, _) => {
+            let all = columns(E.nominal(), G.nominal());
+            terms.hysteretic = all.into_iter().map(|c| (c, h)).collect();
+            0.0
+        }
+    };
+    if !terms.is_empty() && bm.reduction.is_some() {
+        return Err(DynamicsError::invalid(
+            file,
+            format!("{g}.reduction"),
+            "a beam whose E, G or loss factor is a parameter cannot be Craig–Bampton reduced \
+             (its reduction basis would change with the parameter); drop `reduction` or give numbers",
+        ));
+    }
+    Ok((fe, eta, terms))
 }
 
 #[derive(Debug, Clone)]
@@ -55,6 +239,7 @@ pub(crate) fn body_kind(
     f: &str,
     file: &str,
     resolver: Resolver<'_>,
+    parameters: &[Parameter],
 ) -> Result<BodyKind, DynamicsError> {
     let inv = |field: String, msg: &str| DynamicsError::invalid(file, field, msg);
     let count = b.rigid.is_some() as u8 + b.beam.is_some() as u8 + b.superelement.is_some() as u8;
@@ -98,18 +283,9 @@ pub(crate) fn body_kind(
             dofs,
         });
     }
-    let (fe, points, reduction, loss_factor, g) = if let Some(bm) = &b.beam {
+    let (fe, points, reduction, loss_factor, terms, g) = if let Some(bm) = &b.beam {
         let g = format!("{f}.beam");
         finite(file, &g, &[bm.start, bm.end, bm.orientation].concat())?;
-        let s = bm.section;
-        let sec = [s.A, s.Iy, s.Iz, s.J, s.E, s.G, s.rho];
-        finite(file, &format!("{g}.section"), &sec)?;
-        if sec.iter().any(|&x| x <= 0.0) {
-            return Err(inv(
-                format!("{g}.section"),
-                "A, Iy, Iz, J, E, G, rho must all be positive (SI units)",
-            ));
-        }
         if bm.elements == 0 {
             return Err(inv(format!("{g}.elements"), "need at least one element"));
         }
@@ -137,13 +313,8 @@ pub(crate) fn body_kind(
                 "beam has zero length or orientation is parallel to its axis",
             )
         })?;
-        (
-            assemble_beam(bm.start, bm.end, bm.elements, R, &s),
-            &bm.points,
-            &bm.reduction,
-            bm.loss_factor,
-            g,
-        )
+        let (fe, eta, terms) = beam_body(bm, &g, file, parameters, R)?;
+        (fe, &bm.points, &bm.reduction, eta, terms, g)
     } else if let Some(se) = &b.superelement {
         let g = format!("{f}.superelement");
         (
@@ -151,6 +322,7 @@ pub(crate) fn body_kind(
             &se.points,
             &se.reduction,
             se.loss_factor,
+            BodyTerms::default(),
             g,
         )
     } else {
@@ -186,5 +358,6 @@ pub(crate) fn body_kind(
         points: pts,
         modes: reduction.as_ref().map(|r| r.modes),
         loss_factor,
+        terms,
     })
 }

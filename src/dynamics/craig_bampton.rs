@@ -91,11 +91,11 @@ pub fn craig_bampton(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dynamics::beam::Section;
     use crate::dynamics::beam::{assemble_beam, local_axes};
-    use crate::dynamics::model_file::SectionSpec;
 
-    fn steel_section() -> SectionSpec {
-        SectionSpec {
+    fn steel_section() -> Section {
+        Section {
             A: 0.02,
             Iy: 4e-5,
             Iz: 6e-5,

@@ -39,6 +39,7 @@
 //! ```
 pub mod assembly;
 pub mod beam;
+pub mod beam_terms;
 pub mod bodies;
 pub mod configuration;
 pub mod craig_bampton;

@@ -230,7 +230,7 @@ impl Model {
                     format!("`{}` is reserved or used twice", b.name),
                 ));
             }
-            let kind = body_kind(b, &f, file, resolver)?;
+            let kind = body_kind(b, &f, file, resolver, &parameters)?;
             bodies.push(Body {
                 name: b.name.clone(),
                 kind,
@@ -277,28 +277,8 @@ impl Model {
             }
             Ok(Some(End { body, point }))
         };
-        let param = |name: &str, kind: ParameterKind, f: String| -> Result<usize, DynamicsError> {
-            let i = parameters
-                .iter()
-                .position(|p| p.name == name)
-                .ok_or_else(|| {
-                    DynamicsError::invalid(
-                        file,
-                        f.clone(),
-                        format!("unknown parameter `{name}`; add it to `parameters`"),
-                    )
-                })?;
-            if parameters[i].kind != kind {
-                return Err(DynamicsError::invalid(
-                    file,
-                    f,
-                    format!(
-                        "parameter `{name}` has kind {:?}, expected {kind:?}",
-                        parameters[i].kind
-                    ),
-                ));
-            }
-            Ok(i)
+        let param = |name: &str, kind: ParameterKind, f: String| {
+            parameter_ref(&parameters, name, kind, file, &f)
         };
         let mut joints: Vec<Joint> = Vec::new();
         for (i, j) in spec.joints.iter().enumerate() {
@@ -484,6 +464,38 @@ impl Model {
             excitations,
         })
     }
+}
+
+/// Index of the parameter `name`, which must exist and be of `kind`; the
+/// error names the file and the field that refers to it.
+pub(crate) fn parameter_ref(
+    parameters: &[Parameter],
+    name: &str,
+    kind: ParameterKind,
+    file: &str,
+    field: &str,
+) -> Result<usize, DynamicsError> {
+    let i = parameters
+        .iter()
+        .position(|p| p.name == name)
+        .ok_or_else(|| {
+            DynamicsError::invalid(
+                file,
+                field,
+                format!("unknown parameter `{name}`; add it to `parameters`"),
+            )
+        })?;
+    if parameters[i].kind != kind {
+        return Err(DynamicsError::invalid(
+            file,
+            field,
+            format!(
+                "parameter `{name}` has kind {:?}, expected {kind:?}",
+                parameters[i].kind
+            ),
+        ));
+    }
+    Ok(i)
 }
 
 fn check_frame(r: &[[f64; 3]; 3]) -> Result<(), String> {

@@ -143,13 +143,29 @@ pub struct BeamSpec {
     pub reduction: Option<ReductionSpec>,
     /// Material (hysteretic) loss factor η of the body: D_body = η K_body
     /// (eq. 2.51, structural damping); default 0. Steel ~0.001–0.002, cast
-    /// iron ~0.002–0.005.
+    /// iron ~0.002–0.005. A number or the name of a `damping` parameter.
     #[serde(default)]
-    pub loss_factor: f64,
+    pub loss_factor: SectionValue,
+}
+
+/// A section or material value: a number, or the name of a model parameter
+/// (`E: beam.E`), which then varies with that parameter like a joint's
+/// stiffness does.
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum SectionValue {
+    Number(f64),
+    Parameter(String),
+}
+
+impl Default for SectionValue {
+    fn default() -> Self {
+        SectionValue::Number(0.0)
+    }
 }
 
 /// Beam cross-section and material, SI units.
-#[derive(Debug, Clone, Copy, Deserialize)]
+#[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
 #[allow(non_snake_case)]
 pub struct SectionSpec {
@@ -161,10 +177,10 @@ pub struct SectionSpec {
     pub Iz: f64,
     /// Torsion constant, m⁴.
     pub J: f64,
-    /// Young's modulus, Pa.
-    pub E: f64,
-    /// Shear modulus, Pa.
-    pub G: f64,
+    /// Young's modulus, Pa, or a `stiffness` parameter's name.
+    pub E: SectionValue,
+    /// Shear modulus, Pa, or a `stiffness` parameter's name.
+    pub G: SectionValue,
     /// Density, kg/m³.
     pub rho: f64,
 }

@@ -29,9 +29,11 @@
 
 mod residuals;
 mod uncertainty;
+mod visibility;
 
 pub use residuals::Evaluation;
 pub use uncertainty::{complexity, Uncertainty};
+use visibility::mask_invisible;
 
 use super::IdentifyError;
 use crate::dynamics::{self, PreparedModel};
@@ -294,20 +296,22 @@ impl ModalObjective {
             .map_err(|e| IdentifyError::Model(e.to_string()))?;
         let f = sol.frequencies_hz();
         let z = sol.damping_ratios();
+        let mut modes: Vec<Mode> = (0..f.len())
+            .map(|m| Mode {
+                frequency_hz: f[m],
+                damping_ratio: z[m],
+                shape: r
+                    .rows
+                    .iter()
+                    .map(|&(i, s, _)| Complex64::new(s * sol.sensor_shapes[(i, m)], 0.0))
+                    .collect(),
+            })
+            .collect();
+        mask_invisible(&mut modes);
         Ok(ModalModel {
             position: r.position.clone(),
             dofs: r.rows.iter().map(|row| row.2).collect(),
-            modes: (0..f.len())
-                .map(|m| Mode {
-                    frequency_hz: f[m],
-                    damping_ratio: z[m],
-                    shape: r
-                        .rows
-                        .iter()
-                        .map(|&(i, s, _)| Complex64::new(s * sol.sensor_shapes[(i, m)], 0.0))
-                        .collect(),
-                })
-                .collect(),
+            modes,
         })
     }
 

@@ -322,6 +322,7 @@ fn assess(
             }
         }
         counts.unpaired += idx.iter().filter(|&&k| matched[p][k].is_none()).count();
+        close.extend(unpaired_text(p, &idx, &rf, &matched[p]));
         close.extend(unresolved_pairs(p, &mf, &rf, &matched[p]));
         pairs.push(slot);
     }
@@ -333,6 +334,28 @@ fn assess(
         (rms(&at_start), rms(&at_x), counts),
         close,
     ))
+}
+
+/// The used reference modes at position `p` without a model partner at the
+/// result, named with their frequencies (`idx`: reference mode numbers,
+/// `rf`: their Hz): on real structures these are usually modes the model
+/// does not contain (a support or fixture mode, a mode the test added), so
+/// they are listed rather than absorbed by the parameters.
+fn unpaired_text(p: usize, idx: &[usize], rf: &[f64], matched: &[Option<Match>]) -> Option<String> {
+    let names: Vec<String> = idx
+        .iter()
+        .zip(rf)
+        .filter(|(&k, _)| matched.get(k).is_some_and(|m| m.is_none()))
+        .map(|(&k, f)| format!("mode {} ({f:.2} Hz)", k + 1))
+        .collect();
+    (!names.is_empty()).then(|| {
+        format!(
+            "position {p}: reference {} without a model partner at the result: {} — modes the \
+             model does not contain, or spurious estimates; no parameter was fitted to them",
+            if names.len() == 1 { "mode" } else { "modes" },
+            names.join(", ")
+        )
+    })
 }
 
 /// Model modes closer than this (relative frequency) to a paired one are a
@@ -490,6 +513,23 @@ mod tests {
             damping_ratio: 0.05,
             mac: 1.0,
         })
+    }
+
+    /// Unpaired used reference modes are named with their numbers and
+    /// frequencies; excluded modes (not in `idx`) and paired ones are not.
+    #[test]
+    fn unpaired_reference_modes_are_named() {
+        let idx = [0, 2, 3];
+        let rf = [17.1, 118.9, 155.5];
+        let matched = [paired(0), None, None, paired(2)];
+        let w = unpaired_text(0, &idx, &rf, &matched).unwrap();
+        assert!(w.contains("reference mode without a model partner"), "{w}");
+        assert!(
+            w.contains("mode 3 (118.90 Hz)") && !w.contains("mode 2 "),
+            "{w}"
+        );
+        assert!(!w.contains("17.10") && !w.contains("155.50"), "{w}");
+        assert!(unpaired_text(0, &[0], &[17.1], &[paired(0)]).is_none());
     }
 
     #[test]

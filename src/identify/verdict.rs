@@ -217,7 +217,7 @@ impl Verdict {
         }
         if lost > 0 {
             parts.push(format!(
-                "but {lost} of {} used reference modes are not reproduced ({} without a model partner, {} outliers): spurious or wrongly paired modes, or a local minimum",
+                "but {lost} of {} used reference modes are not reproduced ({} without a model partner, {} outliers): modes the model does not contain, spurious or wrongly paired modes, or a local minimum (named in the warnings)",
                 modes.used, modes.unpaired, modes.outliers
             ));
         }

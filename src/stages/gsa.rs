@@ -83,8 +83,10 @@ impl Kind for Gsa {
     ///    (log10 form; round-off different from the former `lower·(upper/lower)^u`).
     /// 6: eigenpairs from the faster Lanczos (one conditional DGKS pass,
     ///    Cholesky QR2, basis 2.5·nev, tolerance 1e-12; issue 16), last bits.
+    /// 7: ANOVA of modal models pairs shapes by node and axis (an opposite
+    ///    direction flips the sign), as `evaluate` does.
     fn version(&self) -> u32 {
-        6
+        7
     }
 
     fn summary(&self) -> &'static str {

@@ -95,11 +95,12 @@ pub fn compare_frfs(
             .find(|s| s.position.index == r.position.index)
             .and_then(|s| line_indices(&s.frequencies_hz, &f).map(|idx| (s, idx)));
         for ch in &r.channels {
-            let Some(cc) = c.channel(ch.response, ch.reference) else {
+            // Same nodes and axes; a transducer of opposite sign flips the FRF.
+            let Some((cc, sign)) = c.channel_signed(ch.response, ch.reference) else {
                 continue;
             };
             let a: Vec<Complex64> = lines.iter().map(|&(i, _)| ch.values[i]).collect();
-            let b: Vec<Complex64> = lines.iter().map(|&(_, j)| cc.values[j]).collect();
+            let b: Vec<Complex64> = lines.iter().map(|&(_, j)| cc.values[j] * sign).collect();
             let (fr, cs) = (metrics::frac(&a, &b), metrics::csf(&a, &b));
             let _ = writeln!(
                 csv,
@@ -107,8 +108,8 @@ pub fn compare_frfs(
                 r.position.index, ch.response, ch.reference
             );
             let before: Option<Vec<Complex64>> = initial_set.as_ref().and_then(|(s, idx)| {
-                let c0 = s.channel(ch.response, ch.reference)?;
-                Some(idx.iter().map(|&j| c0.values[j]).collect())
+                let (c0, sign0) = s.channel_signed(ch.response, ch.reference)?;
+                Some(idx.iter().map(|&j| c0.values[j] * sign0).collect())
             });
             if let Some(h0) = &before {
                 init_frac.push(metrics::frac(&a, h0));

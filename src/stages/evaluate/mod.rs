@@ -134,9 +134,11 @@ impl Kind for Evaluate {
     /// 2: modes paired by frequency and MAC. 3: pair margins, unpaired and
     /// ambiguous modes, the identification's verdict. 4: FRFs compared in the
     /// reference's quantity, figures to the style guide (magnitude + phase,
-    /// titled MAC axes), mode shapes on the geometry.
+    /// titled MAC axes), mode shapes on the geometry. 5: shapes and FRF
+    /// channels pair by node and axis, a transducer of opposite sign
+    /// flipping the sign (a test's −Z against a model's +Z).
     fn version(&self) -> u32 {
-        4
+        5
     }
     fn summary(&self) -> &'static str {
         "compare candidate modes/FRFs/parameters with a reference: MAC, MACXP, NFD, NDD, FRAC, CSF, parameter errors, unpaired and ambiguous modes, the identification's verdict"

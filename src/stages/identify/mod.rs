@@ -85,7 +85,8 @@ impl Kind for Identify {
     /// 12: eigenpairs from the faster Lanczos (issue 16), last bits.
     /// 13: updated_modes' modes.csv always has the position columns
     /// (issue 31); uncalibrated FRFs and reference modes without damping
-    /// are refused.
+    /// are refused; the verdict names the reference modes left without a
+    /// model partner (modes the model does not contain).
     fn version(&self) -> u32 {
         13
     }
