@@ -468,21 +468,9 @@ fn partial_matrices_are_completed_by_reciprocity_or_reduced() {
 /// narrow band with few iterations: the modes do not depend on the seed.
 #[test]
 fn real_beam_modes_do_not_depend_on_the_seed() {
-    let dir = std::path::Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../shared/data/real/beam_ufsc_ss"
-    ));
-    if !dir.is_dir() {
-        // CI always has ../shared beside the clone.
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} missing in CI",
-            dir.display()
-        );
-        eprintln!("skipping: {} not found", dir.display());
+    let Some(dir) = util::real_beam_dir() else {
         return;
-    }
-    let dir = dir.canonicalize().unwrap();
+    };
     let ws = Workspace::new();
     std::os::unix::fs::symlink(&dir, ws.path().join("data")).unwrap();
     let mut yaml = format!(

@@ -214,21 +214,9 @@ fn near(pairs: &[(f64, f64, f64)], hz: f64) -> Option<(f64, f64, f64)> {
 /// screening and the guided update on half the budget, no black box.
 #[test]
 fn real_beam_updated_on_the_hammer_predicts_the_shaker() {
-    let dir = std::path::Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../shared/data/real/beam_ufsc_ss"
-    ));
-    if !dir.is_dir() {
-        // CI always has ../shared beside the clone.
-        assert!(
-            std::env::var_os("CI").is_none(),
-            "{} missing in CI",
-            dir.display()
-        );
-        eprintln!("skipping: {} not found", dir.display());
+    let Some(dir) = util::real_beam_dir() else {
         return;
-    }
-    let dir = dir.canonicalize().unwrap();
+    };
     let read_outside = format!("read_outside: [{}]", dir.display());
     let ws = study(
         "real_beam",

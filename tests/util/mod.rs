@@ -240,3 +240,23 @@ pub fn assert_report_figures(ws: &Workspace, name: &str) -> usize {
     );
     n
 }
+
+/// The real beam of `../shared/data/real/beam_ufsc_ss` (canonical path), or
+/// None with a note when the folder is absent outside CI; in CI (which
+/// always has `../shared` beside the clone) its absence fails the test.
+pub fn real_beam_dir() -> Option<std::path::PathBuf> {
+    let dir = std::path::Path::new(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../shared/data/real/beam_ufsc_ss"
+    ));
+    if !dir.is_dir() {
+        assert!(
+            std::env::var_os("CI").is_none(),
+            "{} missing in CI",
+            dir.display()
+        );
+        eprintln!("skipping: {} not found", dir.display());
+        return None;
+    }
+    Some(dir.canonicalize().expect("real beam folder"))
+}
