@@ -27,7 +27,7 @@
 //! is a function of the data, and [`super::search`] extends the budget
 //! until the best selection has stood for a while.
 
-use crate::optimize::bayesian::expected_improvement;
+use crate::optimize::bayesian::{expected_improvement, pattern_search};
 use crate::optimize::gaussian_process::GaussianProcess;
 
 /// Scramble of the design sequence (fixed: the design is part of the method).
@@ -177,32 +177,6 @@ impl SobolSearch {
         }
         winner.map(|w| w.1)
     }
-}
-
-/// Coordinate pattern search on `g` in the unit cube, step halving from 0.05
-/// (as in [`crate::optimize::bayesian`]).
-fn pattern_search(g: &impl Fn(&[f64]) -> f64, mut u: Vec<f64>) -> (f64, Vec<f64>) {
-    let mut v = g(&u);
-    let mut step = 0.05;
-    while step > 1e-4 {
-        let mut improved = false;
-        for dim in 0..u.len() {
-            for sign in [1.0, -1.0] {
-                let mut t = u.clone();
-                t[dim] = (t[dim] + sign * step).clamp(0.0, 1.0);
-                let tv = g(&t);
-                if tv > v {
-                    v = tv;
-                    u = t;
-                    improved = true;
-                }
-            }
-        }
-        if !improved {
-            step *= 0.5;
-        }
-    }
-    (v, u)
 }
 
 #[cfg(test)]

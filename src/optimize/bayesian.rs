@@ -233,8 +233,9 @@ fn propose(
     Ok(u)
 }
 
-/// Coordinate pattern search on `g` in the unit cube, step halving from 0.05.
-fn pattern_search(g: &impl Fn(&[f64]) -> f64, mut u: Vec<f64>) -> (f64, Vec<f64>) {
+/// Coordinate pattern search on `g` in the unit cube, step halving from 0.05
+/// (also the local refinement of [`crate::ema::design`]).
+pub fn pattern_search(g: &impl Fn(&[f64]) -> f64, mut u: Vec<f64>) -> (f64, Vec<f64>) {
     let mut v = g(&u);
     let mut step = 0.05;
     while step > 1e-4 {
