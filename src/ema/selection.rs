@@ -306,6 +306,25 @@ pub fn refine_selection(
         roots.remove(k);
         refine_roots(screening, orders, &mut roots);
     }
+    // A pole the refinement moved out of the band describes no peak of
+    // these data (mimo UFSC beam: 1002.6 Hz from a 5–800 Hz band).
+    let (lo, hi) = (
+        data.frequencies_hz.first().copied().unwrap_or(0.0),
+        data.frequencies_hz.last().copied().unwrap_or(0.0),
+    );
+    roots.retain(|r| {
+        let p = r.pole(orders);
+        let inside = (lo..=hi).contains(&p.frequency_hz);
+        if !inside {
+            rejected.push(Rejection {
+                frequency_hz: p.frequency_hz,
+                damping_ratio: p.damping_ratio,
+                n_orders: r.n_orders,
+                reason: Reason::OutsideBand { band_hz: (lo, hi) },
+            });
+        }
+        inside
+    });
     let validated = Validation {
         projector: &mut screening.projector,
         orders,

@@ -72,6 +72,8 @@ pub enum Reason {
     /// On the CMIF peak of the stronger root at `of_hz` with no peak of its
     /// own ([`super::peak_evidence`]): a pole split off that mode.
     SamePeak { of_hz: f64 },
+    /// Refined to a frequency outside the analysed band.
+    OutsideBand { band_hz: (f64, f64) },
 }
 
 /// One decision about a root.
