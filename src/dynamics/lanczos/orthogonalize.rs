@@ -11,15 +11,6 @@ use faer::linalg::matmul::matmul;
 use faer::reborrow::{Reborrow, ReborrowMut};
 use faer::{Accum, Mat, Par};
 
-/// Column `dst` of `A` as a mutable slice and column `src < dst` as a
-/// shared one (columns of a `Mat` are contiguous).
-fn col_pair(A: &mut Mat<f64>, src: usize, dst: usize) -> (&[f64], &mut [f64]) {
-    let (left, right) = A.as_mut().split_at_col_mut(dst);
-    let x = left.col(src).try_as_col_major().expect("col-major");
-    let y = right.col_mut(0).try_as_col_major_mut().expect("col-major");
-    (x.as_slice(), y.as_slice_mut())
-}
-
 fn col(A: &Mat<f64>, j: usize) -> &[f64] {
     A.col_as_slice(j)
 }
@@ -33,10 +24,13 @@ pub(super) fn m_norm2(V: &Mat<f64>, MV: &Mat<f64>, c: usize) -> f64 {
     dot(col(MV, c), col(V, c)).max(0.0)
 }
 
-/// A[:, dst] −= r A[:, src] for src < dst.
+/// A[:, dst] −= r A[:, src] for src < dst (element by element, in row
+/// order: the same operations whatever the layout).
 fn axpy(A: &mut Mat<f64>, src: usize, dst: usize, r: f64) {
-    let (x, y) = col_pair(A, src, dst);
-    for (yi, xi) in y.iter_mut().zip(x) {
+    let (left, mut right) = A.as_mut().split_at_col_mut(dst);
+    let x = left.rb().col(src);
+    let mut y = right.rb_mut().col_mut(0);
+    for (yi, xi) in y.rb_mut().iter_mut().zip(x.iter()) {
         *yi -= r * xi;
     }
 }
