@@ -254,10 +254,7 @@ mod tests {
         let set = modal_superposition(&modes, &[0, 3], &lines(20.0, 260.0, 0.25), 0.01, 5);
         let d = FrfData::from_set(&set, None, Weighting::Uniform).unwrap();
         let noise = noise_variance(&d);
-        let all: Vec<_> = modes
-            .iter()
-            .map(|m| pole(m.frequency_hz, m.damping_ratio))
-            .collect();
+        let all = poles(&modes);
         let fit = lsfd(&d, &all).unwrap();
         // Additive noise only: the relative error is small (ε ≪ 1 %).
         let eps2 = relative_noise(&d, &noise);
@@ -265,6 +262,14 @@ mod tests {
         assert!(residual_peaks(&d, &fit.reconstructed, &noise, eps2).is_empty());
         let missing = missing_without_140_hz(&d, &all, &noise, eps2);
         assert!(missing.contains("Hz"));
+    }
+
+    /// The poles λ of the synthetic modes.
+    fn poles(modes: &[crate::ema::synthetic::SyntheticMode]) -> Vec<Complex64> {
+        modes
+            .iter()
+            .map(|m| pole(m.frequency_hz, m.damping_ratio))
+            .collect()
     }
 
     /// Fits all poles but the 140 Hz one and returns the one missing-mode
@@ -300,10 +305,7 @@ mod tests {
             *h *= Complex64::new(1.0, 0.0) + 0.05 * e;
         }
         let noise = noise_variance(&d);
-        let all: Vec<_> = modes
-            .iter()
-            .map(|m| pole(m.frequency_hz, m.damping_ratio))
-            .collect();
+        let all = poles(&modes);
         let fit = lsfd(&d, &all).unwrap();
         assert!(
             residual_peaks(&d, &fit.reconstructed, &noise, 0.0)
