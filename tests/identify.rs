@@ -82,7 +82,7 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
     assert_eq!(cost.optimizer, "slsqp");
     let params = ws.read("results/id/fit/parameters.csv");
     assert!(params.starts_with(
-        "parameter,value,lower,upper,initial,identified,identifiable,std_error,ci_low,ci_high\n"
+        "parameter,value,lower,upper,initial,identified,identifiable,std_error,std_error_with_fixed,ci_low,ci_high,score,implicated,suggested_change\n"
     ));
     // The start is the model file's nominal value; exact data determine
     // every stiffness: a standard error and an interval around the value.
@@ -91,8 +91,8 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
     assert_eq!((k1[5], k1[6]), ("true", "true"));
     let (v, lo, hi): (f64, f64, f64) = (
         k1[1].parse().unwrap(),
-        k1[8].parse().unwrap(),
         k1[9].parse().unwrap(),
+        k1[10].parse().unwrap(),
     );
     assert!(lo <= v && v <= hi && (hi - lo) < 0.01 * v, "{k1:?}");
     // The verdict: converged, within the noise, every mode paired.

@@ -298,7 +298,7 @@ fn race(
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::dynamics::solve::ModeSelection;
     use crate::frf::{FrfQuantity, FrfSet};
@@ -310,7 +310,7 @@ mod tests {
 
     /// The three-mass chain's receptances at `x` (10–400 Hz, 0.5 Hz), with
     /// complex Gaussian noise of `noise` × each channel's RMS.
-    fn measured(prepared: &PreparedModel, x: &[f64], noise: f64, seed: u64) -> FrfSet {
+    pub(crate) fn measured(prepared: &PreparedModel, x: &[f64], noise: f64, seed: u64) -> FrfSet {
         let f: Vec<f64> = (20..=800).map(|k| k as f64 * 0.5).collect();
         let sol = prepared
             .evaluate_modes(0, x, ModeSelection::Below(800.0))

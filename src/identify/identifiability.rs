@@ -37,7 +37,7 @@ use serde::{Deserialize, Serialize};
 
 /// Singular values below this fraction of the largest are structural zeros
 /// (eigenvalues of JᵀJ below its square).
-const STRUCTURAL: f64 = 1e-6;
+pub(crate) const STRUCTURAL: f64 = 1e-6;
 
 /// Smallest |v_ik| for a parameter to share a structural null direction.
 const IN_NULL_SPACE: f64 = 0.05;

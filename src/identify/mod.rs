@@ -22,10 +22,13 @@
 //! Results are deterministic for a seed whatever the thread count: the only
 //! parallel part is the evaluation of a batch of points.
 
+pub mod assessment;
 pub mod black_box;
+pub mod consider;
 pub mod continuation;
 pub mod correspondence;
 pub mod damping;
+pub mod follow_up;
 pub mod frf_objective;
 pub mod frf_refinement;
 pub mod guided;

@@ -113,10 +113,55 @@ pub struct Verdict {
     /// The FRF fit at the modal result and at the end, when FRFs were given.
     #[serde(default)]
     pub frf: Option<FrfJudgement>,
+    /// Fixed parameters the score test implicates at the result
+    /// ([`super::consider`]), with the change the data point to.
+    #[serde(default)]
+    pub implicated: Vec<String>,
+    /// Why the verdict is not ok (`none` when it is).
+    #[serde(default)]
+    pub cause: Cause,
     /// One line a person reads first.
     pub message: String,
     /// Everything else worth a look.
     pub warnings: Vec<String>,
+}
+
+/// Why a verdict is not ok, the first that applies in this order.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Cause {
+    /// It is ok.
+    #[default]
+    None,
+    /// The budget ran out before the fit converged.
+    Budget,
+    /// The residual points at parameters the update held fixed (score
+    /// test): the screening left out something these data see.
+    ScreenedOut,
+    /// A further search from other starts found a better fit (taken), so
+    /// the landscape has other minima and the result may still be one.
+    LocalMinimum,
+    /// Above the noise, no fixed parameter implicated, and further starts
+    /// end no better: the model cannot reproduce the data (form, damping
+    /// model, the test itself).
+    ModelError,
+    /// Above the noise with nothing implicated, and no further search ran
+    /// (no budget left, or no strategy for one): a local minimum and model
+    /// error are not told apart.
+    NotSearched,
+    /// Within the noise, but reference modes are not reproduced (modes the
+    /// model lacks, spurious or wrongly paired estimates).
+    UnreproducedModes,
+    /// The result fits worse than its start, or the optimizer stalled.
+    Optimizer,
+}
+
+/// What the update learned about its own search, for naming the cause.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SearchEvidence {
+    /// A further search ran because the fit ended above the noise; `Some(true)`
+    /// when it found a better fit.
+    pub escaped: Option<bool>,
 }
 
 /// The FRF part of a verdict.
@@ -162,11 +207,11 @@ impl FrfJudgement {
                 self.end.mean_frac
             ),
             (Fit::AboveNoise, true) => format!(
-                "FRF residual {e:.1}σ RMS (from {s:.1}σ) is above the noise and smooth along frequency (lag-1 correlation {:.2}): a systematic misfit — model error, damping model or leakage of the test",
+                "FRF residual {e:.1}σ RMS (from {s:.1}σ) is above the noise and smooth along frequency (lag-1 correlation {:.2}): a systematic misfit, not noise",
                 self.end.lag1
             ),
             (Fit::AboveNoise, false) => format!(
-                "FRF residual {e:.1}σ RMS (from {s:.1}σ) is above the measured noise: model error or a local minimum"
+                "FRF residual {e:.1}σ RMS (from {s:.1}σ) is above the measured noise"
             ),
         }
     }
@@ -209,7 +254,7 @@ impl Verdict {
                 "residual {end_rms:.2}σ RMS: the model reproduces the reference within its uncertainty"
             ),
             Fit::AboveNoise => format!(
-                "residual {end_rms:.1}σ RMS is above the reference's uncertainty (start {start_rms:.1}σ): model error, wrongly paired modes or a local minimum"
+                "residual {end_rms:.1}σ RMS is above the reference's uncertainty (start {start_rms:.1}σ)"
             ),
         });
         if worse {
@@ -250,9 +295,12 @@ impl Verdict {
             identified,
             identifiable,
             frf: None,
+            implicated: Vec::new(),
+            cause: Cause::None,
             message: parts.join("; "),
             warnings,
         }
+        .classified(SearchEvidence::default())
     }
 }
 
@@ -286,6 +334,70 @@ impl Verdict {
             warnings,
             ..self
         }
+        .classified(SearchEvidence::default())
+    }
+
+    /// The verdict with the score test's implicated fixed parameters
+    /// (`(name, change of ln p, statistic)`, largest first): not ok, and
+    /// they are named in the message.
+    pub fn with_implicated(mut self, implicated: &[(String, f64, f64)]) -> Verdict {
+        if implicated.is_empty() {
+            return self;
+        }
+        self.ok = false;
+        let named: Vec<String> = implicated
+            .iter()
+            .map(|(name, change, t)| {
+                format!("{name} ({:+.0} %, χ² {t:.0})", 100.0 * change.exp_m1())
+            })
+            .collect();
+        self.message.push_str(&format!(
+            "; the residual points at parameter{} the update held fixed: {} — the screening left out what these data see; identify {} too (`refit_implicated`) or check the model file's values",
+            if named.len() == 1 { "" } else { "s" },
+            named.join(", "),
+            if named.len() == 1 { "it" } else { "them" },
+        ));
+        self.implicated = implicated.iter().map(|i| i.0.clone()).collect();
+        self.classified(SearchEvidence::default())
+    }
+
+    /// The message with the cause named (once, at the end of an update).
+    pub fn explained(mut self) -> Verdict {
+        let why = match self.cause {
+            Cause::None => return self,
+            Cause::Budget => "cause: the budget ran out before the fit converged — give more",
+            Cause::ScreenedOut => "cause: parameters the screening left fixed (named above)",
+            Cause::LocalMinimum => "cause: a local minimum — a further search from other starts found a better fit (taken), so this one may not be the best either; more `restarts` or a larger budget",
+            Cause::ModelError => "cause: model error — further starts end no better and no fixed parameter is implicated: the model's form, its damping model or the test itself (leakage, attachments) differs from the structure",
+            Cause::NotSearched => "cause: not told apart — the fit ends above the noise with no fixed parameter implicated, and no further search from other starts ran (budget or strategy), so a local minimum and model error are both possible",
+            Cause::UnreproducedModes => "cause: reference modes the model does not reproduce (named in the warnings)",
+            Cause::Optimizer => "cause: the optimizer did not converge (stalled or ended worse than its start)",
+        };
+        self.message = format!("{}; {why}", self.message);
+        self
+    }
+
+    /// Name the cause (see [`Cause`]) from the verdict and the `evidence`
+    /// of a further search.
+    pub fn classified(mut self, evidence: SearchEvidence) -> Verdict {
+        self.cause = if self.ok {
+            Cause::None
+        } else if self.status == Status::BudgetExhausted {
+            Cause::Budget
+        } else if !self.implicated.is_empty() {
+            Cause::ScreenedOut
+        } else if self.fit == Fit::AboveNoise {
+            match evidence.escaped {
+                Some(true) => Cause::LocalMinimum,
+                Some(false) => Cause::ModelError,
+                None => Cause::NotSearched,
+            }
+        } else if self.worse_than_start || self.status == Status::Stalled {
+            Cause::Optimizer
+        } else {
+            Cause::UnreproducedModes
+        };
+        self
     }
 }
 
@@ -386,6 +498,61 @@ mod tests {
         let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
             .with_frf(Status::Converged, f);
         assert!(!v.ok && v.worse_than_start && v.message.contains("WORSE"));
+    }
+
+    /// The cause named for each kind of failure, in its order of precedence.
+    #[test]
+    fn the_cause_is_classified_on_small_cases() {
+        let ok = Verdict::judge(Status::Converged, 9.0, 0.5, counts(), 5, 5, vec![]);
+        assert_eq!(ok.cause, Cause::None);
+        // Implicated fixed parameters: not ok, named, whatever the fit.
+        let v = ok
+            .clone()
+            .with_implicated(&[("colj.k_x".into(), 0.25f64.ln_1p(), 80.0)]);
+        assert!(!v.ok && v.cause == Cause::ScreenedOut, "{v:?}");
+        assert!(v.message.contains("colj.k_x (+25 %"), "{}", v.message);
+        assert_eq!(v.implicated, ["colj.k_x"]);
+        // The budget comes first.
+        let b = Verdict::judge(Status::BudgetExhausted, 9.0, 5.0, counts(), 5, 5, vec![])
+            .with_implicated(&[("a".into(), 0.1, 30.0)]);
+        assert_eq!(b.cause, Cause::Budget);
+        // Above the noise: a further start that won names a local minimum;
+        // one that did not, model error.
+        let above = Verdict::judge(Status::Converged, 9.0, 5.0, counts(), 5, 5, vec![]);
+        let escaped = SearchEvidence {
+            escaped: Some(true),
+        };
+        let held = SearchEvidence {
+            escaped: Some(false),
+        };
+        assert_eq!(above.clone().classified(escaped).cause, Cause::LocalMinimum);
+        let model = above.clone().classified(held).explained();
+        assert_eq!(model.cause, Cause::ModelError);
+        assert!(
+            model.message.contains("cause: model error"),
+            "{}",
+            model.message
+        );
+        // No further search: not told apart, and the message says so.
+        let unsearched = above.classified(SearchEvidence::default()).explained();
+        assert_eq!(unsearched.cause, Cause::NotSearched);
+        assert!(
+            unsearched.message.contains("not told apart"),
+            "{}",
+            unsearched.message
+        );
+        // Within the noise but a mode lost.
+        let lost = ModeCounts {
+            unpaired: 1,
+            ..counts()
+        };
+        let v = Verdict::judge(Status::Converged, 9.0, 1.0, lost, 5, 5, vec![]);
+        assert_eq!(v.cause, Cause::UnreproducedModes);
+        // Worse than the start within the noise: the optimizer.
+        let w = Verdict::judge(Status::Converged, 0.5, 0.9, counts(), 5, 5, vec![]);
+        assert_eq!(w.cause, Cause::Optimizer);
+        // An ok verdict's message gets no cause.
+        assert_eq!(ok.clone().explained().message, ok.message);
     }
 
     #[test]

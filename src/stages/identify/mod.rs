@@ -87,8 +87,11 @@ impl Kind for Identify {
     /// (issue 31); uncalibrated FRFs and reference modes without damping
     /// are refused; the verdict names the reference modes left without a
     /// model partner (modes the model does not contain).
+    /// 14: consider covariance of the fixed parameters in the intervals,
+    /// their score tests, refit of implicated ones, the escape search, the
+    /// verdict's cause (issue 26).
     fn version(&self) -> u32 {
-        13
+        14
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -275,6 +278,8 @@ impl Kind for Identify {
             visibility: spec.observability,
             exclude: &spec.exclude,
             max_std_error: spec.max_std_error,
+            fixed_spread: spec.fixed_spread,
+            refit_implicated: spec.refit_implicated,
         };
         let mut u = update(&mut objective, &plan, &progress).map_err(|e| match e {
             crate::identify::IdentifyError::Invalid(m) => StageError::InvalidInput {

@@ -10,6 +10,9 @@ use crate::stages::StageError;
 use std::fmt::Write as _;
 use std::path::Path;
 
+/// What the intervals assume (identifiability.json, the report).
+pub const ASSUMPTIONS: &str = "Linearized (Gauss–Newton) at the result; residuals scaled by the reference's stated uncertainty and by the residual variance when it is larger; the parameters held fixed vary as `fixed_spread` says (default: uniform over their bounds), conditioned on what the data say of them, and their effect is carried in linearly (consider covariance); intervals are cut at the parameter's bounds; the model's form is right. `std_error` alone assumes the fixed parameters exact.";
+
 /// z of a two-sided 95 % interval.
 const Z95: f64 = 1.959_963_984_540_054;
 
@@ -23,9 +26,10 @@ fn finite(v: Option<f64>) -> Option<f64> {
     v.filter(|v| !v.is_nan())
 }
 
-/// parameters.csv ([`ParameterRow`]): `std_error` is relative (of ln p);
-/// the interval is p·exp(∓1.96 σ) — both only for parameters the data
-/// determine.
+/// parameters.csv ([`ParameterRow`]): `std_error` is relative (of ln p),
+/// the fixed parameters taken as exact; `std_error_with_fixed` carries their
+/// assumed spread in and gives the interval p·exp(∓1.96 σ) — both only for
+/// parameters the data determine. Fixed parameters get the score test.
 pub fn parameters_csv(o: &ModalObjective, u: &Update) -> Result<String, StageError> {
     let rows: Vec<ParameterRow> = o
         .parameters()
@@ -39,6 +43,16 @@ pub fn parameters_csv(o: &ModalObjective, u: &Update) -> Result<String, StageErr
                 .position(|&k| k == i)
                 .map(|j| &u.identifiability.parameters[j]);
             let se = analysis.and_then(|a| a.std_error).filter(|s| s.is_finite());
+            let j = u.identified.iter().position(|&k| k == i);
+            let with_fixed = match (&u.consider, j, se) {
+                (Some(c), Some(j), Some(_)) => Some(c.std_error[j]).filter(|s| s.is_finite()),
+                (None, _, se) => se,
+                _ => None,
+            };
+            let test = u
+                .consider
+                .as_ref()
+                .and_then(|c| c.fixed.iter().find(|f| f.parameter == p.name));
             ParameterRow {
                 parameter: p.name.clone(),
                 value: v,
@@ -48,8 +62,13 @@ pub fn parameters_csv(o: &ModalObjective, u: &Update) -> Result<String, StageErr
                 identified: analysis.is_some(),
                 identifiable: analysis.map(|a| a.identifiable),
                 std_error: se,
-                ci_low: se.map(|s| v * (-Z95 * s).exp()),
-                ci_high: se.map(|s| v * (Z95 * s).exp()),
+                std_error_with_fixed: with_fixed,
+                // Within the bounds: the update cannot leave them.
+                ci_low: with_fixed.map(|s| (v * (-Z95 * s).exp()).max(p.lower)),
+                ci_high: with_fixed.map(|s| (v * (Z95 * s).exp()).min(p.upper)),
+                score: test.map(|t| t.statistic),
+                implicated: test.map(|t| t.implicated),
+                suggested_change: test.map(|t| t.change.exp_m1()),
             }
         })
         .collect();
@@ -100,6 +119,8 @@ pub fn identifiability_json(u: &Update) -> Result<String, StageError> {
             .iter()
             .map(|c| c.describe())
             .collect(),
+        fixed: u.consider.clone(),
+        assumptions: ASSUMPTIONS.to_string(),
     };
     serde_json::to_string_pretty(&file)
         .map(|t| t + "\n")

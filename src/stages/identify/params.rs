@@ -172,6 +172,13 @@ crate::params! {
         /// determine
         pub max_std_error: f64 = 0.1; range Range::above(0.0)
             => "`max_std_error` must be > 0", "e.g. max_std_error: 0.1 (10 %)",
+        /// relative standard deviation assumed for every parameter the update
+        /// holds fixed, carried into the identified ones' intervals (consider
+        /// covariance); default: uniform over each one's bounds; 0: exact
+        pub fixed_spread: Option<f64> = None; range Range::at_least(0.0),
+        /// identify too, and refit, the fixed parameters the score test
+        /// implicates (the residual points at them)
+        pub refit_implicated: bool = true,
         /// seed of the random starts (default: the pipeline's seed)
         pub seed: Option<u64> = None,
         /// reference position indices to use, e.g. [0, 2] (default all)
@@ -204,6 +211,9 @@ pub struct Spec {
     pub uncertainty: Uncertainty,
     pub observability: f64,
     pub max_std_error: f64,
+    /// σ of ln p of every fixed parameter (`None`: from its bounds).
+    pub fixed_spread: Option<f64>,
+    pub refit_implicated: bool,
     pub positions: Option<Vec<u32>>,
     pub frf_refinement: FrfRefinementParams,
     pub frf_band: (f64, f64),
@@ -344,6 +354,9 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
             uncertainty: p.uncertainty,
             observability: p.observability,
             max_std_error: p.max_std_error,
+            // A relative σ r is σ of ln p ≈ ln(1 + r).
+            fixed_spread: p.fixed_spread.map(f64::ln_1p),
+            refit_implicated: p.refit_implicated,
             positions: p.positions.clone(),
             frf_refinement: p.frf_refinement.clone(),
             frf_band,

@@ -19,11 +19,27 @@ pub struct ParameterRow {
     pub identified: bool,
     /// Determined by the data (identified parameters only).
     pub identifiable: Option<bool>,
-    /// Relative standard error (of ln p), identifiable parameters only.
+    /// Relative standard error (of ln p) from the data alone, every fixed
+    /// parameter taken as exact; identifiable parameters only.
     pub std_error: Option<f64>,
-    /// 95 % interval p·exp(∓1.96 σ).
+    /// Relative standard error (of ln p) with the fixed parameters' assumed
+    /// spread carried in (consider covariance; `fixed_spread`).
+    #[serde(default)]
+    pub std_error_with_fixed: Option<f64>,
+    /// 95 % interval p·exp(∓1.96 σ) with σ = `std_error_with_fixed` (absolute,
+    /// in the parameter's unit).
     pub ci_low: Option<f64>,
     pub ci_high: Option<f64>,
+    /// Fixed parameters: the score test's χ²₁ statistic (is its value right?).
+    #[serde(default)]
+    pub score: Option<f64>,
+    /// Fixed parameters: the residual points at it (score test above the
+    /// Bonferroni-corrected quantile).
+    #[serde(default)]
+    pub implicated: Option<bool>,
+    /// Fixed parameters: the relative change the data point to (linearized).
+    #[serde(default)]
+    pub suggested_change: Option<f64>,
 }
 
 /// One row of correlation.csv: a reference mode, its partner among the
@@ -71,6 +87,12 @@ pub struct IdentifiabilityFile {
     pub analysis: Identifiability,
     #[serde(default)]
     pub undetermined_text: Vec<String>,
+    /// The fixed parameters at the result: consider spreads and score tests.
+    #[serde(default)]
+    pub fixed: Option<crate::identify::consider::Consider>,
+    /// What the intervals of parameters.csv assume, in words.
+    #[serde(default)]
+    pub assumptions: String,
 }
 
 impl IdentifiabilityFile {

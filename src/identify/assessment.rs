@@ -1,0 +1,341 @@
+//! The assessment of an update at its result: the final pairing with its
+//! margins (ambiguous, unpaired and close pairs named), the weighted
+//! residual at the start and the result, the identifiability of the
+//! identified parameters and the consider analysis of the fixed ones
+//! ([`super::consider`]), all from one batch of model evaluations.
+
+use super::consider::{bounds_spread, consider, Consider};
+use super::frf_objective::FrfReference;
+use super::identifiability::{analyze, Identifiability};
+use super::objective::{Match, ModalObjective, SlotPairing};
+use super::updating::{FinalPair, Plan};
+use super::verdict::ModeCounts;
+use super::IdentifyError;
+use crate::optimize::jacobian;
+use rayon::prelude::*;
+
+/// What [`assess`] finds: (identifiability, consider analysis, its cost in
+/// evaluations), the final pairs, (start RMS, end RMS, mode counts) and the
+/// close-pair and unpaired-mode warnings.
+pub(super) type Assessment = (
+    (Identifiability, Option<Consider>, usize),
+    Vec<Vec<FinalPair>>,
+    (f64, f64, ModeCounts),
+    Vec<String>,
+);
+
+/// The final pairing with margins, the weighted-residual RMS at the start
+/// and the result, and the identifiability of `identified` at `x`.
+pub(super) fn assess(
+    o: &ModalObjective,
+    start: &[f64],
+    x: &[f64],
+    identified: &[usize],
+    plan: &Plan,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Assessment, IdentifyError> {
+    let usable = o.usable();
+    let rms = |e: &Option<super::objective::Evaluation>| {
+        e.as_ref().map_or(f64::NAN, |e| {
+            (2.0 * e.robust_usable / e.count_usable.max(1) as f64).sqrt()
+        })
+    };
+    let at_start = o.evaluate(start, &usable);
+    let at_x = o.evaluate(x, &usable);
+    let models = o.model_modes(x)?;
+    progress(3);
+    let matched = o.pair(&models, &usable);
+    let mut counts = ModeCounts {
+        reference: (0..o.positions()).map(|p| o.modes_at(p)).sum(),
+        used: o.reference_modes(),
+        ..ModeCounts::default()
+    };
+    counts.excluded = counts.reference - counts.used;
+    let mut pairs = Vec::new();
+    let mut close = Vec::new();
+    for (p, model) in models.iter().enumerate() {
+        let SlotPairing {
+            idx,
+            rf,
+            mf,
+            pairs: found,
+            margins: m,
+            ..
+        } = o.pair_with_margins(p, model, &usable);
+        let mut slot: Vec<FinalPair> = (0..o.modes_at(p))
+            .map(|k| FinalPair {
+                matched: matched[p][k],
+                margin: f64::INFINITY,
+            })
+            .collect();
+        for (pair, margin) in found.iter().zip(m) {
+            slot[idx[pair.reference]].margin = margin;
+            if margin < o.pairing.ambiguity {
+                counts.ambiguous += 1;
+            }
+        }
+        counts.unpaired += idx.iter().filter(|&&k| matched[p][k].is_none()).count();
+        close.extend(unpaired_text(p, &idx, &rf, &matched[p]));
+        close.extend(unresolved_pairs(p, &mf, &rf, &matched[p]));
+        pairs.push(slot);
+    }
+    let frf = plan.frf.map(|(r, _)| r);
+    let fixed = fixed_parameters(o, x, identified, plan.fixed_spread);
+    let identifiability =
+        identifiability_at(o, x, identified, &fixed, plan.max_std_error, frf, progress)?;
+    Ok((
+        identifiability,
+        pairs,
+        (rms(&at_start), rms(&at_x), counts),
+        close,
+    ))
+}
+
+/// The used reference modes at position `p` without a model partner at the
+/// result, named with their frequencies (`idx`: reference mode numbers,
+/// `rf`: their Hz): on real structures these are usually modes the model
+/// does not contain (a support or fixture mode, a mode the test added), so
+/// they are listed rather than absorbed by the parameters.
+fn unpaired_text(p: usize, idx: &[usize], rf: &[f64], matched: &[Option<Match>]) -> Option<String> {
+    let names: Vec<String> = idx
+        .iter()
+        .zip(rf)
+        .filter(|(&k, _)| matched.get(k).is_some_and(|m| m.is_none()))
+        .map(|(&k, f)| format!("mode {} ({f:.2} Hz)", k + 1))
+        .collect();
+    (!names.is_empty()).then(|| {
+        format!(
+            "position {p}: reference {} without a model partner at the result: {} — modes the \
+             model does not contain, or spurious estimates; no parameter was fitted to them",
+            if names.len() == 1 { "mode" } else { "modes" },
+            names.join(", ")
+        )
+    })
+}
+
+/// Model modes closer than this (relative frequency) to a paired one are a
+/// close pair: with the test bench's ζ ≈ 5 % both lie well inside one
+/// half-power bandwidth (2ζ), and an EMA at 1–2 % noise often fits them as
+/// one mode.
+const CLOSE_PAIR: f64 = 0.03;
+
+/// Warnings for close pairs the reference does not resolve at position
+/// `p`: an unpaired model mode (frequencies `mf`) inside the reference's
+/// band (`rf`) within [`CLOSE_PAIR`] of a model mode that pairs with a
+/// reference mode. The fit cannot see how the pair splits, so neither
+/// shape of it is validated by the data.
+fn unresolved_pairs(p: usize, mf: &[f64], rf: &[f64], matched: &[Option<Match>]) -> Vec<String> {
+    let paired: Vec<(usize, usize)> = matched
+        .iter()
+        .enumerate()
+        .filter_map(|(r, m)| m.map(|m| (m.model_mode, r)))
+        .collect();
+    let (lo, hi) = rf
+        .iter()
+        .fold((f64::INFINITY, 0.0_f64), |(a, b), &f| (a.min(f), b.max(f)));
+    let mut out = Vec::new();
+    for (j, &fj) in mf.iter().enumerate() {
+        let inside = fj >= lo * (1.0 - CLOSE_PAIR) && fj <= hi * (1.0 + CLOSE_PAIR);
+        if !inside || paired.iter().any(|&(i, _)| i == j) {
+            continue;
+        }
+        let nearest = paired
+            .iter()
+            .map(|&(i, r)| (i, r, (fj / mf[i] - 1.0).abs()))
+            .filter(|&(_, _, d)| d < CLOSE_PAIR)
+            .min_by(|a, b| a.2.total_cmp(&b.2));
+        if let Some((i, r, d)) = nearest {
+            out.push(format!(
+                "position {p}: model mode {} ({fj:.2} Hz) lies {:.1} % from model mode {} ({:.2} Hz), which pairs with reference mode {}; the reference has one mode where the model has two (a close pair the measurement does not resolve), so neither shape of the pair is validated",
+                j + 1,
+                100.0 * d,
+                i + 1,
+                mf[i],
+                r + 1
+            ));
+        }
+    }
+    out
+}
+
+/// The identifiability of `identified` at `x` from a central-difference
+/// Jacobian of the weighted residuals (frequencies, shapes and damping
+/// ratios of the usable modes, and the FRF residuals of `frf` when given)
+/// with respect to ln p, and the consider analysis of the `fixed`
+/// parameters (index, assumed σ of ln p; [`super::consider`]) from the same
+/// Jacobian extended to them: one batch of 2·(identified + fixed)
+/// evaluations (+1 at `x`).
+pub(super) fn identifiability_at(
+    o: &ModalObjective,
+    x: &[f64],
+    identified: &[usize],
+    fixed: &[(usize, f64)],
+    max_std_error: f64,
+    frf: Option<&FrfReference>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Identifiability, Option<Consider>, usize), IdentifyError> {
+    let usable = o.usable();
+    let full = o.bounds()?;
+    let cols: Vec<usize> = identified
+        .iter()
+        .copied()
+        .chain(fixed.iter().map(|f| f.0))
+        .collect();
+    let u = full.to_unit(x);
+    // Residuals with the Jacobian's coordinates `cols` taken from `s`.
+    let residuals = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
+        let v: Vec<_> = points
+            .par_iter()
+            .map(|s| {
+                let mut unit = u.clone();
+                for (j, &i) in cols.iter().enumerate() {
+                    unit[i] = s[j];
+                }
+                let phys = full.to_physical(&unit);
+                let mut p = x.to_vec();
+                for &i in &cols {
+                    p[i] = phys[i];
+                }
+                let e = o.evaluate(&p, &usable)?;
+                let mut r = e.residuals;
+                r.extend(e.damping);
+                if let Some(frf) = frf {
+                    r.extend(frf.residuals(o.prepared(), &p)?);
+                }
+                Some(r)
+            })
+            .collect();
+        progress(points.len() as u64);
+        v
+    };
+    let sub_u: Vec<f64> = cols.iter().map(|&i| u[i]).collect();
+    let r0 = residuals(std::slice::from_ref(&sub_u))
+        .pop()
+        .flatten()
+        .ok_or_else(|| IdentifyError::Model("the model cannot be solved at the result".into()))?;
+    let columns_u = jacobian::central(&residuals, &sub_u, &r0, 1e-4);
+    // ∂r/∂ln p = ∂r/∂u · du/d ln p.
+    let mut columns: Vec<Vec<f64>> = columns_u
+        .into_iter()
+        .zip(&cols)
+        .map(|(col, &i)| {
+            let (l, h) = (full.lower()[i], full.upper()[i]);
+            let du_dlnp = full.scale()[i].du_dln_x(x[i], l, h);
+            col.into_iter().map(|v| v * du_dlnp).collect()
+        })
+        .collect();
+    let fixed_columns = columns.split_off(identified.len());
+    let name = |i: &usize| o.parameters()[*i].name.clone();
+    let names: Vec<String> = identified.iter().map(name).collect();
+    let analysis = analyze(&columns, &r0, &names, max_std_error);
+    let considered = (!fixed.is_empty()).then(|| {
+        let fixed_names: Vec<String> = fixed.iter().map(|f| name(&f.0)).collect();
+        let spreads: Vec<f64> = fixed.iter().map(|f| f.1).collect();
+        consider(
+            &columns,
+            &fixed_columns,
+            &r0,
+            &fixed_names,
+            &spreads,
+            analysis.residual_variance.unwrap_or(1.0),
+        )
+    });
+    Ok((analysis, considered, 2 * cols.len() + 1))
+}
+
+/// The parameters `identified` leaves fixed, with the spread each is
+/// assumed to have (σ of ln p): `spread` for all when given, else uniform
+/// over its bounds ([`super::consider::bounds_spread`]). Parameters with
+/// equal bounds are left out: the model file declares them exact.
+fn fixed_parameters(
+    o: &ModalObjective,
+    x: &[f64],
+    identified: &[usize],
+    spread: Option<f64>,
+) -> Vec<(usize, f64)> {
+    o.parameters()
+        .iter()
+        .enumerate()
+        .filter(|(i, p)| !identified.contains(i) && p.upper > p.lower)
+        .map(|(i, p)| {
+            let s = spread.unwrap_or_else(|| {
+                bounds_spread(
+                    x[i],
+                    p.lower,
+                    p.upper,
+                    p.scale == crate::parameter::Scale::Log,
+                )
+            });
+            (i, s)
+        })
+        .collect()
+}
+
+/// Warnings for identified parameters that ended at a bound.
+pub(super) fn bound_warnings(o: &ModalObjective, x: &[f64], identified: &[usize]) -> Vec<String> {
+    let full = match o.bounds() {
+        Ok(b) => b,
+        Err(_) => return Vec::new(),
+    };
+    let u = full.to_unit(x);
+    identified
+        .iter()
+        .filter(|&&i| !(1e-6..=1.0 - 1e-6).contains(&u[i]))
+        .map(|&i| {
+            let p = &o.parameters()[i];
+            let side = if u[i] < 0.5 { "lower" } else { "upper" };
+            format!(
+                "{} ended at its {side} bound ({:e}): the bounds may be too tight or the model cannot represent the reference",
+                p.name, x[i]
+            )
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn paired(model_mode: usize) -> Option<Match> {
+        Some(Match {
+            model_mode,
+            frequency_hz: 0.0,
+            damping_ratio: 0.05,
+            mac: 1.0,
+        })
+    }
+
+    /// Unpaired used reference modes are named with their numbers and
+    /// frequencies; excluded modes (not in `idx`) and paired ones are not.
+    #[test]
+    fn unpaired_reference_modes_are_named() {
+        let idx = [0, 2, 3];
+        let rf = [17.1, 118.9, 155.5];
+        let matched = [paired(0), None, None, paired(2)];
+        let w = unpaired_text(0, &idx, &rf, &matched).unwrap();
+        assert!(w.contains("reference mode without a model partner"), "{w}");
+        assert!(
+            w.contains("mode 3 (118.90 Hz)") && !w.contains("mode 2 "),
+            "{w}"
+        );
+        assert!(!w.contains("17.10") && !w.contains("155.50"), "{w}");
+        assert!(unpaired_text(0, &[0], &[17.1], &[paired(0)]).is_none());
+    }
+
+    #[test]
+    fn a_model_pair_seen_as_one_reference_mode_is_named() {
+        // Model: 40, 72.1, 72.9 (1.1 % apart), 100, 150 Hz; the reference
+        // sees 40, 72.5 and 100 Hz, paired with model modes 1, 2 and 4.
+        let mf = [40.0, 72.1, 72.9, 100.0, 150.0];
+        let rf = [40.0, 72.5, 100.0];
+        let w = unresolved_pairs(0, &mf, &rf, &[paired(0), paired(1), paired(3)]);
+        assert_eq!(w.len(), 1, "{w:?}");
+        assert!(w[0].contains("model mode 3 (72.90 Hz)") && w[0].contains("reference mode 2"));
+        // 150 Hz is outside the reference band, 100 Hz is paired: no more.
+        let all = unresolved_pairs(0, &mf, &rf, &[paired(0), paired(1), paired(3)]);
+        assert!(!all.iter().any(|m| m.contains("150")));
+        // Well separated unpaired modes are not close pairs.
+        let apart = unresolved_pairs(0, &[40.0, 60.0, 100.0], &rf, &[paired(0), None, paired(2)]);
+        assert!(apart.is_empty(), "{apart:?}");
+    }
+}

@@ -1,0 +1,513 @@
+//! The parameters an update left fixed, at its result: how much their own
+//! spread widens the identified parameters' uncertainty (the **consider
+//! covariance**), and whether the residual points at any of them (the
+//! **score test**).
+//!
+//! Every update identifies a subset θ of the model's parameters (the
+//! screening's significant ones) and holds the others, c, at their file
+//! values. The Gauss–Newton covariance of θ ([`super::identifiability`])
+//! assumes those values exact. On a real machine they are not: the
+//! screening only said they matter little *over their whole box*.
+//!
+//! **Consider covariance** (Tapley, Schutz & Born 2004, "Statistical Orbit
+//! Determination", §6.3; Bard 1974 §7-9). With J_θ, J_c the Jacobians of
+//! the whitened residuals r (σ units) with respect to ln θ and ln c,
+//! G = J_θᵀJ_θ and G⁺ its pseudo-inverse over the determined directions, a
+//! change δc moves the least-squares estimate by δθ̂ = S δc with
+//!
+//! S = −G⁺ J_θᵀ J_c,
+//!
+//! so with P_c = diag(σ_c²) the spread assumed for the fixed parameters
+//! the textbook consider covariance is C = σ̂² G⁺ + S P_c Sᵀ. The data
+//! themselves say something of c, through the part of their columns θ
+//! cannot absorb, A = (I − J_θ G⁺ J_θᵀ) J_c; conditioned on it, c's
+//! spread is Σ_c = (AᵀA/s² + P_c⁻¹)⁻¹ and
+//!
+//! C = σ̂² G⁺ + S Σ_c Sᵀ,
+//!
+//! which for a linear model with Gaussian noise and prior is exactly the
+//! marginal posterior covariance of θ with c integrated out (the θθ block
+//! of (JᵀJ + diag(0, P_c⁻¹))⁻¹, by the block-inverse identity): a fixed
+//! parameter the data cannot see passes its whole spread on, one they see
+//! passes on only what they leave open — and if they see it off its
+//! value, the score test below says so.
+//!
+//! By default σ_c is the standard deviation of a value uniform in ln c over
+//! its bounds, ln(upper/lower)/√12 (linear-scale parameters: the same of c
+//! over its bounds, relative to c): "anywhere within the bounds the model
+//! file states". `fixed_spread` replaces it with one relative standard
+//! deviation for all, and 0 restores the assumption that they are exact.
+//!
+//! **Score (Lagrange-multiplier) test** (Rao 1948; Seber & Wild 2003,
+//! "Nonlinear Regression", §5.9.2): is c_j right, with θ re-adjusted? The
+//! part of its column the identified parameters cannot absorb is
+//! a_j = (I − J_θ G⁺ J_θᵀ) J_c,j; the statistic
+//!
+//! T_j = (a_jᵀ r)² / (s² ‖a_j‖²),   s² = max(1, σ̂²),
+//!
+//! is χ²₁ under "c_j is right and the residuals are noise of the stated
+//! size" (s² = σ̂² when the residuals are larger than stated: the test then
+//! asks whether c_j explains them better than their own scatter). A fixed
+//! parameter is **implicated** when T_j exceeds the χ²₁ quantile at the
+//! Bonferroni level α/q over the q fixed parameters (α = 0.05): the data,
+//! with every identified parameter free to compensate, still point at it.
+//! Its linearized best change is δ ln c_j = −a_jᵀr/‖a_j‖².
+
+#![allow(non_snake_case)]
+
+use super::identifiability::STRUCTURAL;
+use crate::dynamics::eigen::symmetric_eigen;
+use faer::Mat;
+use serde::{Deserialize, Serialize};
+use statrs::distribution::{ChiSquared, ContinuousCDF};
+
+/// Family-wise level of the score test over all fixed parameters.
+pub const ALPHA: f64 = 0.05;
+
+/// What the score test says of one fixed parameter.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FixedParameter {
+    pub parameter: String,
+    /// Standard deviation of ln c assumed for it (the consider spread).
+    pub spread: f64,
+    /// T_j, χ²₁ under "its value is right" (module docs).
+    pub statistic: f64,
+    /// P(χ²₁ ≥ T_j).
+    pub p_value: f64,
+    /// The change of ln c_j that would fit best (linearized), identified
+    /// parameters re-adjusted; 0 when the residual cannot see it.
+    pub change: f64,
+    /// T_j above the Bonferroni-corrected χ²₁ quantile.
+    pub implicated: bool,
+    /// Its largest contribution to an identified parameter's standard error
+    /// (of ln θ): |S_ij| σ_c,j.
+    pub influence: f64,
+}
+
+/// The consider analysis at one point.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Consider {
+    /// Per identified parameter: the standard error of ln θ with the fixed
+    /// parameters' spread included, √C_ii (+∞ in a structural direction).
+    pub std_error: Vec<f64>,
+    /// Per fixed parameter, in the order given.
+    pub fixed: Vec<FixedParameter>,
+    /// The χ²₁ quantile a statistic must exceed to implicate.
+    pub critical: f64,
+}
+
+impl Consider {
+    /// The implicated fixed parameters, largest statistic first.
+    pub fn implicated(&self) -> Vec<&FixedParameter> {
+        let mut v: Vec<&FixedParameter> = self.fixed.iter().filter(|f| f.implicated).collect();
+        v.sort_by(|a, b| b.statistic.total_cmp(&a.statistic));
+        v
+    }
+}
+
+/// The consider covariance and score tests at residuals `r` (σ units) of a
+/// least-squares result: `theta` are the identified parameters' Jacobian
+/// columns (∂r/∂ln θ), `fixed` the fixed parameters' with their `names` and
+/// assumed `spreads` (σ of ln c), `sigma2` the residual variance σ̂² the
+/// data covariance is scaled by (1 when it cannot be estimated).
+pub fn consider(
+    theta: &[Vec<f64>],
+    fixed: &[Vec<f64>],
+    r: &[f64],
+    names: &[String],
+    spreads: &[f64],
+    sigma2: f64,
+) -> Consider {
+    let n = theta.len();
+    let m = r.len();
+    let g_plus = pseudo_inverse(theta);
+    // Jθᵀ x for a residual-space vector x.
+    let project = |x: &[f64]| -> Vec<f64> {
+        theta
+            .iter()
+            .map(|c| c.iter().zip(x).map(|(a, b)| a * b).sum())
+            .collect()
+    };
+    let q = fixed.len();
+    let critical = ChiSquared::new(1.0)
+        .map(|d| d.inverse_cdf(1.0 - ALPHA / q.max(1) as f64))
+        .unwrap_or(f64::INFINITY);
+    let chi2 = ChiSquared::new(1.0).ok();
+    // s_j = −G⁺ Jθᵀ c_j: how the estimate follows c_j; a_j = c_j + Jθ s_j:
+    // the part of its column θ cannot absorb.
+    let follow: Vec<Vec<f64>> = fixed
+        .iter()
+        .map(|col| {
+            let b = project(col);
+            (0..n)
+                .map(|i| -(0..n).map(|k| g_plus[(i, k)] * b[k]).sum::<f64>())
+                .collect()
+        })
+        .collect();
+    let absorbed: Vec<Vec<f64>> = fixed
+        .iter()
+        .zip(&follow)
+        .map(|(col, s)| {
+            (0..m)
+                .map(|t| col[t] + (0..n).map(|i| theta[i][t] * s[i]).sum::<f64>())
+                .collect()
+        })
+        .collect();
+    let s2 = sigma2.max(1.0);
+    let sigma_c = posterior(&absorbed, spreads, s2);
+    let mut variance: Vec<f64> = (0..n).map(|i| sigma2 * g_plus[(i, i)]).collect();
+    for (i, v) in variance.iter_mut().enumerate() {
+        for j in 0..q {
+            for k in 0..q {
+                *v += follow[j][i] * sigma_c[(j, k)] * follow[k][i];
+            }
+        }
+    }
+    let mut out: Vec<FixedParameter> = (0..q)
+        .map(|j| FixedParameter {
+            parameter: names[j].clone(),
+            spread: spreads[j],
+            statistic: 0.0,
+            p_value: 1.0,
+            change: 0.0,
+            implicated: false,
+            influence: follow[j]
+                .iter()
+                .map(|s| (s * sigma_c[(j, j)].max(0.0).sqrt()).abs())
+                .fold(0.0, f64::max),
+        })
+        .collect();
+    let dof = m.saturating_sub(n).max(1) as f64;
+    score_tests(&mut out, absorbed, r, s2, dof, critical);
+    for f in &mut out {
+        f.p_value = chi2.as_ref().map_or(f64::NAN, |d| 1.0 - d.cdf(f.statistic));
+    }
+    let structural = structural_parameters(theta);
+    let std_error = (0..n)
+        .map(|i| {
+            if structural[i] {
+                f64::INFINITY
+            } else {
+                variance[i].max(0.0).sqrt()
+            }
+        })
+        .collect();
+    Consider {
+        std_error,
+        fixed: out,
+        critical,
+    }
+}
+
+/// The covariance of the fixed parameters (σ of ln c) given the data:
+/// Σ = (AᵀA/s² + P_c⁻¹)⁻¹ over those with a spread (module docs); 0 for
+/// the exact ones (spread 0).
+fn posterior(absorbed: &[Vec<f64>], spreads: &[f64], s2: f64) -> Mat<f64> {
+    let q = absorbed.len();
+    let free: Vec<usize> = (0..q).filter(|&j| spreads[j] > 0.0).collect();
+    let k = free.len();
+    let M = Mat::<f64>::from_fn(k, k, |a, b| {
+        let (ja, jb) = (free[a], free[b]);
+        let dot: f64 = absorbed[ja]
+            .iter()
+            .zip(&absorbed[jb])
+            .map(|(x, y)| x * y)
+            .sum();
+        dot / s2 + if a == b { spreads[ja].powi(-2) } else { 0.0 }
+    });
+    let mut out = Mat::<f64>::zeros(q, q);
+    if k == 0 {
+        return out;
+    }
+    // M is symmetric positive definite (the prior term): invert by its
+    // eigenvectors; a failed decomposition falls back to the prior alone.
+    match symmetric_eigen(&M) {
+        Ok((mu, V)) => {
+            for a in 0..k {
+                for b in 0..k {
+                    out[(free[a], free[b])] = (0..k)
+                        .filter(|&l| mu[l] > 0.0)
+                        .map(|l| V[(a, l)] * V[(b, l)] / mu[l])
+                        .sum();
+                }
+            }
+        }
+        Err(_) => {
+            for &j in &free {
+                out[(j, j)] = spreads[j].powi(2);
+            }
+        }
+    }
+    out
+}
+
+/// The score tests by forward selection: each round tests every fixed
+/// parameter not yet implicated on the residual with the implicated ones
+/// re-fitted (their absorbed columns `a` orthogonalized out), implicates the
+/// largest statistic above `critical`, and stops when none is. A marginal
+/// test alone would also implicate a parameter merely correlated with the
+/// real cause (its column sees part of the cause's misfit). `s2`: the
+/// residual variance floor (1: the stated noise); it is re-estimated from
+/// the remaining residual over `dof` degrees of freedom after each round.
+fn score_tests(
+    out: &mut [FixedParameter],
+    mut a: Vec<Vec<f64>>,
+    r: &[f64],
+    s2: f64,
+    dof: f64,
+    critical: f64,
+) {
+    let dot = |x: &[f64], y: &[f64]| -> f64 { x.iter().zip(y).map(|(p, q)| p * q).sum() };
+    let mut r = r.to_vec();
+    let mut s2 = s2;
+    let mut dof = dof;
+    loop {
+        let mut best: Option<(usize, f64)> = None;
+        for (j, f) in out.iter_mut().enumerate() {
+            if f.implicated {
+                continue;
+            }
+            let aa = dot(&a[j], &a[j]);
+            let visible = aa > f64::MIN_POSITIVE && aa.is_finite();
+            let ar = dot(&a[j], &r);
+            f.statistic = if visible { ar * ar / (s2 * aa) } else { 0.0 };
+            f.change = if visible { -ar / aa } else { 0.0 };
+            if f.statistic > critical && best.is_none_or(|(_, t)| f.statistic > t) {
+                best = Some((j, f.statistic));
+            }
+        }
+        let Some((k, _)) = best else { return };
+        out[k].implicated = true;
+        // Re-fit c_k: remove its direction from the residual and from the
+        // other columns (Gram–Schmidt), so the next round is conditional.
+        let ak = a[k].clone();
+        let kk = dot(&ak, &ak);
+        let rk = dot(&ak, &r) / kk;
+        r.iter_mut().zip(&ak).for_each(|(v, x)| *v -= rk * x);
+        for (j, col) in a.iter_mut().enumerate() {
+            if j != k && !out[j].implicated {
+                let c = dot(&ak, col) / kk;
+                col.iter_mut().zip(&ak).for_each(|(v, x)| *v -= c * x);
+            }
+        }
+        dof = (dof - 1.0).max(1.0);
+        s2 = (dot(&r, &r) / dof).max(1.0);
+    }
+}
+
+/// The standard deviation of ln p for a value uniform over its bounds
+/// (module docs): ln(upper/lower)/√12 on a log scale, (upper − lower)/(√12
+/// |p|) on a linear one; 0 for degenerate bounds.
+pub fn bounds_spread(value: f64, lower: f64, upper: f64, log: bool) -> f64 {
+    let s = if log && lower > 0.0 {
+        (upper / lower).ln() / 12f64.sqrt()
+    } else if value != 0.0 {
+        (upper - lower) / (12f64.sqrt() * value.abs())
+    } else {
+        0.0
+    };
+    if s.is_finite() {
+        s.max(0.0)
+    } else {
+        0.0
+    }
+}
+
+/// Eigen-decomposition of G = JᵀJ: (eigenvalues, eigenvectors, null test).
+fn gram_eigen(columns: &[Vec<f64>]) -> (Vec<f64>, Mat<f64>) {
+    let n = columns.len();
+    if n == 0 {
+        return (Vec::new(), Mat::zeros(0, 0));
+    }
+    let G = Mat::<f64>::from_fn(n, n, |a, b| {
+        columns[a].iter().zip(&columns[b]).map(|(x, y)| x * y).sum()
+    });
+    symmetric_eigen(&G).unwrap_or_else(|_| (vec![0.0; n], Mat::<f64>::identity(n, n)))
+}
+
+fn is_null(mu: &[f64], k: usize) -> bool {
+    let largest = mu.iter().copied().fold(0.0f64, f64::max);
+    mu[k] <= STRUCTURAL * STRUCTURAL * largest || mu[k] <= 0.0
+}
+
+/// G⁺ over the determined directions (as [`super::identifiability`]).
+fn pseudo_inverse(columns: &[Vec<f64>]) -> Mat<f64> {
+    let n = columns.len();
+    let (mu, V) = gram_eigen(columns);
+    Mat::from_fn(n, n, |i, j| {
+        (0..n)
+            .filter(|&k| !is_null(&mu, k))
+            .map(|k| V[(i, k)] * V[(j, k)] / mu[k])
+            .sum()
+    })
+}
+
+/// Parameters in a structural null direction (as identifiability names them).
+fn structural_parameters(columns: &[Vec<f64>]) -> Vec<bool> {
+    let n = columns.len();
+    let (mu, V) = gram_eigen(columns);
+    (0..n)
+        .map(|i| (0..n).any(|k| is_null(&mu, k) && V[(i, k)].abs() >= 0.05))
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// Gauss–Jordan inverse of a small dense matrix (independent of faer).
+    fn inverse(mut a: Vec<Vec<f64>>) -> Vec<Vec<f64>> {
+        let n = a.len();
+        let mut inv: Vec<Vec<f64>> = (0..n)
+            .map(|i| (0..n).map(|j| f64::from(u8::from(i == j))).collect())
+            .collect();
+        for c in 0..n {
+            let p = (c..n)
+                .max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))
+                .unwrap();
+            a.swap(c, p);
+            inv.swap(c, p);
+            let d = a[c][c];
+            for j in 0..n {
+                a[c][j] /= d;
+                inv[c][j] /= d;
+            }
+            for i in 0..n {
+                if i != c {
+                    let f = a[i][c];
+                    for j in 0..n {
+                        a[i][j] -= f * a[c][j];
+                        inv[i][j] -= f * inv[c][j];
+                    }
+                }
+            }
+        }
+        inv
+    }
+
+    /// A linear Gaussian model r = Jθ δθ + Jc δc + e, flat prior on θ, c ~
+    /// N(0, diag σ_c²), unit noise: the consider covariance equals the
+    /// marginal posterior covariance of θ, the θθ block of
+    /// (JᵀJ + diag(0, σ_c⁻²))⁻¹, computed directly.
+    #[test]
+    fn consider_covariance_is_the_marginal_posterior_of_a_linear_model() {
+        let m = 40;
+        let t: Vec<f64> = (0..m).map(|k| k as f64 / (m - 1) as f64).collect();
+        // θ: offset and slope; c: a quadratic term, a bump and a column the
+        // θ absorb entirely (a line: invisible to the data, so its prior
+        // spread passes through whole).
+        let theta = vec![vec![1.0; m], t.clone()];
+        let fixed = vec![
+            t.iter().map(|x| x * x).collect::<Vec<f64>>(),
+            t.iter()
+                .map(|x| (-(x - 0.5f64).powi(2) / 0.01).exp())
+                .collect(),
+            t.iter().map(|x| 0.5 - 2.0 * x).collect(),
+        ];
+        let spreads = [0.3, 0.05, 0.2];
+        let names: Vec<String> = ["q", "bump", "line"].map(String::from).to_vec();
+        let c = consider(&theta, &fixed, &vec![0.0; m], &names, &spreads, 1.0);
+        let cols: Vec<&Vec<f64>> = theta.iter().chain(&fixed).collect();
+        let lambda: Vec<Vec<f64>> = (0..5)
+            .map(|a| {
+                (0..5)
+                    .map(|b| {
+                        let dot: f64 = cols[a].iter().zip(cols[b]).map(|(x, y)| x * y).sum();
+                        dot + if a == b && a >= 2 {
+                            spreads[a - 2].powi(-2)
+                        } else {
+                            0.0
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let cov = inverse(lambda);
+        for (i, row) in cov.iter().take(2).enumerate() {
+            let direct = row[i].sqrt();
+            assert!(
+                (c.std_error[i] / direct - 1.0).abs() < 1e-9,
+                "θ{i}: consider {} vs direct {direct}",
+                c.std_error[i]
+            );
+        }
+        // The line is absorbed whole (δoffset = −0.5 δc, δslope = 2 δc): its
+        // influence is its largest effect, on the slope, 2·0.2 = 0.4.
+        assert!(
+            (c.fixed[2].influence - 0.4).abs() < 1e-9,
+            "{:?}",
+            c.fixed[2]
+        );
+        // With no residual nothing is implicated.
+        assert!(c.fixed.iter().all(|f| !f.implicated && f.statistic == 0.0));
+        // Exact fixed parameters (spread 0): only the data's own part.
+        let exact = consider(&theta, &fixed, &vec![0.0; m], &names, &[0.0; 3], 1.0);
+        let plain = inverse(vec![
+            vec![m as f64, t.iter().sum()],
+            vec![t.iter().sum(), t.iter().map(|x| x * x).sum()],
+        ]);
+        assert!((exact.std_error[0] - plain[0][0].sqrt()).abs() < 1e-12);
+    }
+
+    /// A planted wrong fixed parameter is implicated and its change found;
+    /// the innocent one is not, at the noise.
+    #[test]
+    fn the_score_test_finds_a_planted_fixed_parameter() {
+        let m = 60;
+        let t: Vec<f64> = (0..m).map(|k| k as f64 / (m - 1) as f64).collect();
+        let theta = vec![vec![1.0; m], t.clone()];
+        let quad: Vec<f64> = t.iter().map(|x| 30.0 * x * x).collect();
+        let wave: Vec<f64> = t.iter().map(|x| (9.0 * x).sin()).collect();
+        let fixed = vec![quad.clone(), wave.clone()];
+        let names = ["quad".to_string(), "wave".to_string()];
+        let mut rng = ChaCha8Rng::seed_from_u64(3);
+        let noise: Vec<f64> = (0..m)
+            .map(|_| {
+                // Unit-variance noise (sum of 12 uniforms − 6).
+                (0..12).map(|_| rng.random::<f64>()).sum::<f64>() - 6.0
+            })
+            .collect();
+        // Data made with quad's ln c off by +0.8; the fit holds it at 0, so
+        // the residual (model − data) after re-fitting θ is −(I−P) quad·0.8.
+        let fit = |y: &[f64]| -> Vec<f64> {
+            let n = m as f64;
+            let (sx, sxx) = (t.iter().sum::<f64>(), t.iter().map(|x| x * x).sum::<f64>());
+            let (sy, sxy) = (
+                y.iter().sum::<f64>(),
+                y.iter().zip(&t).map(|(a, b)| a * b).sum::<f64>(),
+            );
+            let b = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+            let a = (sy - b * sx) / n;
+            t.iter().zip(y).map(|(x, v)| a + b * x - v).collect()
+        };
+        let y: Vec<f64> = (0..m).map(|k| 0.8 * quad[k] + noise[k]).collect();
+        let r = fit(&y);
+        let rss: f64 = r.iter().map(|v| v * v).sum();
+        let c = consider(
+            &theta,
+            &fixed,
+            &r,
+            &names,
+            &[0.1, 0.1],
+            rss / (m - 2) as f64,
+        );
+        assert!(c.fixed[0].implicated, "{:?}", c.fixed);
+        assert!(!c.fixed[1].implicated, "{:?}", c.fixed);
+        assert!((c.fixed[0].change - 0.8).abs() < 0.2, "{:?}", c.fixed[0]);
+        assert_eq!(c.implicated()[0].parameter, "quad");
+        // At the truth (noise only), neither is implicated.
+        let r0 = fit(&noise);
+        let c0 = consider(&theta, &fixed, &r0, &names, &[0.1, 0.1], 1.0);
+        assert!(c0.fixed.iter().all(|f| !f.implicated), "{:?}", c0.fixed);
+    }
+
+    #[test]
+    fn bounds_spread_is_the_uniform_standard_deviation() {
+        let s = bounds_spread(1.0, 0.25, 4.0, true);
+        assert!((s - 16f64.ln() / 12f64.sqrt()).abs() < 1e-15);
+        assert!((bounds_spread(2.0, 1.0, 3.0, false) - 2.0 / (12f64.sqrt() * 2.0)).abs() < 1e-15);
+        assert_eq!(bounds_spread(0.0, -1.0, 1.0, false), 0.0);
+    }
+}
