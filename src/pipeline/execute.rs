@@ -127,6 +127,22 @@ impl Engine<'_> {
         })
     }
 
+    /// `up to date`, or, when the stage's results folder holds another
+    /// run's results (an older version's `--set` run, a copy), says so:
+    /// `status` never calls results that contradict the file up to date.
+    pub fn results_note(&self, node: &Node, key: &str) -> String {
+        match results::out_of_step(&self.results.join(&node.name), key) {
+            None => "up to date".into(),
+            Some(other) => format!(
+                "up to date in the cache, but {} holds another run's results (key {}); \
+                 `modalflow run {}` puts this one's back",
+                self.results.join(&node.name).display(),
+                &other[..other.len().min(12)],
+                self.plan.file.display()
+            ),
+        }
+    }
+
     /// Reference text per input (`truth.frf`, `ident[*].result`) for messages.
     pub fn input_refs(&self, node: &Node) -> BTreeMap<String, String> {
         node.inputs
