@@ -32,3 +32,4 @@ mod typed_params;
 mod uff_fixtures;
 mod uff_robustness;
 mod validation;
+mod workflow;
