@@ -178,9 +178,20 @@ fn status_in_a_subfolder_finds_the_projects_cache() {
         let r = Report(serde_json::from_slice(&out.stdout).unwrap());
         assert!(r.all("cached"), "{sub}: {:?}", r.statuses());
     }
+    // gc from a subfolder finds the same cache (and keeps what the file uses).
+    let out = ws
+        .command(&["gc", "--json"])
+        .current_dir(ws.path().join("pipelines/deeper"))
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(0), "{}", util::text(&out.stderr));
+    let gc: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(gc["removed_objects"], 0, "{gc}");
+    assert!(gc["kept_objects"].as_u64().unwrap_or(0) > 0, "{gc}");
     // Nothing was created in the subfolders.
     assert!(!ws.path().join("pipelines/cache").exists());
     assert!(!ws.path().join("pipelines/results").exists());
+    assert!(!ws.path().join("pipelines/deeper/cache").exists());
     // A marker file names the root before any cache exists.
     let ws = Workspace::new();
     ws.write(".modalflow", "");

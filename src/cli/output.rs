@@ -6,7 +6,7 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Where the cache and results live; shared by every command that reads them.
-#[derive(clap::Args, Clone, Debug)]
+#[derive(clap::Args, Clone, Debug, Default)]
 pub struct Locations {
     /// Cache directory (content-addressed store). Default: `cache` in the
     /// project root — the nearest folder at or above the pipeline file's
