@@ -257,7 +257,7 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
             out.push(problem(
                 &["optimizer_settings"],
                 e.to_string(),
-                "see the optimizer's settings in the README",
+                "see the optimizer's settings in docs/stage-kinds.md (`identify`)",
             ))
         })
         .ok();
@@ -276,7 +276,7 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
         out.push(problem(
             &["guided"],
             m,
-            "see the guided settings in the README",
+            "see the guided settings in docs/stage-kinds.md (`identify`)",
         ));
     }
     let w = p.weights;
@@ -340,7 +340,7 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
         out.push(problem(
             &["frf_refinement"],
             m,
-            "see the FRF refinement in the README",
+            "see the FRF refinement in docs/stage-kinds.md (`identify`)",
         ));
     }
     let frf_band = p.frf_band.unwrap_or((0.0, f64::INFINITY));
