@@ -7,6 +7,7 @@ mod util;
 
 mod autoema;
 mod cli;
+mod docs;
 mod dynamics;
 mod eigensolvers;
 mod engine;
