@@ -96,10 +96,19 @@ fn a_set_run_never_leaves_the_files_results_out_of_step() {
     assert_eq!(out.status.code(), Some(0), "{}", util::text(&out.stderr));
     let said = util::text(&out.stdout);
     assert!(said.contains("results in small--set-"), "{said}");
-    // The file's results are untouched; plain status and verify agree.
+    // The file's results are untouched; the declared output the --set run
+    // wrote into the workspace is named, and a plain run puts it back.
     assert_eq!(ws.read("results/small/b/manifest.json"), plain);
     let status = ws.status();
     assert!(status.all("cached"), "{:?}", status.statuses());
+    let reason = status.stage("b")["reason"].as_str().unwrap().to_string();
+    assert!(
+        reason.contains("`b.txt` in the workspace holds another run's output"),
+        "{reason}"
+    );
+    ws.run(&[], 0);
+    assert_eq!(ws.read("b.txt"), "42\nn\n");
+    let status = ws.status();
     assert_eq!(status.stage("b")["reason"], "up to date");
     let runs = status.0["set_runs"].as_array().cloned().unwrap_or_default();
     assert_eq!(runs.len(), 1, "{}", status.0);

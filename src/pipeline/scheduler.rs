@@ -473,7 +473,7 @@ pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
                     match (engine.forced[i], engine.cached(node, &key)) {
                         (false, Ok(rec)) => {
                             report.status = Status::Cached;
-                            report.reason = engine.results_note(node, &key);
+                            report.reason = engine.results_note(node, &key, &rec);
                             report.seconds = rec.seconds;
                             report.counters = rec.counters.clone();
                             done[i] = Some(Done {
