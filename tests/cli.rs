@@ -191,8 +191,16 @@ mod overrides_identity_completions {
         let r = ws.run(&["--set", edit], 0);
         assert_eq!(r.status_of("a"), "ran");
         assert_eq!(ws.read("a.txt"), "edited\n");
-        let manifest = ws.read("results/same/a/manifest.json");
+        // The override's results go to a folder of their own (issue 29).
+        let set_dir = std::fs::read_dir(ws.path().join("results"))
+            .expect("results")
+            .flatten()
+            .map(|e| e.file_name().to_string_lossy().into_owned())
+            .find(|n| n.starts_with("same--set-"))
+            .expect("a results folder for the --set run");
+        let manifest = ws.read(&format!("results/{set_dir}/a/manifest.json"));
         assert!(manifest.contains("echo edited > a.txt"), "{manifest}");
+        assert!(!ws.read("results/same/a/manifest.json").contains("edited"));
         // Without the override the file's value is back, and cached; so is
         // the override's result.
         assert_eq!(ws.run(&[], 0).status_of("a"), "cached");

@@ -306,3 +306,40 @@ fn real_beam_updated_on_the_hammer_predicts_the_shaker() {
         assert_eq!(s == "cached", cached, "{name}: {s}");
     }
 }
+
+/// The new user's study (issue 29) in one file: the measurement goes out
+/// as UFF and comes back in by path, then AutoEMA, GSA, the guided update
+/// with FRFs, the evaluation and the report — CI-sized.
+#[test]
+fn new_user_study_runs_as_one_pipeline() {
+    let ws = study(
+        "new_user_study",
+        &[
+            ("samples: 64", "samples: 8"),
+            ("bootstrap: 50", "bootstrap: 5"),
+            ("budget: 8000", "budget: 2000"),
+            (
+                "params: {band: [10, 200]}",
+                "params: {band: [10, 200], iterations: 8, initial: 4}",
+            ),
+        ],
+    );
+    // The import needs only the export: it runs before the file exists.
+    let r = ws.run(&["measured"], 0);
+    assert_eq!(r.status_of("measured"), "ran");
+    assert!(ws.path().join("data/new_user_study/frf.uff").is_file());
+    let r = ws.run(&[], 0);
+    assert!(
+        r.statuses()
+            .iter()
+            .all(|(_, s)| s == "ran" || s == "cached"),
+        "{:?}",
+        r.statuses()
+    );
+    let metrics = ws.read("results/new_user_study/score/metrics.json");
+    assert!(metrics.contains("frac"), "{metrics}");
+    assert!(ws
+        .path()
+        .join("results/new_user_study/report/report/index.html")
+        .is_file());
+}

@@ -7,6 +7,7 @@ mod util;
 
 mod autoema;
 mod cli;
+mod docs;
 mod dynamics;
 mod eigensolvers;
 mod engine;
@@ -32,3 +33,4 @@ mod typed_params;
 mod uff_fixtures;
 mod uff_robustness;
 mod validation;
+mod workflow;

@@ -177,12 +177,13 @@ fn all_problems_are_reported_at_once() {
     assert!(stderr.contains("2 problems"), "{stderr}");
 }
 
-/// The fenced block of `readme` that starts with `first` (after the fence).
+/// The fenced block of `readme` (a Markdown page) that starts with `first`
+/// (after the fence).
 fn readme_block<'a>(readme: &'a str, first: &str) -> &'a str {
     let start = readme
         .find(&format!("\n{first}"))
         .map(|i| i + 1)
-        .unwrap_or_else(|| panic!("README has no block starting with {first:?}"));
+        .unwrap_or_else(|| panic!("the page has no block starting with {first:?}"));
     let end = readme[start..]
         .find("\n```")
         .map_or(readme.len(), |e| start + e);
@@ -190,8 +191,8 @@ fn readme_block<'a>(readme: &'a str, first: &str) -> &'a str {
 }
 
 #[test]
-fn the_readme_sample_error_is_what_validate_prints() {
-    let readme = include_str!("../README.md");
+fn the_guides_sample_error_is_what_validate_prints() {
+    let readme = include_str!("../docs/pipeline-file.md");
     let file = readme_block(
         readme,
         "name: quickstart\nseed: 7\nstages:\n  truth:\n    kind: synthesise",

@@ -1,4 +1,4 @@
-//! Exit codes, documented in the README; scripts rely on them.
+//! Exit codes, documented in the README and docs/cli.md; scripts rely on them.
 
 use modalflow::pipeline::plan::PlanError;
 use modalflow::pipeline::scheduler::RunError;

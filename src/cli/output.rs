@@ -3,17 +3,55 @@
 
 use modalflow::pipeline::plan::PlanError;
 use std::io::Write;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Where the cache and results live; shared by every command that reads them.
-#[derive(clap::Args, Clone, Debug)]
+#[derive(clap::Args, Clone, Debug, Default)]
 pub struct Locations {
-    /// Cache directory (content-addressed store).
-    #[arg(long, env = "MODALFLOW_CACHE", default_value = "cache")]
+    /// Cache directory (content-addressed store). Default: `cache` in the
+    /// project root — the nearest folder at or above the pipeline file's
+    /// that holds a `.modalflow` marker file or a cache, else the current
+    /// directory.
+    #[arg(long, env = "MODALFLOW_CACHE")]
+    pub cache: Option<PathBuf>,
+    /// Results root; a pipeline's results go to RESULTS/<name>/. Default:
+    /// `results` in the project root (see `--cache`).
+    #[arg(long)]
+    pub results: Option<PathBuf>,
+}
+
+/// [`Locations`] with the defaults filled in from the project root.
+#[derive(Clone, Debug)]
+pub struct Resolved {
     pub cache: PathBuf,
-    /// Results root; a pipeline's results go to RESULTS/<name>/.
-    #[arg(long, default_value = "results")]
     pub results: PathBuf,
+}
+
+impl Locations {
+    /// The cache and results root for a pipeline file (`None`: no file,
+    /// the search starts in the current directory).
+    pub fn resolve(&self, file: Option<&Path>) -> Resolved {
+        let cwd = PathBuf::from(".");
+        let start = match file.and_then(Path::parent) {
+            Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+            _ => cwd.clone(),
+        };
+        let root = modalflow::pipeline::project::root(&start, &cwd);
+        // Relative to the current directory when the root is it, so paths
+        // in messages read as before.
+        let here = std::fs::canonicalize(&cwd).ok();
+        let under = |name: &str| {
+            if root == cwd || Some(&root) == here.as_ref() {
+                PathBuf::from(name)
+            } else {
+                root.join(name)
+            }
+        };
+        Resolved {
+            cache: self.cache.clone().unwrap_or_else(|| under("cache")),
+            results: self.results.clone().unwrap_or_else(|| under("results")),
+        }
+    }
 }
 
 /// `--set STAGE.PARAM=VALUE`, on every command that plans the file for

@@ -127,6 +127,39 @@ impl Engine<'_> {
         })
     }
 
+    /// `up to date`, or, when the stage's results folder holds another
+    /// run's results (an older version's `--set` run, a copy) or one of its
+    /// declared outputs in the workspace holds another run's (a `--set`
+    /// run's), says so: `status` never calls results that contradict the
+    /// file up to date.
+    pub fn results_note(&self, node: &Node, key: &str, record: &RunRecord) -> String {
+        let dir = self.results.join(&node.name);
+        let rerun = format!(
+            "`modalflow run {}` puts this one's back",
+            self.plan.file.display()
+        );
+        if let Some(other) = results::out_of_step(&dir, key) {
+            return format!(
+                "up to date in the cache, but {} holds another run's results (key {}); {rerun}",
+                dir.display(),
+                &other[..other.len().min(12)],
+            );
+        }
+        if !node.workspace_outputs.is_empty() {
+            for (name, out) in &record.outputs {
+                let path = self.plan.dir.join(name);
+                let seen = store::hash_path(&path).ok();
+                if path.exists() && seen.as_deref() != Some(out.artifact.hash.as_str()) {
+                    return format!(
+                        "up to date in the cache, but `{name}` in the workspace holds another \
+                         run's output; {rerun}"
+                    );
+                }
+            }
+        }
+        "up to date".into()
+    }
+
     /// Reference text per input (`truth.frf`, `ident[*].result`) for messages.
     pub fn input_refs(&self, node: &Node) -> BTreeMap<String, String> {
         node.inputs

@@ -13,6 +13,7 @@ pub mod leftovers;
 pub mod matrix;
 pub mod plan;
 pub mod progress;
+pub mod project;
 pub mod provenance;
 pub mod record;
 pub mod results;

@@ -189,3 +189,45 @@ pub fn remove_stale(results: &Path, stages: &[&str]) {
         }
     }
 }
+
+/// The file in a `--set` run's results folder that records its overrides.
+pub const OVERRIDES_FILE: &str = "overrides.json";
+
+/// A run with `--set` overrides, recorded in its own results folder
+/// `<results>/<pipeline>--set-<hash>/` (see `plan::results_name`): the
+/// file's own results folder is never written by it.
+#[derive(Clone, Debug, Serialize, Deserialize, PartialEq)]
+pub struct SetRun {
+    /// The results folder's name.
+    pub results: String,
+    /// The overrides, as given on the command line.
+    pub overrides: Vec<String>,
+}
+
+/// Record a `--set` run's overrides in its results folder `dir`.
+pub fn write_set_run(dir: &Path, run: &SetRun) -> std::io::Result<()> {
+    fs::create_dir_all(dir)?;
+    let json = serde_json::to_vec_pretty(run).map_err(std::io::Error::other)?;
+    fs::write(dir.join(OVERRIDES_FILE), json)
+}
+
+/// The `--set` runs of pipeline `name` recorded under the results root.
+pub fn set_runs(root: &Path, name: &str) -> Vec<SetRun> {
+    let prefix = format!("{name}--set-");
+    let mut runs: Vec<SetRun> = fs::read_dir(root)
+        .into_iter()
+        .flatten()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
+        .filter_map(|e| fs::read(e.path().join(OVERRIDES_FILE)).ok())
+        .filter_map(|bytes| serde_json::from_slice::<SetRun>(&bytes).ok())
+        .collect();
+    runs.sort_by(|a, b| a.results.cmp(&b.results));
+    runs
+}
+
+/// The key of the results in `dir` when they are of another run than
+/// `key` (a manifest is there and names another key).
+pub fn out_of_step(dir: &Path, key: &str) -> Option<String> {
+    read_manifest(dir).map(|m| m.key).filter(|k| k != key)
+}

@@ -29,7 +29,7 @@ fn refuse(message: String, help: &str) -> Result<(), RootsOverlap> {
 
 /// The pipeline's results folder, `<results>/<name>`, absolute.
 pub fn results_dir(plan: &Plan, results: &Path) -> PathBuf {
-    paths::absolute(&results.join(&plan.name))
+    paths::absolute(&results.join(&plan.results_name))
 }
 
 /// Refuse cache, results folder, pipeline directory and declared outputs
@@ -37,7 +37,7 @@ pub fn results_dir(plan: &Plan, results: &Path) -> PathBuf {
 pub fn check(plan: &Plan, cache: &Path, results: &Path) -> Result<(), RootsOverlap> {
     let project = paths::absolute(&plan.dir);
     let cache = paths::absolute(cache);
-    let folder = results.join(&plan.name);
+    let folder = results.join(&plan.results_name);
     if std::fs::symlink_metadata(&folder).is_ok_and(|m| m.file_type().is_symlink()) {
         return refuse(
             format!("the results folder {} is a symbolic link", folder.display()),

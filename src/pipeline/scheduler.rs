@@ -42,6 +42,17 @@ pub struct RunReport {
     /// The run's trace (`results/<name>/trace.csv`), after a run.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub trace: Option<PathBuf>,
+    /// The `--set` overrides of this run or query.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub overrides: Vec<String>,
+    /// The results folder's name when it is not the pipeline's (a `--set`
+    /// run: `<name>--set-<hash>`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub results_name: Option<String>,
+    /// For the file without overrides (`status`): the results folders of
+    /// earlier `--set` runs, apart from the file's own.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub set_runs: Vec<super::results::SetRun>,
 }
 
 impl RunReport {
@@ -114,10 +125,14 @@ fn engine<'a>(
 ) -> Result<Engine<'a>, RunError> {
     super::roots::check(plan, &opts.cache, &opts.results)?;
     let store = Store::open(&opts.cache)?;
-    let last = provenance::load(&store, &plan.name);
+    let mut last = provenance::load(&store, &plan.results_name);
+    if last.stages.is_empty() && plan.results_name != plan.name {
+        // A first run with these overrides: reasons compare with the file's.
+        last = provenance::load(&store, &plan.name);
+    }
     if let Some(owner) = last.owned_by_another(&plan.path()) {
         return Err(RunError::NameTaken {
-            name: plan.name.clone(),
+            name: plan.results_name.clone(),
             owner: owner.to_path_buf(),
             file: plan.path(),
         });
@@ -143,7 +158,7 @@ fn engine<'a>(
         plan,
         store,
         last,
-        results: opts.results.join(&plan.name),
+        results: opts.results.join(&plan.results_name),
         forced,
         executor,
     })
@@ -313,7 +328,25 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     }
     let keep: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
     if !engine.store.read_only() {
-        let saved = provenance::update(&engine.store, &plan.name, &plan.path(), updates, &keep);
+        let saved = provenance::update(
+            &engine.store,
+            &plan.results_name,
+            &plan.path(),
+            updates,
+            &keep,
+        );
+        if !plan.overrides.is_empty() {
+            let run = super::results::SetRun {
+                results: plan.results_name.clone(),
+                overrides: plan.overrides.clone(),
+            };
+            if let Err(e) = super::results::write_set_run(&engine.results, &run) {
+                reporter_lines.push(format!(
+                    "warning: cannot record the overrides in {}: {e}",
+                    engine.results.display()
+                ));
+            }
+        }
         if opts.targets.is_empty() && fatal.is_none() {
             super::results::remove_stale(&engine.results, &keep);
         }
@@ -365,6 +398,9 @@ fn write_trace(
 fn in_plan_order(plan: &Plan, mut reports: Vec<Option<StageReport>>) -> RunReport {
     RunReport {
         trace: None,
+        overrides: plan.overrides.clone(),
+        results_name: (plan.results_name != plan.name).then(|| plan.results_name.clone()),
+        set_runs: Vec::new(),
         pipeline: plan.name.clone(),
         stages: plan
             .order
@@ -437,7 +473,7 @@ pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
                     match (engine.forced[i], engine.cached(node, &key)) {
                         (false, Ok(rec)) => {
                             report.status = Status::Cached;
-                            report.reason = "up to date".into();
+                            report.reason = engine.results_note(node, &key, &rec);
                             report.seconds = rec.seconds;
                             report.counters = rec.counters.clone();
                             done[i] = Some(Done {
@@ -465,7 +501,11 @@ pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
         reports[i] = Some(report);
     }
     annotate_in_flight(&mut reports, in_flight);
-    Ok(in_plan_order(plan, reports))
+    let mut report = in_plan_order(plan, reports);
+    if plan.overrides.is_empty() {
+        report.set_runs = super::results::set_runs(&opts.results, &plan.name);
+    }
+    Ok(report)
 }
 
 /// Stages whose jobs an earlier (killed, disconnected or detached) run

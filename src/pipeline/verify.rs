@@ -15,8 +15,10 @@ use std::path::{Path, PathBuf};
 pub struct StageCheck {
     pub pipeline: String,
     pub stage: String,
-    /// `ok`, `drift` (outputs or manifest differ) or `missing` (the
-    /// directory or its manifest is gone although the stage ran).
+    /// `ok`, `drift` (outputs or manifest differ), `missing` (the
+    /// directory or its manifest is gone although the stage ran) or, with
+    /// a pipeline file, `stale` (the results are of another run than the
+    /// file gives now).
     pub status: &'static str,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub problems: Vec<Drift>,

@@ -35,6 +35,7 @@ crate::params! {
 impl Kind for Command {
     type Params = Params;
     const NAME: &'static str = "command";
+    const FILE_PARAMS: &'static [(&'static str, bool)] = &[("deps", false)];
 
     fn version(&self) -> u32 {
         1

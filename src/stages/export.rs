@@ -1,6 +1,12 @@
 //! The `export` kind: FRFs and modal models in the formats other tools read
 //! — UFF 58 (ASCII with the standard fixed-width layout, or 58b), UFF 55,
 //! or CSV — so results open in test and FE software.
+//!
+//! With `to: FOLDER` the files are a declared output below the pipeline
+//! directory (like a `command` stage's `outs`): the output is named by the
+//! folder, written there after every run or cache hit, and a stage that
+//! names a file in it by path (an `import` with `path: FOLDER/frf.uff`)
+//! depends on this stage, so export → import works in one pipeline.
 
 use super::artifacts::{read_modes, read_shape_scaling};
 use super::{Artifact, InputSpec, Kind, StageContext, StageError, StageOutputs};
@@ -23,6 +29,11 @@ crate::params! {
         /// uff (ASCII 58 + 55, standard column widths), uff-binary (58b
         /// little-endian + ASCII 55), or csv
         pub format: Format = Format::Uff,
+        /// folder below the pipeline directory to write the files to, as
+        /// a declared output (the output is then named by it instead of
+        /// `files`): an `import` reads them by path, e.g. `to: data/machine`,
+        /// then `path: data/machine/frf.uff`
+        pub to: Option<String> = None,
     }
 }
 
@@ -63,7 +74,32 @@ impl Kind for Export {
         Some(INPUTS)
     }
 
+    /// `files`, or the folder `to` names.
     const OUTPUTS: &'static [(&'static str, Artifact)] = &[("files", Artifact::Any)];
+
+    fn outputs(&self, p: &Params) -> Vec<super::Output> {
+        let name = p.to.clone().unwrap_or_else(|| "files".into());
+        vec![super::Output::new(name, Artifact::Any)]
+    }
+
+    fn workspace_outputs(&self, p: &Params) -> Vec<String> {
+        p.to.iter().cloned().collect()
+    }
+
+    fn check(&self, p: &Params) -> Vec<super::ParamProblem> {
+        let Some(to) = &p.to else {
+            return Vec::new();
+        };
+        match crate::paths::relative(to) {
+            Ok(_) => Vec::new(),
+            Err(problem) => vec![super::ParamProblem::new(
+                &["to"],
+                format!("output folder `{}` {problem}", to.escape_debug()),
+                "name a folder of the stage's own strictly below the pipeline directory, \
+                 e.g. `data/machine`",
+            )],
+        }
+    }
 
     fn check_inputs(&self, _p: &Params, bound: &[&str]) -> Vec<super::ParamProblem> {
         if bound.is_empty() {
@@ -145,7 +181,7 @@ impl Kind for Export {
         }
         Ok(StageOutputs {
             warnings: Vec::new(),
-            files: vec![("files".into(), dir)],
+            files: vec![(p.to.clone().unwrap_or_else(|| "files".into()), dir)],
             counters: Default::default(),
         })
     }

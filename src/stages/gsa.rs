@@ -73,6 +73,8 @@ const INPUTS: &[InputSpec] = &[
 impl Kind for Gsa {
     type Params = Params;
     const NAME: &'static str = "gsa";
+    const FILE_PARAMS: &'static [(&'static str, bool)] =
+        &[("model", false), ("data", false), ("deps", false)];
 
     /// 2: `significant` output, FRF bands, validation, ANOVA sources.
     /// 3: modes paired by frequency and MAC; one pole convention for

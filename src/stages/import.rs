@@ -234,6 +234,7 @@ fn selection(p: &Params) -> Result<Selection, Vec<ParamProblem>> {
 impl Kind for Import {
     type Params = Params;
     const NAME: &'static str = "import";
+    const FILE_PARAMS: &'static [(&'static str, bool)] = &[("path", true), ("shapes", false)];
 
     /// 2: UFF units converted to SI, `units` and `quantity` in import.json.
     /// 3: `calibrated` in import.json, the reader's warnings as stage

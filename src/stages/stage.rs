@@ -12,7 +12,7 @@
 use super::params::{Field, ParamProblem, ParamSet};
 use super::shard;
 use crate::simulator::{EvalError, Model};
-use serde_yaml_ng::Mapping;
+use serde_yaml_ng::{Mapping, Value};
 use std::any::Any;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -384,6 +384,11 @@ pub trait Kind: Sync + Send + 'static {
     fn files(&self, _p: &Self::Params) -> Vec<FileRef> {
         Vec::new()
     }
+    /// The top-level params that name files, and whether each is a glob:
+    /// with params that fail to parse, validation still checks these files
+    /// from the values as written ([`Stage::raw_files`]), so one round
+    /// reports every problem.
+    const FILE_PARAMS: &'static [(&'static str, bool)] = &[];
     /// Look into the files the params name (relative to `dir`) during
     /// validation: a bad file is a problem before anything runs; returns
     /// further files they reference (relative to `dir`), hashed likewise.
@@ -430,6 +435,10 @@ pub trait Stage: Sync + Send {
     fn seed(&self, p: &Parsed) -> Option<u64>;
     fn uses_seed(&self) -> bool;
     fn files(&self, p: &Parsed) -> Vec<FileRef>;
+    /// The files the params name, read from the params as written (for
+    /// params that failed to parse): string values of the kind's file
+    /// params, and the strings of a list (`deps[1]`).
+    fn raw_files(&self, params: &Mapping) -> Vec<FileRef>;
     fn file_dependencies(&self, p: &Parsed, dir: &Path) -> Result<Vec<String>, ParamProblem>;
     fn check_inputs(&self, p: &Parsed, bound: &[&str]) -> Vec<ParamProblem>;
     fn workspace_outputs(&self, p: &Parsed) -> Vec<String>;
@@ -476,6 +485,28 @@ impl<K: Kind> Stage for K {
     }
     fn files(&self, p: &Parsed) -> Vec<FileRef> {
         typed::<K>(p).map_or_else(Vec::new, |p| Kind::files(self, p))
+    }
+    fn raw_files(&self, params: &Mapping) -> Vec<FileRef> {
+        let mut out = Vec::new();
+        for &(name, glob) in K::FILE_PARAMS {
+            let file = |param: String, path: &str| FileRef {
+                param,
+                path: path.to_string(),
+                glob,
+            };
+            match params.get(name) {
+                Some(Value::String(path)) => out.push(file(name.to_string(), path)),
+                Some(Value::Sequence(list)) => {
+                    for (i, v) in list.iter().enumerate() {
+                        if let Value::String(path) = v {
+                            out.push(file(format!("{name}[{i}]"), path));
+                        }
+                    }
+                }
+                _ => {}
+            }
+        }
+        out
     }
     fn file_dependencies(&self, p: &Parsed, dir: &Path) -> Result<Vec<String>, ParamProblem> {
         match typed::<K>(p) {

@@ -146,6 +146,7 @@ fn subset(all: &[(String, Dof)], names: Option<&[String]>, what: &str) -> Result
 impl Kind for Synthesize {
     type Params = Params;
     const NAME: &'static str = "synthesize";
+    const FILE_PARAMS: &'static [(&'static str, bool)] = &[("model", false)];
 
     /// 2: true modes in the pole convention of the FRFs (hysteretic modes
     /// at |λ|, [`crate::dynamics::solve::mode_pole`]). 3: the modes
@@ -322,7 +323,7 @@ impl Kind for Synthesize {
         write_model_json(ctx, &model, &text, &p.model, &x, &prepared)?;
         write_truth_csv(ctx, &model, &x)?;
         Ok(StageOutputs {
-            warnings: Vec::new(),
+            warnings: impact_step_warning(p, quantity).into_iter().collect(),
             files: vec![
                 ("frf".into(), artifacts::FRF_FILE.into()),
                 ("modes".into(), artifacts::MODES_DIR.into()),
@@ -503,4 +504,26 @@ fn write_truth_csv(ctx: &StageContext, model: &Model, x: &[f64]) -> Result<(), S
     }
     std::fs::write(ctx.scratch.join("parameters.csv"), out)
         .map_err(|e| StageError::io("cannot write parameters.csv", e))
+}
+
+/// An impact test's FRF lines are `sample_rate_hz / block_size` apart,
+/// whatever `frequency.step` says: a step that differs is not silently
+/// replaced but named, with the fix.
+fn impact_step_warning(p: &Params, quantity: crate::frf::FrfQuantity) -> Option<String> {
+    let imp = p.impact_test.as_ref()?;
+    let resolved = imp.resolve(&p.frequency, quantity);
+    let line = resolved.sample_rate_hz / resolved.block_size as f64;
+    let step = p.frequency.step;
+    ((line - step).abs() > 1e-9 * line.max(step)).then(|| {
+        format!(
+            "impact_test: the FRF lines are sample_rate_hz / block_size = {} / {} = {} Hz apart, \
+             so frequency.step = {} is not used; set frequency.step to {} or block_size to \
+             sample_rate_hz / step",
+            crate::report::format::sig(resolved.sample_rate_hz, 4),
+            resolved.block_size,
+            crate::report::format::sig(line, 4),
+            crate::report::format::sig(step, 4),
+            crate::report::format::sig(line, 4),
+        )
+    })
 }

@@ -324,7 +324,7 @@ pub fn check(p: &Params) -> Vec<ParamProblem> {
             problem(
                 &["impact_test"],
                 e.to_string(),
-                "see the impact_test fields in the README",
+                "see the impact_test fields in docs/stage-kinds.md (`synthesize`)",
             );
         }
         if let Some(est) = &imp.estimator {

@@ -13,13 +13,19 @@ pub struct Args {
     /// Print one JSON object on stdout.
     #[arg(long)]
     pub json: bool,
-    /// Cache directory.
-    #[arg(long, env = "MODALFLOW_CACHE", default_value = "cache")]
-    cache: PathBuf,
+    /// Cache directory. Default: `cache` in the project root found from
+    /// the current directory (the nearest folder at or above it holding a
+    /// `.modalflow` marker file or a cache), else `./cache`.
+    #[arg(long, env = "MODALFLOW_CACHE")]
+    cache: Option<PathBuf>,
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
-    let store = Store::open(&args.cache)?;
+    let cache = match args.cache {
+        Some(c) => c,
+        None => crate::cli::output::Locations::default().resolve(None).cache,
+    };
+    let store = Store::open(&cache)?;
     let r = gc::collect(&store, args.dry_run)?;
     if args.json {
         print_json(&r)?;

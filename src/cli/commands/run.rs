@@ -1,7 +1,7 @@
 //! `modalflow run`: run a pipeline, reusing every cached stage.
 
 use crate::cli::exit;
-use crate::cli::output::{print_json, print_text, Locations};
+use crate::cli::output::{print_json, print_text, Locations, Resolved};
 use modalflow::pipeline::execute::Status;
 use modalflow::pipeline::executor::ExecutorKind;
 use modalflow::pipeline::plan;
@@ -71,7 +71,7 @@ enum Progress {
 }
 
 pub fn options(
-    locations: &Locations,
+    locations: &Resolved,
     jobs: Option<usize>,
     keep_going: bool,
     force: Vec<String>,
@@ -105,8 +105,9 @@ fn heartbeat() -> std::time::Duration {
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
     let plan = plan::load_with(&args.file, &args.overrides.set)?;
+    let locations = args.locations.resolve(Some(&args.file));
     if args.detach {
-        return detach(&args, &plan.name);
+        return detach(&args, &locations, &plan.results_name);
     }
     let progress = match args.progress {
         Progress::Auto => ProgressMode::Auto,
@@ -123,7 +124,7 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
         (None, ExecutorKind::Slurm) => Some(SLURM_JOBS),
         (jobs, _) => jobs.map(std::num::NonZeroUsize::get),
     };
-    let mut opts = options(&args.locations, jobs, args.keep_going, args.force, progress);
+    let mut opts = options(&locations, jobs, args.keep_going, args.force, progress);
     opts.executor = Some(executor);
     opts.targets = args.stages;
     let report = if args.dry_run {
@@ -145,9 +146,9 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
 
 /// Start this same command without `--detach` in its own process group
 /// (no terminal hang-up reaches it), its output in `results/<name>/run.log`.
-fn detach(args: &Args, pipeline: &str) -> anyhow::Result<u8> {
+fn detach(args: &Args, locations: &Resolved, pipeline: &str) -> anyhow::Result<u8> {
     use std::os::unix::process::CommandExt;
-    let dir = args.locations.results.join(pipeline);
+    let dir = locations.results.join(pipeline);
     std::fs::create_dir_all(&dir)
         .map_err(|e| anyhow::anyhow!("cannot create directory {}: {e}", dir.display()))?;
     let log = dir.join("run.log");
@@ -185,6 +186,12 @@ fn detach(args: &Args, pipeline: &str) -> anyhow::Result<u8> {
 pub fn summary(report: &RunReport, dry: bool) -> String {
     let count = |s: Status| report.stages.iter().filter(|r| r.status == s).count();
     let mut out = String::new();
+    if let Some(name) = report.results_name.as_ref().filter(|_| !dry) {
+        out.push_str(&format!(
+            "with --set {}: results in {name}/ (the file's own results are untouched)\n",
+            report.overrides.join(" --set ")
+        ));
+    }
     for r in &report.stages {
         if r.status == Status::Failed {
             out.push_str(&format!(

@@ -1,6 +1,6 @@
 //! `modalflow show`: a stage's manifest (provenance of its results).
 
-use crate::cli::output::{print_json, print_text, Locations};
+use crate::cli::output::{print_json, print_text, Resolved};
 use modalflow::pipeline::results::{read_manifest, Manifest};
 use modalflow::pipeline::{plan, provenance, store::Store};
 use std::path::PathBuf;
@@ -17,7 +17,7 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     #[command(flatten)]
-    locations: Locations,
+    locations: crate::cli::output::Locations,
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
@@ -32,10 +32,11 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
         ))
         .into());
     };
-    let dir = args.locations.results.join(&plan.name).join(&node.name);
+    let locations = args.locations.resolve(Some(&args.file));
+    let dir = locations.results.join(&plan.name).join(&node.name);
     let manifest = match read_manifest(&dir) {
         Some(m) => m,
-        None => from_cache(&args.locations, &plan.name, &node.name).ok_or_else(|| {
+        None => from_cache(&locations, &plan.name, &node.name).ok_or_else(|| {
             anyhow::anyhow!(
                 "stage `{}` has no results yet; run `modalflow run {}`",
                 node.name,
@@ -79,14 +80,14 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
         out.push_str(&format!("counter  {c} = {v}\n"));
     }
     out.push_str(&trace_lines(
-        &args.locations.results.join(&plan.name),
+        &locations.results.join(&plan.name),
         &node.name,
     ));
     print_text(&out)?;
     Ok(crate::cli::exit::SUCCESS)
 }
 
-fn from_cache(loc: &Locations, pipeline: &str, stage: &str) -> Option<Manifest> {
+fn from_cache(loc: &Resolved, pipeline: &str, stage: &str) -> Option<Manifest> {
     let store = Store::open(&loc.cache).ok()?;
     let last = provenance::load(&store, pipeline);
     let p = last.stages.get(stage)?;

@@ -25,7 +25,7 @@ pub struct Args {
 pub fn exec(args: Args) -> anyhow::Result<u8> {
     let plan = plan::load_with(&args.file, &args.overrides.set)?;
     let opts = super::run::options(
-        &args.locations,
+        &args.locations.resolve(Some(&args.file)),
         Some(1),
         false,
         Vec::new(),
@@ -54,13 +54,26 @@ pub fn table(report: &RunReport) -> String {
             Status::Cached => "cached",
             _ => "will-run",
         };
-        let reason = if s.status == Status::Cached {
+        let reason = if s.status == Status::Cached && s.reason == "up to date" {
             ""
         } else {
             s.reason.as_str()
         };
         out.push_str(format!("{status:<9} {:<width$}  {reason}", s.name).trim_end());
         out.push('\n');
+    }
+    if let Some(name) = &report.results_name {
+        out.push_str(&format!(
+            "with --set {}: results in {name}/, apart from the file's own\n",
+            report.overrides.join(" --set ")
+        ));
+    }
+    for run in &report.set_runs {
+        out.push_str(&format!(
+            "results of a --set run (not the file's): {}/ (--set {})\n",
+            run.results,
+            run.overrides.join(" --set ")
+        ));
     }
     out
 }

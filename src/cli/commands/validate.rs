@@ -23,7 +23,8 @@ pub struct Args {
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
     let plan = plan::load_with(&args.file, &args.overrides.set)?;
-    modalflow::pipeline::roots::check(&plan, &args.locations.cache, &args.locations.results)
+    let locations = args.locations.resolve(Some(&args.file));
+    modalflow::pipeline::roots::check(&plan, &locations.cache, &locations.results)
         .map_err(modalflow::pipeline::scheduler::RunError::from)?;
     let edges: usize = plan.upstream.iter().map(Vec::len).sum();
     if args.json {

@@ -2,6 +2,7 @@
 
 use crate::cli::exit;
 use crate::cli::output::{print_json, print_text, Locations};
+use modalflow::pipeline::results::{out_of_step, Drift};
 use modalflow::pipeline::store::Store;
 use modalflow::pipeline::verify::{self, VerifyReport};
 use modalflow::pipeline::{plan, provenance};
@@ -10,8 +11,10 @@ use std::path::PathBuf;
 /// Check materialized results against their manifests without running
 /// anything: every output file, and every file inside directory outputs,
 /// is hashed and compared with the manifest (and the manifest with the
-/// cache's run record). Exit 0 when everything matches, 1 when something
-/// drifted (`modalflow run FILE` restores it from the cache).
+/// cache's run record). With FILE, results of another run than the file
+/// gives (e.g. of an older `--set` run) are `stale`. Exit 0 when everything
+/// matches, 1 when something drifted (`modalflow run FILE` restores it
+/// from the cache).
 #[derive(clap::Args)]
 pub struct Args {
     /// The pipeline file; without it, every pipeline under the results
@@ -25,13 +28,14 @@ pub struct Args {
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
+    let locations = args.locations.resolve(args.file.as_deref());
     // Verification only reads; a cache that is not there is not created.
-    let store = if args.locations.cache.join("runs").is_dir() {
-        Some(Store::open(&args.locations.cache)?)
+    let store = if locations.cache.join("runs").is_dir() {
+        Some(Store::open(&locations.cache)?)
     } else {
         None
     };
-    let root = &args.locations.results;
+    let root = &locations.results;
     let checks = match &args.file {
         Some(file) => {
             let plan = plan::load(file)?;
@@ -44,7 +48,12 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
                     .collect()
             });
             let dir = root.join(&plan.name);
-            verify::check_pipeline(store.as_ref(), &plan.name, &dir, ran.as_deref())
+            let mut checks =
+                verify::check_pipeline(store.as_ref(), &plan.name, &dir, ran.as_deref());
+            if store.is_some() {
+                mark_stale(&plan, &locations, &dir, &mut checks);
+            }
+            checks
         }
         None => {
             let mut pipelines: Vec<String> = std::fs::read_dir(root)
@@ -72,6 +81,42 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
     } else {
         exit::STAGE_FAILED
     })
+}
+
+/// Results whose manifest names another key than the file gives the stage
+/// now are `stale`: they are not what the file says (an older version's
+/// `--set` run, an edit of the file not yet run).
+fn mark_stale(
+    plan: &plan::Plan,
+    locations: &crate::cli::output::Resolved,
+    dir: &std::path::Path,
+    checks: &mut [verify::StageCheck],
+) {
+    let opts = super::run::options(
+        locations,
+        Some(1),
+        false,
+        Vec::new(),
+        modalflow::pipeline::progress::ProgressMode::Quiet,
+    );
+    let Ok(status) = modalflow::pipeline::scheduler::status(plan, &opts) else {
+        return;
+    };
+    for check in checks.iter_mut().filter(|c| c.status == "ok") {
+        let key = status
+            .stages
+            .iter()
+            .find(|s| s.name == check.stage)
+            .and_then(|s| s.key.as_deref());
+        let stale = key.and_then(|k| out_of_step(&dir.join(&check.stage), k));
+        if stale.is_some() {
+            check.status = "stale";
+            check.problems.push(Drift {
+                path: "manifest.json".into(),
+                problem: "stale",
+            });
+        }
+    }
 }
 
 fn text(report: &VerifyReport) -> String {

@@ -48,10 +48,52 @@ fn outside_help(dir: &Path) -> String {
     )
 }
 
+/// Workspace outputs by normalized path: the producing node and the
+/// output's name as the kind declares it.
+type Producers = HashMap<String, (usize, String)>;
+
+/// The workspace outputs (other than node `me`'s) that a file param reads:
+/// the path is an output or lies below an output folder, or (a glob) the
+/// pattern matches an output. Each comes with its normalized path.
+fn produced_by(
+    producers: &Producers,
+    path: &str,
+    glob: bool,
+    me: usize,
+) -> Vec<(String, (usize, String))> {
+    let pattern = glob.then(|| glob::Pattern::new(path).ok()).flatten();
+    let mut found: Vec<(String, (usize, String))> = producers
+        .iter()
+        .filter(|(_, (p, _))| *p != me)
+        .filter(|(out, _)| {
+            path == out.as_str()
+                || path.starts_with(&format!("{out}/"))
+                || pattern.as_ref().is_some_and(|g| g.matches(out))
+        })
+        .map(|(out, p)| (out.clone(), p.clone()))
+        .collect();
+    found.sort();
+    found
+}
+
+/// `deps[1]` is at `params.deps.1` in the file.
+fn param_path(base: &str, param: &str) -> Vec<String> {
+    let mut loc_path = vec!["stages".to_string(), base.to_string(), "params".into()];
+    match param.split_once('[') {
+        Some((name, rest)) => {
+            loc_path.push(name.into());
+            loc_path.push(rest.trim_end_matches(']').into());
+        }
+        None => loc_path.push(param.to_string()),
+    }
+    loc_path
+}
+
 /// Collect path-typed params, link them to producing stages, and check that
-/// the rest exist.
+/// the rest exist. Params that failed to parse are read as written, so a
+/// missing file is reported in the same round as the param problems.
 pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
-    let mut producers: HashMap<String, (usize, String)> = HashMap::new();
+    let mut producers: Producers = HashMap::new();
     for (i, n) in nodes.iter().enumerate() {
         for (out, raw) in n
             .workspace_outputs
@@ -73,22 +115,34 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
     }
     for (i, node) in nodes.iter_mut().enumerate() {
         let before = cx.diags.len();
+        let refs = if node.parsed.is_valid() {
+            node.kind.files(&node.parsed)
+        } else {
+            node.kind.raw_files(&node.params)
+        };
         let mut files = Vec::new();
-        for f in node.kind.files(&node.parsed) {
-            // `deps[1]` is at `params.deps.1` in the file.
-            let mut loc_path = vec!["stages".to_string(), node.base.clone(), "params".into()];
-            match f.param.split_once('[') {
-                Some((name, rest)) => {
-                    loc_path.push(name.into());
-                    loc_path.push(rest.trim_end_matches(']').into());
-                }
-                None => loc_path.push(f.param.clone()),
-            }
+        for f in refs {
+            let loc_path = param_path(&node.base, &f.param);
             let loc_path: Vec<&str> = loc_path.iter().map(String::as_str).collect();
+            let path = normalize(&f.path);
+            let made = produced_by(&producers, &path, f.glob, i);
+            // A file another stage writes is that stage's output: an edge,
+            // hashed by the output's content and restored before this runs.
+            for (out, producer) in &made {
+                files.push(FileParam {
+                    param: f.param.clone(),
+                    path: out.clone(),
+                    producer: Some(producer.clone()),
+                });
+            }
+            let below_made = |rel: &str| {
+                made.iter()
+                    .any(|(out, _)| rel == out || rel.starts_with(&format!("{out}/")))
+            };
             if f.glob {
                 match stages::expand_glob(dir, &f.path) {
                     Ok(found) => {
-                        for (rel, _) in found {
+                        for (rel, _) in found.into_iter().filter(|(r, _)| !below_made(r)) {
                             if let Some(full) = outside(dir, &cx.read_roots, &rel) {
                                 let loc = cx.spans.value(&loc_path);
                                 cx.at(loc, format!("param `{}` of stage `{}` matches `{}`, outside the pipeline directory", f.param, node.name, full.display()), Some(outside_help(dir)));
@@ -101,57 +155,85 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
                             });
                         }
                     }
+                    Err(_) if !made.is_empty() => {}
                     Err(message) => {
                         let loc = cx.spans.value(&loc_path);
-                        cx.at(loc, format!("param `{}` of stage `{}`: {message}", f.param, node.name), Some("paths are relative to the pipeline file's directory; check the pattern".into()));
+                        cx.at(
+                            loc,
+                            format!("param `{}` of stage `{}`: {message}", f.param, node.name),
+                            Some(no_file_help(dir)),
+                        );
                     }
                 }
                 continue;
             }
-            let path = normalize(&f.path);
-            let producer = producers.get(&path).filter(|(p, _)| *p != i).cloned();
+            if !made.is_empty() {
+                continue;
+            }
             if let Some(full) = outside(dir, &cx.read_roots, &path) {
                 let loc = cx.spans.value(&loc_path);
                 cx.at(loc, format!("file `{}` named by param `{}` of stage `{}` is outside the pipeline directory ({})", f.path, f.param, node.name, full.display()), Some(outside_help(dir)));
                 continue;
             }
-            if producer.is_none() && !dir.join(&path).exists() {
+            if !dir.join(&path).exists() {
                 let loc = cx.spans.value(&loc_path);
-                cx.at(loc, format!("file `{}` named by param `{}` of stage `{}` does not exist", f.path, f.param, node.name), Some(format!("paths are relative to the pipeline file's directory ({}); create the file or let a `command` stage produce it via `outs`", dir.display())));
+                cx.at(
+                    loc,
+                    format!(
+                        "file `{}` named by param `{}` of stage `{}` does not exist",
+                        f.path, f.param, node.name
+                    ),
+                    Some(no_file_help(dir)),
+                );
             }
             files.push(FileParam {
                 param: f.param,
                 path,
-                producer,
+                producer: None,
             });
         }
-        // Look into the files once they all exist and the params are good.
-        if node.parsed.is_valid() && cx.diags.len() == before {
-            match node.kind.file_dependencies(&node.parsed, dir) {
-                Ok(extra) => {
-                    for path in extra {
-                        let path = normalize(&path);
-                        if let Some(full) = outside(dir, &cx.read_roots, &path) {
-                            let loc = cx.spans.value(&["stages", &node.base, "params"]);
-                            cx.at(loc, format!("stage `{}`: a file it references, `{path}`, is outside the pipeline directory ({})", node.name, full.display()), Some(outside_help(dir)));
-                            continue;
-                        }
-                        files.push(FileParam {
-                            param: "(referenced)".into(),
-                            path,
-                            producer: None,
-                        });
-                    }
-                }
-                Err(p) => {
-                    let mut path = vec!["stages", node.base.as_str(), "params"];
-                    path.extend(p.path.iter().map(String::as_str));
-                    let loc = cx.spans.nearest(&path);
-                    cx.at(loc, format!("stage `{}`: {}", node.name, p.message), p.help);
-                }
-            }
+        // Look into the files once they all exist and the params are good
+        // (a file another stage writes may not exist before it runs).
+        let exist = files.iter().all(|f| dir.join(&f.path).exists());
+        if node.parsed.is_valid() && cx.diags.len() == before && exist {
+            referenced_files(cx, dir, node, &mut files);
         }
         node.files = files;
+    }
+}
+
+fn no_file_help(dir: &Path) -> String {
+    format!(
+        "paths are relative to the pipeline file's directory ({}); create the file, or let a \
+         stage write it: a `command` stage's `outs` or an `export` stage's `to`",
+        dir.display()
+    )
+}
+
+/// Further files a node's files reference (a model file's super-elements).
+fn referenced_files(cx: &mut Ctx, dir: &Path, node: &Node, files: &mut Vec<FileParam>) {
+    match node.kind.file_dependencies(&node.parsed, dir) {
+        Ok(extra) => {
+            for path in extra {
+                let path = normalize(&path);
+                if let Some(full) = outside(dir, &cx.read_roots, &path) {
+                    let loc = cx.spans.value(&["stages", &node.base, "params"]);
+                    cx.at(loc, format!("stage `{}`: a file it references, `{path}`, is outside the pipeline directory ({})", node.name, full.display()), Some(outside_help(dir)));
+                    continue;
+                }
+                files.push(FileParam {
+                    param: "(referenced)".into(),
+                    path,
+                    producer: None,
+                });
+            }
+        }
+        Err(p) => {
+            let mut path = vec!["stages", node.base.as_str(), "params"];
+            path.extend(p.path.iter().map(String::as_str));
+            let loc = cx.spans.nearest(&path);
+            cx.at(loc, format!("stage `{}`: {}", node.name, p.message), p.help);
+        }
     }
 }
 

@@ -35,6 +35,12 @@ pub struct Plan {
     /// Directory of the pipeline file; commands run and paths resolve here.
     pub dir: PathBuf,
     pub name: String,
+    /// Where results and the last-run record go: `name`, or for a run with
+    /// `--set` overrides `name--set-<hash>` ([`results_name`]), so an
+    /// override never leaves the file's own results out of step with it.
+    pub results_name: String,
+    /// The `--set` overrides as given (sorted, deduplicated).
+    pub overrides: Vec<String>,
     pub seed: u64,
     pub nodes: Vec<Node>,
     /// Upstream node indices of each node (deduplicated, sorted).
@@ -275,9 +281,14 @@ fn plan_sets(file: &Path, dir: &Path, source: &str, sets: &[String]) -> Result<P
     if !cx.diags.is_empty() {
         return Err(PlanError::Invalid(Diagnostics(cx.diags)));
     }
+    let mut overrides = sets.to_vec();
+    overrides.sort();
+    overrides.dedup();
     Ok(Plan {
         file: file.to_path_buf(),
         dir: dir.to_path_buf(),
+        results_name: results_name(&spec.name, &overrides),
+        overrides,
         name: spec.name,
         seed: spec.seed,
         nodes,
@@ -285,6 +296,17 @@ fn plan_sets(file: &Path, dir: &Path, source: &str, sets: &[String]) -> Result<P
         order,
         executor: spec.executor,
     })
+}
+
+/// The results name of a pipeline run with `overrides` (sorted): its name,
+/// or `name--set-` and 8 hex digits of a hash of the overrides. A `--set`
+/// run's results and last-run record live under it, apart from the file's.
+pub fn results_name(name: &str, overrides: &[String]) -> String {
+    if overrides.is_empty() {
+        return name.to_string();
+    }
+    let hash = blake3::hash(overrides.join("\n").as_bytes()).to_hex();
+    format!("{name}--set-{}", &hash[..8])
 }
 
 /// `shards` under `kinds:` must name a kind whose stages here can be split.

@@ -76,6 +76,7 @@ const INPUTS: &[InputSpec] = &[
 impl Kind for Identify {
     type Params = Params;
     const NAME: &'static str = "identify";
+    const FILE_PARAMS: &'static [(&'static str, bool)] = &[("model", false)];
 
     /// 8: the `updated_model` output (the identified values in the model
     /// file). 9: model modes by shift-invert block Lanczos (issue 16).

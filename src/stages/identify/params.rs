@@ -47,6 +47,27 @@ impl<T: Default> Default for Given<T> {
     }
 }
 
+/// Identification's pairing window: a model 30 % off moves modes by up to
+/// 20 %.
+pub const PAIRING_WINDOW: f64 = 0.3;
+/// Identification's smallest MAC of a pair: below it a pair is no evidence
+/// of one physical mode.
+pub const PAIRING_MIN_MAC: f64 = 0.5;
+
+/// The `pairing` default as `modalflow kinds` prints it: identification's
+/// own window and MAC floor ([`PAIRING_WINDOW`], [`PAIRING_MIN_MAC`]), the
+/// rest [`Pairing::default`].
+fn default_pairing() -> Given<Pairing> {
+    Given {
+        value: Pairing {
+            window: PAIRING_WINDOW,
+            min_mac: PAIRING_MIN_MAC,
+            ..Pairing::default()
+        },
+        keys: Vec::new(),
+    }
+}
+
 impl<T> Given<T> {
     pub fn has(&self, key: &str) -> bool {
         self.keys.iter().any(|k| k == key)
@@ -161,7 +182,7 @@ crate::params! {
             => "`window` must be a positive fraction", "e.g. window: 0.2 for ±20 %",
         /// mode pairing (cost (1 − MAC) + NFD/frequency_scale): {window: 0.3,
         /// min_mac: 0.5, frequency_scale: 0.1, ambiguity: 0.1}
-        pub pairing: Given<Pairing> = Given::default(),
+        pub pairing: Given<Pairing> = default_pairing(),
         /// standard deviations of the reference modes: {frequency: 0.002
         /// (relative), shape: 0.02 (per unit-shape component), damping: 0.1
         /// (relative), from_complexity: true (raise a mode's by its shape's
@@ -246,7 +267,7 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
             out.push(problem(
                 &["optimizer_settings"],
                 e.to_string(),
-                "see the optimizer's settings in the README",
+                "see the optimizer's settings in docs/stage-kinds.md (`identify`)",
             ))
         })
         .ok();
@@ -265,7 +286,7 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
         out.push(problem(
             &["guided"],
             m,
-            "see the guided settings in the README",
+            "see the guided settings in docs/stage-kinds.md (`identify`)",
         ));
     }
     let w = p.weights;
@@ -289,10 +310,10 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
     // 20 %, and a pair below MAC 0.5 is no evidence of one physical mode.
     let mut pairing = p.pairing.value;
     if !p.pairing.has("window") {
-        pairing.window = 0.3;
+        pairing.window = PAIRING_WINDOW;
     }
     if !p.pairing.has("min_mac") {
-        pairing.min_mac = 0.5;
+        pairing.min_mac = PAIRING_MIN_MAC;
     }
     if let Some(w) = p.window {
         if p.pairing.has("window") {
@@ -329,7 +350,7 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
         out.push(problem(
             &["frf_refinement"],
             m,
-            "see the FRF refinement in the README",
+            "see the FRF refinement in docs/stage-kinds.md (`identify`)",
         ));
     }
     let frf_band = p.frf_band.unwrap_or((0.0, f64::INFINITY));
