@@ -265,8 +265,8 @@ fn real_beam_updated_on_the_hammer_predicts_the_shaker() {
     let e = params.iter().find(|r| r[0] == "beam.E").unwrap();
     let (value, low, high): (f64, f64, f64) = (
         e[1].parse().unwrap(),
-        e[8].parse().unwrap(),
         e[9].parse().unwrap(),
+        e[10].parse().unwrap(),
     );
     // Full study: 187.3 GPa, 95 % interval 177.1-198.1 GPa.
     assert!((1.75e11..2.15e11).contains(&value), "{e:?}");

@@ -4,7 +4,7 @@
 //! identified parameters and the consider analysis of the fixed ones
 //! ([`super::consider`]), all from one batch of model evaluations.
 
-use super::consider::{bounds_spread, consider, Consider};
+use super::consider::{ar1_inflation, bounds_spread, consider, Consider};
 use super::frf_objective::FrfReference;
 use super::identifiability::{analyze, Identifiability};
 use super::objective::{Match, ModalObjective, SlotPairing};
@@ -225,6 +225,15 @@ pub(super) fn identifiability_at(
         })
         .collect();
     let fixed_columns = columns.split_off(identified.len());
+    // FRF residuals (re, im per line) correlated along frequency: lag 2.
+    let frf_part = &r0[r0.len() - frf.map_or(0, |f| f.count()).min(r0.len())..];
+    let lagged: f64 = frf_part.iter().zip(frf_part.iter().skip(2)).map(|(a, b)| a * b).sum();
+    let energy: f64 = frf_part.iter().map(|v| v * v).sum();
+    let inflation = if energy > 0.0 {
+        ar1_inflation(lagged / energy)
+    } else {
+        1.0
+    };
     let name = |i: &usize| o.parameters()[*i].name.clone();
     let names: Vec<String> = identified.iter().map(name).collect();
     let analysis = analyze(&columns, &r0, &names, max_std_error);
@@ -238,7 +247,19 @@ pub(super) fn identifiability_at(
             &fixed_names,
             &spreads,
             analysis.residual_variance.unwrap_or(1.0),
+            inflation,
         )
+    });
+    // A linearized change is cut at the parameter's bounds (a column the
+    // data barely see can ask for any value).
+    let considered = considered.map(|mut c| {
+        for (f, &(i, _)) in c.fixed.iter_mut().zip(fixed) {
+            let p = &o.parameters()[i];
+            if x[i] > 0.0 && p.lower > 0.0 {
+                f.change = f.change.clamp((p.lower / x[i]).ln(), (p.upper / x[i]).ln());
+            }
+        }
+        c
     });
     Ok((analysis, considered, 2 * cols.len() + 1))
 }

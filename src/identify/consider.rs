@@ -109,7 +109,10 @@ impl Consider {
 /// least-squares result: `theta` are the identified parameters' Jacobian
 /// columns (∂r/∂ln θ), `fixed` the fixed parameters' with their `names` and
 /// assumed `spreads` (σ of ln c), `sigma2` the residual variance σ̂² the
-/// data covariance is scaled by (1 when it cannot be estimated).
+/// data covariance is scaled by (1 when it cannot be estimated), and
+/// `inflation` ≥ 1 the variance factor of residuals correlated along
+/// frequency ([`ar1_inflation`]) by which the tests and the conditioning
+/// on the data are made less confident.
 pub fn consider(
     theta: &[Vec<f64>],
     fixed: &[Vec<f64>],
@@ -117,6 +120,7 @@ pub fn consider(
     names: &[String],
     spreads: &[f64],
     sigma2: f64,
+    inflation: f64,
 ) -> Consider {
     let n = theta.len();
     let m = r.len();
@@ -153,7 +157,7 @@ pub fn consider(
                 .collect()
         })
         .collect();
-    let s2 = sigma2.max(1.0);
+    let s2 = sigma2.max(1.0) * inflation.max(1.0);
     let sigma_c = posterior(&absorbed, spreads, s2);
     let mut variance: Vec<f64> = (0..n).map(|i| sigma2 * g_plus[(i, i)]).collect();
     for (i, v) in variance.iter_mut().enumerate() {
@@ -295,6 +299,16 @@ fn score_tests(
     }
 }
 
+/// The variance factor (1 + ρ)/(1 − ρ) of a linear combination of AR(1)
+/// residuals with lag-1 correlation ρ (ρ clipped to [0, 0.98]): smooth FRF
+/// misfits hold far fewer independent lines than they have, and a test
+/// that counted each line as independent would implicate anything (Box,
+/// Jenkins & Reinsel, "Time Series Analysis", the effective sample size).
+pub fn ar1_inflation(rho: f64) -> f64 {
+    let rho = if rho.is_finite() { rho.clamp(0.0, 0.98) } else { 0.0 };
+    (1.0 + rho) / (1.0 - rho)
+}
+
 /// The standard deviation of ln p for a value uniform over its bounds
 /// (module docs): ln(upper/lower)/√12 on a log scale, (upper − lower)/(√12
 /// |p|) on a linear one; 0 for degenerate bounds.
@@ -408,7 +422,7 @@ mod tests {
         ];
         let spreads = [0.3, 0.05, 0.2];
         let names: Vec<String> = ["q", "bump", "line"].map(String::from).to_vec();
-        let c = consider(&theta, &fixed, &vec![0.0; m], &names, &spreads, 1.0);
+        let c = consider(&theta, &fixed, &vec![0.0; m], &names, &spreads, 1.0, 1.0);
         let cols: Vec<&Vec<f64>> = theta.iter().chain(&fixed).collect();
         let lambda: Vec<Vec<f64>> = (0..5)
             .map(|a| {
@@ -443,7 +457,7 @@ mod tests {
         // With no residual nothing is implicated.
         assert!(c.fixed.iter().all(|f| !f.implicated && f.statistic == 0.0));
         // Exact fixed parameters (spread 0): only the data's own part.
-        let exact = consider(&theta, &fixed, &vec![0.0; m], &names, &[0.0; 3], 1.0);
+        let exact = consider(&theta, &fixed, &vec![0.0; m], &names, &[0.0; 3], 1.0, 1.0);
         let plain = inverse(vec![
             vec![m as f64, t.iter().sum()],
             vec![t.iter().sum(), t.iter().map(|x| x * x).sum()],
@@ -499,7 +513,7 @@ mod tests {
         assert_eq!(c.implicated()[0].parameter, "quad");
         // At the truth (noise only), neither is implicated.
         let r0 = fit(&noise);
-        let c0 = consider(&theta, &fixed, &r0, &names, &[0.1, 0.1], 1.0);
+        let c0 = consider(&theta, &fixed, &r0, &names, &[0.1, 0.1], 1.0, 1.0);
         assert!(c0.fixed.iter().all(|f| !f.implicated), "{:?}", c0.fixed);
     }
 

@@ -66,9 +66,11 @@ pub(super) fn refit(
     free.dedup();
     let mut refitted = now.refitted.clone();
     refitted.extend(implicated.iter().map(|&i| o.parameters()[i].name.clone()));
+    // A budget below what the refinement needs skips the refit (the
+    // verdict keeps the implicated parameters named).
     let (x, status, frf, cost) = match plan.frf.filter(|(_, s)| s.enabled) {
         Some((reference, settings)) => {
-            let r = frf_refinement(
+            let r = match frf_refinement(
                 o.prepared(),
                 &o.bounds()?,
                 reference,
@@ -128,7 +130,7 @@ pub(super) fn escape(
     if budget < MINIMUM.max(8 * (now.identified.len() + 1)) {
         return Ok(None);
     }
-    let r = frf_refinement(
+    let r = match frf_refinement(
         o.prepared(),
         &o.bounds()?,
         reference,
@@ -140,7 +142,10 @@ pub(super) fn escape(
         settings,
         plan.seed.wrapping_add(1),
         progress,
-    )?;
+    ) {
+        Err(IdentifyError::Invalid(_)) => return Ok(None),
+        r => r?,
+    };
     let cost = r.summary.evaluations;
     let escaped = r.summary.end.robust_cost < ESCAPED * before.robust_cost;
     let evidence = SearchEvidence {

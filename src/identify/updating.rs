@@ -230,13 +230,16 @@ pub fn update(
     };
     let mut judged = judge(o, &start, &outcome, guided_result.as_ref(), plan, progress)?;
     let mut assessment_evaluations = judged.evaluations;
-    // The follow-ups (module docs), each judged again; at most two refits.
+    // The follow-ups ([`super::follow_up`]), each judged again; a refit that
+    // does not fit better is not taken.
     for _ in 0..2 {
         let left = plan
             .budget
             .saturating_sub(evaluations + assessment_evaluations + reserve);
-        let implicated = judged.implicated(o);
-        let step = if !implicated.is_empty() && plan.refit_implicated {
+        let mut implicated = judged.implicated(o);
+        implicated.truncate(REFIT_AT_ONCE);
+        let refitting = !implicated.is_empty() && plan.refit_implicated;
+        let step = if refitting {
             refit(o, plan, &start, &outcome, &implicated, left, progress)?
         } else if judged.verdict.fit == Fit::AboveNoise && !outcome.searched {
             escape(o, plan, &start, &outcome, left, progress)?
@@ -245,9 +248,18 @@ pub fn update(
         };
         let Some((next, cost)) = step else { break };
         evaluations += cost;
+        let next_judged = judge(o, &start, &next, guided_result.as_ref(), plan, progress)?;
+        assessment_evaluations += next_judged.evaluations;
+        if refitting && !(fit_rms(&next_judged.verdict) < fit_rms(&judged.verdict)) {
+            judged.verdict.warnings.push(format!(
+                "refitting with the implicated parameters identified too did not fit better ({:.2}σ against {:.2}σ): not taken",
+                fit_rms(&next_judged.verdict),
+                fit_rms(&judged.verdict)
+            ));
+            break;
+        }
         outcome = next;
-        judged = judge(o, &start, &outcome, guided_result.as_ref(), plan, progress)?;
-        assessment_evaluations += judged.evaluations;
+        judged = next_judged;
     }
     let verdict = judged
         .verdict
@@ -275,6 +287,14 @@ pub fn update(
         frf: outcome.frf,
         refitted: outcome.refitted,
     })
+}
+
+/// Most implicated parameters one refit adds (largest statistics first).
+const REFIT_AT_ONCE: usize = 3;
+
+/// The residual RMS (σ units) a verdict is about: the FRFs' when given.
+fn fit_rms(v: &Verdict) -> f64 {
+    v.frf.map_or(v.end_rms, |f| f.end.rms)
 }
 
 /// The assessment and verdict of an [`Outcome`].
