@@ -87,8 +87,10 @@ impl Kind for Identify {
     /// (issue 31); uncalibrated FRFs and reference modes without damping
     /// are refused; the verdict names the reference modes left without a
     /// model partner (modes the model does not contain).
+    /// 14: eigenpairs from the problem-chosen shift and range start of the
+    /// Lanczos (issue 32).
     fn version(&self) -> u32 {
-        13
+        14
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
