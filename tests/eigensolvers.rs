@@ -19,6 +19,7 @@ fn with(model: &Model, method: SolverMethod, block: usize) -> PreparedModel {
     let spec = SolverSpec {
         method,
         block: Some(block),
+        ..SolverSpec::default()
     };
     PreparedModel::with_solver(model, DEFAULT_SHIFT, spec).unwrap()
 }

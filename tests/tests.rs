@@ -13,6 +13,7 @@ mod eigensolvers;
 mod engine;
 mod evaluate;
 mod fe_formats;
+mod fe_solver;
 mod gsa;
 mod identify;
 mod import;

@@ -13,13 +13,13 @@
 
 use super::configuration::{axis_states, locate, locate_b, Location};
 use super::craig_bampton::craig_bampton;
-use super::eigen::DEFAULT_SHIFT;
 use super::error::DynamicsError;
 use super::lanczos::LanczosOptions;
 use super::model::{BodyKind, End, Model, Parameter};
 use super::model_file::DampingModel;
 use super::model_file::{SolverMethod, SolverSpec};
 use super::rigid::{offset_map, rigid_mass};
+use super::shift::{sigma_from_hz, Shift};
 use super::shift_invert::WorkspacePool;
 use super::sparse::Csc;
 use super::storage::{choose, Storage};
@@ -99,8 +99,8 @@ pub struct PreparedModel {
     /// and the eigensolver path.
     pub storage: Arc<Storage>,
     /// Shift σ of the shift-invert eigensolver, rad²/s²
-    /// ([`crate::dynamics::eigen`]).
-    shift: f64,
+    /// ([`crate::dynamics::shift`]).
+    pub(crate) shift: Shift,
     pub(crate) lanczos: LanczosOptions,
     pub(crate) scratch: WorkspacePool,
 }
@@ -115,14 +115,20 @@ enum Block {
 }
 
 impl PreparedModel {
-    /// Reduce bodies, assemble, factor M and set up all configurations,
-    /// with the default eigensolver shift σ = (2π · 1 Hz)².
+    /// Reduce bodies, assemble and set up all configurations, with the
+    /// model file's `solver:` settings: the eigensolver shift
+    /// `solver.shift` (Hz) or, by default, one chosen from the problem on
+    /// the first evaluation ([`crate::dynamics::shift`]).
     pub fn new(model: &Model) -> Result<PreparedModel, DynamicsError> {
-        PreparedModel::with_shift(model, DEFAULT_SHIFT)
+        let shift = match model.solver.shift {
+            Some(f) => Shift::Fixed(sigma_from_hz(f)),
+            None => Shift::Auto(Default::default()),
+        };
+        PreparedModel::prepare(model, shift, model.solver)
     }
 
-    /// As [`PreparedModel::new`] with shift σ > 0 (rad²/s²): choose σ below
-    /// the lowest elastic eigenvalue of interest.
+    /// As [`PreparedModel::new`] with a fixed shift σ > 0 (rad²/s²): choose
+    /// σ below the lowest elastic eigenvalue of interest.
     pub fn with_shift(model: &Model, shift: f64) -> Result<PreparedModel, DynamicsError> {
         PreparedModel::with_solver(model, shift, model.solver)
     }
@@ -139,6 +145,14 @@ impl PreparedModel {
                 message: format!("eigensolver shift must be finite and > 0, got {shift}"),
             });
         }
+        PreparedModel::prepare(model, Shift::Fixed(shift), solver)
+    }
+
+    fn prepare(
+        model: &Model,
+        shift: Shift,
+        solver: SolverSpec,
+    ) -> Result<PreparedModel, DynamicsError> {
         let states = axis_states(model);
         // Nodes of each FE body used anywhere → Craig-Bampton boundary.
         let mut used: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); model.bodies.len()];
@@ -221,7 +235,7 @@ impl PreparedModel {
                 });
             }
         }
-        let storage = Storage::new(method, M, K0, D0, &configurations, shift, &dof_labels)?;
+        let storage = Storage::new(method, M, K0, D0, &configurations, &dof_labels)?;
         Ok(PreparedModel {
             parameters: model.parameters.clone(),
             sensors: model
@@ -244,11 +258,6 @@ impl PreparedModel {
             },
             scratch: WorkspacePool::default(),
         })
-    }
-
-    /// The eigensolver shift σ, rad²/s².
-    pub fn shift(&self) -> f64 {
-        self.shift
     }
 
     /// Number of DOFs of the assembled (reduced) model.

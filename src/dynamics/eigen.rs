@@ -156,22 +156,53 @@ pub fn shift_invert(
         pivot,
         dof: dof(pivot),
     })?;
-    shift_invert_factored(&L, C, sigma, n_modes)
+    shift_invert_factored(&L, Some(C), C, sigma, n_modes)
+}
+
+/// A = L⁻¹ M L⁻ᵀ for a positive semi-definite M without a Cholesky factor
+/// (massless DOFs): two triangular solves, then symmetrized. Its null
+/// space (μ = 0) holds the infinite eigenvalues of the massless DOFs.
+pub fn inverted_form_semidefinite(L: &Mat<f64>, M: &Mat<f64>) -> Mat<f64> {
+    let mut X = M.clone();
+    solve_lower_triangular_in_place(L.as_ref(), X.as_mut(), Par::Seq);
+    let mut A = X.transpose().to_owned();
+    solve_lower_triangular_in_place(L.as_ref(), A.as_mut(), Par::Seq);
+    symmetrize(&mut A);
+    A
 }
 
 /// [`shift_invert`] with the Cholesky factor L of K_σ given: all
 /// eigenpairs of A = L⁻¹ M L⁻ᵀ by the full symmetric eigensolver, the
-/// `n_modes` largest μ kept.
+/// `n_modes` largest μ kept. `C` is the Cholesky factor of M, `None` when
+/// M is only semi-definite; then at most rank(M) modes are finite, and
+/// asking for more is an error.
 pub fn shift_invert_factored(
     L: &Mat<f64>,
-    C: &Mat<f64>,
+    C: Option<&Mat<f64>>,
+    M: &Mat<f64>,
     sigma: f64,
     n_modes: usize,
 ) -> Result<(Vec<f64>, Mat<f64>), DynamicsError> {
-    let A = inverted_form(L, C);
+    let A = match C {
+        Some(C) => inverted_form(L, C),
+        None => inverted_form_semidefinite(L, M),
+    };
     let (mu, U) = symmetric_eigen(&A)?;
     let n = mu.len();
     let m = n_modes.min(n);
+    // μ = 1/(λ + σ) ≤ 1/σ; μ at rounding level of 1/σ is an infinite λ.
+    let floor = 64.0 * f64::EPSILON * (n as f64) / sigma;
+    let finite = match C {
+        Some(_) => n,
+        None => mu.iter().filter(|&&x| x > floor).count(),
+    };
+    if m > finite {
+        return Err(DynamicsError::Lanczos {
+            message: format!(
+                "{m} modes wanted but the mass matrix has rank {finite} of {n} (massless DOFs have no finite frequency); ask for at most {finite} modes"
+            ),
+        });
+    }
     // Largest μ first = lowest λ first.
     let mut lambda = Vec::with_capacity(m);
     let mut Y = Mat::<f64>::zeros(n, m);
@@ -220,7 +251,7 @@ pub fn generalized_eigen(
             Ok(r) => return Ok(r),
         }
     }
-    shift_invert_factored(&L, &C, DEFAULT_SHIFT, n_modes)
+    shift_invert_factored(&L, Some(&C), M, DEFAULT_SHIFT, n_modes)
 }
 
 #[cfg(test)]

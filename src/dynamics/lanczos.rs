@@ -92,6 +92,9 @@ pub enum LanczosError {
     TooSmall,
     /// Not converged after the allowed restarts; the worst relative residual.
     NotConverged { restarts: usize, residual: f64 },
+    /// Fewer than the wanted count of positive μ: the mass matrix has a
+    /// rank below the mode count (massless DOFs), or is indefinite.
+    NonPositive { wanted: usize, positive: usize },
 }
 
 /// The largest eigenpairs, descending μ, X M-orthonormal (n × nev).
@@ -301,14 +304,30 @@ pub fn largest_eigenpairs<O: ShiftInvertOperator + ?Sized>(
             ws.V[(i, j)] = start_value(i, j);
         }
     }
-    op.mass(
-        ws.V.as_ref().subcols(0, p),
-        ws.MV.as_mut().subcols_mut(0, p),
-    );
+    let mut applications = 0;
+    // Start in the range of the operator, V₀ = K_σ⁻¹ M R: with a singular
+    // M (massless DOFs) the M-inner product is definite only there, and a
+    // start vector's null-space part would otherwise stay in every Ritz
+    // vector (Nour-Omid, Parlett, Ericsson & Jensen 1987, "How to implement
+    // the spectral transformation", Math. Comp. 48, sec. 3).
+    for _ in 0..2 {
+        op.mass(
+            ws.V.as_ref().subcols(0, p),
+            ws.MV.as_mut().subcols_mut(0, p),
+        );
+        if applications > 0 {
+            break;
+        }
+        ws.V.as_mut()
+            .subcols_mut(0, p)
+            .copy_from(ws.MV.subcols(0, p));
+        op.solve(ws.V.as_mut().subcols_mut(0, p));
+        applications += p;
+    }
     let ones = vec![1.0; p];
     orthonormalize_block(&*op, &mut ws.V, &mut ws.MV, 0, p, &ones, 1000)
         .ok_or(LanczosError::TooSmall)?;
-    let (mut k, mut applications, mut restarts) = (0, 0, 0);
+    let (mut k, mut restarts) = (0, 0);
     // The first block after the start or a restart couples to all of V[0..k].
     let mut lo = 0;
     loop {

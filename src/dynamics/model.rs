@@ -114,6 +114,22 @@ impl Model {
             .sum()
     }
 
+    /// DOFs with mass: the most modes with a finite frequency. A DOF whose
+    /// mass row is zero (rotations of a lumped-mass export, constraint
+    /// nodes) has none; the eigensolver handles such a semi-definite M
+    /// (K + σM stays definite), but cannot return more modes than this.
+    pub fn finite_modes(&self) -> usize {
+        let massless: usize = self
+            .bodies
+            .iter()
+            .map(|b| match &b.kind {
+                BodyKind::Fe { fe, .. } => super::storage::massless_dofs(&fe.M),
+                BodyKind::Rigid { .. } => 0,
+            })
+            .sum();
+        self.n_dofs().saturating_sub(massless)
+    }
+
     /// Estimated peak memory of preparing and evaluating the model, bytes,
     /// and what dominates it: about six dense n × n matrices when the
     /// solver is (or will be chosen) dense, O(nnz) when it is sparse (the
@@ -451,6 +467,14 @@ impl Model {
                 return Err(inv(
                     "solver.block".into(),
                     format!("Lanczos block size {b}: give 1..=16 (default 4)"),
+                ));
+            }
+        }
+        if let Some(f) = spec.solver.shift {
+            if !(f.is_finite() && f > 0.0) {
+                return Err(inv(
+                    "solver.shift".into(),
+                    format!("shift {f} Hz: give a frequency > 0 below the first elastic mode, or leave it out to have it chosen"),
                 ));
             }
         }

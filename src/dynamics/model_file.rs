@@ -44,7 +44,7 @@ pub enum SolverMethod {
 }
 
 /// `solver:` block of a model file.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 pub struct SolverSpec {
     #[serde(default)]
@@ -52,6 +52,11 @@ pub struct SolverSpec {
     /// Lanczos block size, 1..=16 (default 4): eigenvalues of multiplicity
     /// up to the block size are found.
     pub block: Option<usize>,
+    /// Shift of the shift-invert eigensolver as a frequency f > 0, Hz: the
+    /// solver factors K + (2πf)² M. Default: chosen from the problem
+    /// (rigid-body modes detected, f below the first elastic mode;
+    /// [`crate::dynamics::shift`]).
+    pub shift: Option<f64>,
 }
 
 impl ModelFile {

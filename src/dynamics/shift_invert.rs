@@ -68,6 +68,20 @@ pub fn lowest_modes<O: ShiftInvertOperator + ?Sized>(
     ws: &mut KrylovWorkspace,
 ) -> Result<(Vec<f64>, Mat<f64>), LanczosError> {
     let r = largest_eigenpairs(op, nev, options, ws)?;
+    // μ = 1/(λ + σ) > 0 for every finite λ; μ at the rounding level of the
+    // largest is an infinite λ of a massless direction, a negative one an
+    // indefinite M.
+    let top = r.mu.first().copied().unwrap_or(0.0);
+    let positive =
+        r.mu.iter()
+            .take_while(|&&m| m > 1e3 * f64::EPSILON * top)
+            .count();
+    if positive < nev {
+        return Err(LanczosError::NonPositive {
+            wanted: nev,
+            positive,
+        });
+    }
     let mut lambda: Vec<f64> =
         r.mu.iter()
             .map(|&m| 1.0 / m.max(f64::MIN_POSITIVE) - sigma)

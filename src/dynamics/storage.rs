@@ -16,30 +16,37 @@ use super::model_file::SolverMethod;
 use super::shift_invert::{lowest_modes, DenseShiftInvert, SparseShiftInvert, Workspace};
 use super::sparse::{Csc, SparseCholesky};
 use faer::linalg::matmul::matmul;
+use faer::linalg::triangular_solve::{
+    solve_lower_triangular_in_place, solve_upper_triangular_in_place,
+};
+use faer::reborrow::ReborrowMut;
 use faer::{Accum, Mat, MatMut, MatRef, Par};
 
-/// Dense storage: M, K₀, D₀, the Cholesky factor C of M (for the full
-/// eigensolver) and K₀ + σM.
+/// Dense storage: M, K₀, D₀ and the Cholesky factor C of M for the full
+/// eigensolver (`None` when M is only semi-definite: massless DOFs).
 #[derive(Debug, Clone)]
 pub struct DenseStorage {
     pub M: Mat<f64>,
     pub K0: Mat<f64>,
     pub D0: Option<Mat<f64>>,
-    pub M_chol: Mat<f64>,
-    K0_shifted: Mat<f64>,
+    pub M_chol: Option<Mat<f64>>,
 }
 
-/// Sparse storage: M, K₀, D₀, K₀ + σM on the union pattern of every
-/// evaluation's K_σ, its symbolic Cholesky analysis, and for every
+/// Sparse storage: M, K₀, D₀, K₀ and M on the union pattern of every
+/// evaluation's K_σ = K₀ + σM + joints (σ is chosen per model, so it is
+/// applied at factorization), its symbolic Cholesky analysis, and for every
 /// configuration the value slots of its rank-one spring terms.
 #[derive(Debug)]
 pub struct SparseStorage {
     pub M: Csc,
     pub K0: Csc,
     pub D0: Option<Csc>,
-    K0_shifted: Csc,
+    /// K₀ on the union pattern.
+    K_pattern: Csc,
+    /// M's values on the same pattern.
+    mass_on_pattern: Vec<f64>,
     chol: SparseCholesky,
-    /// slots[config][column] = positions in K0_shifted.values of g gᵀ.
+    /// slots[config][column] = positions in K_pattern.values of g gᵀ.
     slots: Vec<Vec<Vec<usize>>>,
 }
 
@@ -64,11 +71,28 @@ pub fn choose(method: SolverMethod, n: usize, nnz: usize) -> SolverMethod {
     }
 }
 
-fn mass_error(pivot: usize, labels: &[String]) -> DynamicsError {
-    DynamicsError::MassNotPositiveDefinite {
-        pivot,
-        dof: labels.get(pivot).cloned().unwrap_or_default(),
+/// M must be positive semi-definite: a DOF of negative mass has no
+/// physical meaning and makes the shift-inverted operator indefinite. A
+/// zero diagonal (a massless DOF: rotations of a lumped-mass model,
+/// constraint nodes) is allowed; shift-invert needs K + σM definite, not M.
+fn check_mass_diagonal(M: &Csc, labels: &[String]) -> Result<(), DynamicsError> {
+    for j in 0..M.n {
+        let d = M.get(j, j);
+        if d < 0.0 || !d.is_finite() {
+            return Err(DynamicsError::MassNotPositiveDefinite {
+                pivot: j,
+                dof: labels.get(j).cloned().unwrap_or_default(),
+            });
+        }
     }
+    Ok(())
+}
+
+/// Number of DOFs whose mass row is zero (massless DOFs).
+pub fn massless_dofs(M: &Csc) -> usize {
+    (0..M.n)
+        .filter(|&j| (M.col_ptr[j]..M.col_ptr[j + 1]).all(|p| M.values[p] == 0.0))
+        .count()
 }
 
 fn stiffness_error(pivot: usize, labels: &[String]) -> DynamicsError {
@@ -86,32 +110,23 @@ impl Storage {
         K0: Csc,
         D0: Option<Csc>,
         configurations: &[Configuration],
-        shift: f64,
         labels: &[String],
     ) -> Result<Storage, DynamicsError> {
+        check_mass_diagonal(&M, labels)?;
         if method != SolverMethod::Sparse {
             let (M, K0) = (M.to_dense(), K0.to_dense());
-            let M_chol = cholesky(&M).map_err(|p| mass_error(p, labels))?;
-            let K0_shifted = &K0 + &M * faer::Scale(shift);
+            let M_chol = cholesky(&M).ok();
             return Ok(Storage::Dense(DenseStorage {
                 M_chol,
-                K0_shifted,
                 D0: D0.map(|d| d.to_dense()),
                 M,
                 K0,
             }));
         }
-        // Mass positive definite: factor it once on its own pattern.
-        let mchol =
-            SparseCholesky::analyse(&M).map_err(|m| DynamicsError::Parameters { message: m })?;
-        let mut ws = super::sparse::FactorWorkspace::default();
-        mchol
-            .factor(&M, &M.values, &mut ws)
-            .map_err(|p| mass_error(p, labels))?;
         let n = M.n;
         let mut t = Vec::with_capacity(K0.nnz() + M.nnz());
         K0.triplets(0, 1.0, &mut t);
-        M.triplets(0, shift, &mut t);
+        M.triplets(0, 0.0, &mut t);
         for c in configurations {
             for g in &c.stiffness.columns {
                 for &(i, _) in g {
@@ -121,7 +136,7 @@ impl Storage {
                 }
             }
         }
-        let K0_shifted = Csc::from_triplets(n, t);
+        let K_pattern = Csc::from_triplets(n, t);
         let slots = configurations
             .iter()
             .map(|c| {
@@ -131,19 +146,22 @@ impl Storage {
                     .map(|g| {
                         g.iter()
                             .flat_map(|&(i, _)| g.iter().map(move |&(j, _)| (i, j)))
-                            .map(|(i, j)| K0_shifted.position(i, j).unwrap_or(usize::MAX))
+                            .map(|(i, j)| K_pattern.position(i, j).unwrap_or(usize::MAX))
                             .collect()
                     })
                     .collect()
             })
             .collect();
-        let chol = SparseCholesky::analyse(&K0_shifted)
+        let chol = SparseCholesky::analyse(&K_pattern)
             .map_err(|m| DynamicsError::Parameters { message: m })?;
+        let mass_on_pattern = M.on_pattern(&K_pattern).values;
+        let K_pattern = K0.on_pattern(&K_pattern);
         Ok(Storage::Sparse(Box::new(SparseStorage {
             M,
             K0,
             D0,
-            K0_shifted,
+            K_pattern,
+            mass_on_pattern,
             chol,
             slots,
         })))
@@ -153,6 +171,16 @@ impl Storage {
         match self {
             Storage::Dense(d) => d.M.nrows(),
             Storage::Sparse(s) => s.M.n,
+        }
+    }
+
+    /// DOFs with mass: the most modes with a finite frequency.
+    pub fn finite_modes(&self) -> usize {
+        match self {
+            Storage::Dense(d) => (0..d.M.nrows())
+                .filter(|&j| (0..d.M.nrows()).any(|i| d.M[(i, j)] != 0.0))
+                .count(),
+            Storage::Sparse(s) => s.M.n - massless_dofs(&s.M),
         }
     }
 
@@ -167,7 +195,7 @@ impl Storage {
     pub fn nnz(&self) -> (usize, usize) {
         match self {
             Storage::Dense(d) => (d.M.nrows().pow(2), d.M.nrows().pow(2)),
-            Storage::Sparse(s) => (s.K0_shifted.nnz(), s.chol.factor_nnz()),
+            Storage::Sparse(s) => (s.K_pattern.nnz(), s.chol.factor_nnz()),
         }
     }
 
@@ -184,6 +212,18 @@ impl Storage {
         match self {
             Storage::Dense(d) => matmul(Y, Accum::Replace, d.K0.as_ref(), X, 1.0, Par::Seq),
             Storage::Sparse(s) => s.K0.mul(X, Y),
+        }
+    }
+
+    /// X ← K_σ⁻¹ X with the factor in `ws` ([`Storage::factor`]).
+    pub fn solve(&self, X: MatMut<'_, f64>, ws: &mut Workspace) {
+        match self {
+            Storage::Dense(_) => {
+                let mut X = X;
+                solve_lower_triangular_in_place(ws.dense.as_ref(), X.rb_mut(), Par::Seq);
+                solve_upper_triangular_in_place(ws.dense.transpose(), X, Par::Seq);
+            }
+            Storage::Sparse(s) => s.chol.solve(X, &mut ws.factor),
         }
     }
 
@@ -241,11 +281,13 @@ impl Storage {
     }
 
     /// Factor K_σ = K₀ + σM + Σ k g gᵀ of configuration `config` into `ws`.
+    #[allow(clippy::too_many_arguments)]
     pub fn factor(
         &self,
         config: usize,
         terms: &JointTerms,
         values: &[f64],
+        shift: f64,
         ws: &mut Workspace,
         labels: &[String],
     ) -> Result<(), DynamicsError> {
@@ -255,14 +297,24 @@ impl Storage {
                 if ws.dense.nrows() != n || ws.dense.ncols() != n {
                     ws.dense = Mat::zeros(n, n);
                 }
-                ws.dense.copy_from(&d.K0_shifted);
+                for j in 0..n {
+                    for i in 0..n {
+                        ws.dense[(i, j)] = d.K0[(i, j)] + shift * d.M[(i, j)];
+                    }
+                }
                 terms.add_to(&mut ws.dense, values);
                 super::eigen::cholesky_in_place(&mut ws.dense)
                     .map_err(|p| stiffness_error(p, labels))
             }
             Storage::Sparse(s) => {
                 ws.values.clear();
-                ws.values.extend_from_slice(&s.K0_shifted.values);
+                ws.values.extend(
+                    s.K_pattern
+                        .values
+                        .iter()
+                        .zip(&s.mass_on_pattern)
+                        .map(|(k, m)| k + shift * m),
+                );
                 for ((g, &p), slot) in terms
                     .columns
                     .iter()
@@ -281,7 +333,7 @@ impl Storage {
                     }
                 }
                 s.chol
-                    .factor(&s.K0_shifted, &ws.values, &mut ws.factor)
+                    .factor(&s.K_pattern, &ws.values, &mut ws.factor)
                     .map_err(|p| stiffness_error(p, labels))
             }
         }
@@ -305,6 +357,11 @@ impl Storage {
                 ),
             },
             LanczosError::TooSmall => DynamicsError::NoConvergence,
+            LanczosError::NonPositive { wanted, positive } => DynamicsError::Lanczos {
+                message: format!(
+                    "{wanted} modes wanted but only {positive} have a finite frequency: the mass matrix has massless DOFs (rank below the mode count) or is indefinite; ask for fewer modes or check the mass matrix"
+                ),
+            },
         }
         };
         match self {
@@ -319,7 +376,7 @@ impl Storage {
                         r => return r.map_err(lanczos_error),
                     }
                 }
-                shift_invert_factored(&ws.dense, &d.M_chol, shift, nev)
+                shift_invert_factored(&ws.dense, d.M_chol.as_ref(), &d.M, shift, nev)
             }
             Storage::Sparse(s) => {
                 let Workspace { krylov, factor, .. } = ws;

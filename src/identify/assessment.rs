@@ -227,7 +227,11 @@ pub(super) fn identifiability_at(
     let fixed_columns = columns.split_off(identified.len());
     // FRF residuals (re, im per line) correlated along frequency: lag 2.
     let frf_part = &r0[r0.len() - frf.map_or(0, |f| f.count()).min(r0.len())..];
-    let lagged: f64 = frf_part.iter().zip(frf_part.iter().skip(2)).map(|(a, b)| a * b).sum();
+    let lagged: f64 = frf_part
+        .iter()
+        .zip(frf_part.iter().skip(2))
+        .map(|(a, b)| a * b)
+        .sum();
     let energy: f64 = frf_part.iter().map(|v| v * v).sum();
     let inflation = if energy > 0.0 {
         ar1_inflation(lagged / energy)

@@ -305,7 +305,11 @@ fn score_tests(
 /// that counted each line as independent would implicate anything (Box,
 /// Jenkins & Reinsel, "Time Series Analysis", the effective sample size).
 pub fn ar1_inflation(rho: f64) -> f64 {
-    let rho = if rho.is_finite() { rho.clamp(0.0, 0.98) } else { 0.0 };
+    let rho = if rho.is_finite() {
+        rho.clamp(0.0, 0.98)
+    } else {
+        0.0
+    };
     (1.0 + rho) / (1.0 - rho)
 }
 

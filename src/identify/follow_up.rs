@@ -82,16 +82,22 @@ pub(super) fn refit(
                 settings,
                 plan.seed,
                 progress,
-            )?;
+            ) {
+                Err(IdentifyError::Invalid(_)) => return Ok(None),
+                r => r?,
+            };
             let cost = r.summary.evaluations;
             (r.x.clone(), Status::of(&r.status), Some(r), cost)
         }
         None => {
             let recorder = Recorder::starting_at(0);
             let settings = ContinuationParams::default();
-            let r = continuation(
+            let r = match continuation(
                 o, &free, &now.x, start, budget, &settings, &recorder, progress,
-            )?;
+            ) {
+                Err(IdentifyError::Invalid(_)) => return Ok(None),
+                r => r?,
+            };
             (r.x, Status::of(&r.termination), None, r.evaluations)
         }
     };

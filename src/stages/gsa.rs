@@ -87,8 +87,10 @@ impl Kind for Gsa {
     ///    Cholesky QR2, basis 2.5·nev, tolerance 1e-12; issue 16), last bits.
     /// 7: ANOVA of modal models pairs shapes by node and axis (an opposite
     ///    direction flips the sign), as `evaluate` does.
+    /// 8: eigenpairs from the problem-chosen shift and range start of the
+    ///    Lanczos (issue 32).
     fn version(&self) -> u32 {
-        7
+        8
     }
 
     fn summary(&self) -> &'static str {

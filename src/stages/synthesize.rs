@@ -156,8 +156,11 @@ impl Kind for Synthesize {
     fn version(&self) -> u32 {
         // v5: Lanczos orthogonalization/basis/tolerance (issue 16) change
         // eigenpairs in the last bits. v6: modes.csv always has the
-        // position columns (one shape for every writer, issue 31).
-        6
+        // position columns (one shape for every writer, issue 31). v7: the
+        // Lanczos starts in the operator's range, the shift is chosen from
+        // the problem (free-free models: rigid-body modes detected), the
+        // residual check is per mode (issue 32): eigenpairs change.
+        7
     }
     fn summary(&self) -> &'static str {
         "solve a model file and write reference FRFs (with noise or a simulated impact test), modes and the truth"
@@ -220,6 +223,19 @@ impl Kind for Synthesize {
         })?;
         if let Some(problem) = model_memory(&model) {
             return Err(problem);
+        }
+        let finite = model.finite_modes();
+        if let Some(Modes::Count(k)) = p.modes {
+            if k > finite {
+                return Err(problem(
+                    &["modes"],
+                    format!(
+                        "{k} modes asked, but the model has only {finite} DOFs with mass ({} massless DOFs, such as rotations or constraint nodes of a lumped-mass export, have no finite frequency)",
+                        model.n_dofs() - finite
+                    ),
+                    "ask for fewer modes, or `modes: {below: <Hz>}`",
+                ));
+            }
         }
         let spec = model_file::parse(&text, &p.model)
             .map_err(|e| problem(&["model"], e.to_string(), ""))?;

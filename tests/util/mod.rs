@@ -260,3 +260,4 @@ pub fn real_beam_dir() -> Option<std::path::PathBuf> {
     }
     Some(dir.canonicalize().expect("real beam folder"))
 }
+pub mod hex8;

@@ -88,11 +88,13 @@ impl Kind for Identify {
     /// (issue 31); uncalibrated FRFs and reference modes without damping
     /// are refused; the verdict names the reference modes left without a
     /// model partner (modes the model does not contain).
-    /// 14: consider covariance of the fixed parameters in the intervals,
+    /// 14: eigenpairs from the problem-chosen shift and range start of the
+    /// Lanczos (issue 32).
+    /// 15: consider covariance of the fixed parameters in the intervals,
     /// their score tests, refit of implicated ones, the escape search, the
     /// verdict's cause (issue 26).
     fn version(&self) -> u32 {
-        14
+        15
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
