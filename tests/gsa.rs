@@ -385,7 +385,9 @@ stages:
     assert_eq!(st("p0.mode1.mac", "c1"), 0.0);
     let significant = ws.read("results/v/gsa/significant.csv");
     assert!(
-        significant.starts_with("parameter,score,significant\nk1,"),
+        significant.starts_with(
+            "parameter,score,score_low,score_high,undecided,samples_needed,significant\nk1,"
+        ),
         "{significant}"
     );
     assert_eq!(significant.lines().count(), 4);

@@ -17,6 +17,7 @@
 //! FRAC and CSF per frequency band ([`crate::simulator::structural`]).
 //! Results are bit-identical for a seed whatever the thread count.
 
+mod adequacy;
 mod anova;
 mod model_spec;
 mod sobol;
@@ -85,8 +86,13 @@ impl Kind for Gsa {
     ///    Cholesky QR2, basis 2.5·nev, tolerance 1e-12; issue 16), last bits.
     /// 7: ANOVA of modal models pairs shapes by node and axis (an opposite
     ///    direction flips the sign), as `evaluate` does.
+    /// 8: the split's bootstrap intervals (`significant.csv`: score_low,
+    ///    score_high, undecided, samples_needed) and a warning when N cannot
+    ///    decide it; `min_conformity` (the validated threshold rule); the
+    ///    validation draws a coordinate for every parameter (common random
+    ///    numbers), so its samples differ from version 7's.
     fn version(&self) -> u32 {
-        7
+        8
     }
 
     fn summary(&self) -> &'static str {

@@ -2,6 +2,7 @@
 //! indices, the PUB2 screening and its Monte Carlo validation, written as
 //! CSV/JSON tables and SVG pictures.
 
+use super::adequacy;
 use super::spec::{self, SobolSpec};
 use super::{build_model, num, write};
 use crate::parameter::nominal;
@@ -74,7 +75,7 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
     let names: Vec<String> = report.outputs.iter().map(|(o, _)| o.clone()).collect();
     let st: Vec<Vec<f64>> = report.outputs.iter().map(|(_, i)| i.ST.clone()).collect();
     let weights = spec::resolve_weights(&names, &s.weights);
-    let screening = sensitivity::aggregate(
+    let mut screening = sensitivity::aggregate(
         &report.parameters,
         &names,
         &st,
@@ -83,6 +84,11 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
         s.combine,
     )
     .map_err(|e| StageError::Failed(e.to_string()))?;
+    let (selection, applied) = adequacy::select(ctx, model.as_ref(), &mut screening, s)?;
+    let adequacy = adequacy::intervals(&report, &screening, &weights, applied, s)?;
+    // Stage warnings: what the user must know about the split (the
+    // estimators' own notes stay in subproblems.json).
+    let mut warnings = adequacy::warnings(&adequacy, selection.as_ref());
     let json = serde_json::json!({
         "method": "sobol",
         "samples": s.samples,
@@ -95,7 +101,12 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
         "weights": screening.weights.iter().map(|(o, w)| serde_json::json!({"output": o, "weight": w})).collect::<Vec<_>>(),
         "threshold": screening.threshold,
         "combine": screening.rule,
-        "warnings": report.warnings,
+        "kept": screening.significant.len(),
+        "threshold_applied": applied,
+        "undecided": adequacy.undecided,
+        "suggested_samples": adequacy.suggested_samples,
+        "selection": selection,
+        "warnings": report.warnings.iter().chain(&warnings).collect::<Vec<_>>(),
         "modes": model.named_modes().iter().map(|(name, f)| serde_json::json!({"name": name, "frequency_hz": f})).collect::<Vec<_>>(),
     });
     let subproblems = ctx.scratch.join("subproblems.json");
@@ -118,8 +129,7 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
     write(&heatmap, &svg)?;
 
     // The PUB2 split: parameters ranked by their weighted total index.
-    let mut ranked = screening.combined_ST.clone();
-    ranked.sort_by(|a, b| b.1.total_cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+    let ranked = adequacy::ranked(&screening);
     let mut csv = String::from("rank,parameter,score,significant\n");
     for (k, (p, v)) in ranked.iter().enumerate() {
         let _ = writeln!(
@@ -133,13 +143,10 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
     let ranking = ctx.scratch.join("ranking.csv");
     write(&ranking, &csv)?;
 
-    // The split itself, in parameter order, for tools that join on names.
-    let mut csv = String::from("parameter,score,significant\n");
-    for (p, v) in &screening.combined_ST {
-        let _ = writeln!(csv, "{p},{},{}", num(*v), screening.significant.contains(p));
-    }
+    // The split itself, in parameter order, for tools that join on names,
+    // with each score's interval and whether N decides it.
     let significant = ctx.scratch.join("significant.csv");
-    write(&significant, &csv)?;
+    write(&significant, &adequacy::split_csv(&screening, &adequacy))?;
 
     let mut files: Vec<(String, PathBuf)> = vec![
         ("indices".into(), indices),
@@ -165,17 +172,22 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
         files.push(("second_order".into(), path));
     }
     let mut evaluations = report.evaluations as u64;
+    if let Some(sel) = &selection {
+        evaluations += sel.evaluations as u64;
+    }
     if s.validation > 0 {
-        files.extend(validate(
-            ctx,
-            model.as_ref(),
-            &screening.significant,
-            s.validation,
-        )?);
+        let (v, written) = validate(ctx, model.as_ref(), &screening.significant, s.validation)?;
+        files.extend(written);
         evaluations += s.validation as u64 + 1;
+        warnings.extend(adequacy::check_validation(
+            selection.as_ref(),
+            v.min,
+            &v.worst,
+            v.samples,
+        ));
     }
     Ok(StageOutputs {
-        warnings: Vec::new(),
+        warnings,
         files,
         counters: [("evaluations".to_string(), evaluations)].into(),
     })
@@ -191,7 +203,7 @@ fn validate(
     model: &dyn Model,
     significant: &[String],
     samples: usize,
-) -> Result<Vec<(String, PathBuf)>, StageError> {
+) -> Result<(sensitivity::Validation, Vec<(String, PathBuf)>), StageError> {
     ctx.progress
         .set_message(format!("validation: {samples} evaluations"));
     let x0 = nominal(model.parameters());
@@ -246,9 +258,10 @@ fn validate(
     );
     let plot = ctx.scratch.join("validation.svg");
     write(&plot, &svg)?;
-    Ok(vec![
+    let files = vec![
         ("validation".into(), table),
         ("validation_summary".into(), summary),
         ("validation_plot".into(), plot),
-    ])
+    ];
+    Ok((v, files))
 }
