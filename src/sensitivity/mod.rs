@@ -26,7 +26,7 @@ pub use adequacy::{score_intervals, Adequacy, ScoreInterval};
 pub use aggregate::{aggregate, combine, Combine, Screening, Subproblem};
 pub use anova::{anova, AnovaRow, Design, Factor};
 pub use factorial::{factorial_anova, FactorialResult};
-pub use selection::{select_by_validation, Probe, Selection};
+pub use selection::{select_by_validation, select_guided, Influence, Probe, Selection};
 pub use validation::{validate, ConformityKind, OutputConformity, Validation};
 
 use crate::simulator::EvalError;

@@ -22,6 +22,11 @@
 //! probes are cheap. The probes' stream should differ from the stream of
 //! the validation finally reported, which then checks the cut on fresh
 //! samples.
+//!
+//! [`select_guided`] grows the set instead by the failing output: after a
+//! probe fails, it adds the dropped parameter with the largest total index
+//! for the output whose conformity fell lowest (that output's own PUB2
+//! subproblem, which a small weighted-mean index can hide).
 
 use super::validation::{check, draw_units, headline_kind, points, ConformityKind};
 use super::SensitivityError;
@@ -147,6 +152,83 @@ pub fn select_by_validation(
     })
 }
 
+/// How [`select_guided`] picks the next parameter after a failing probe.
+pub struct Influence<'a> {
+    /// The order of every vector in `total`.
+    pub parameters: &'a [String],
+    /// Per analyzed output: its total indices ST (eq. 2.12).
+    pub total: &'a [(String, Vec<f64>)],
+}
+
+/// As [`select_by_validation`], but each failing probe adds the one
+/// parameter that the output with the least conformity depends on most:
+/// the dropped parameter with the largest total index ST for that output
+/// (its PUB2 subproblem's leader), or the next in the ranking when the
+/// output was not analyzed. Each probe adds one parameter, so at most
+/// d − k₀ + 1 probes run; the kept set need not be a prefix of the ranking.
+#[allow(clippy::too_many_arguments)]
+pub fn select_guided(
+    model: &(impl Model + ?Sized),
+    ranked: &[String],
+    influence: &Influence,
+    start: usize,
+    reference: &[f64],
+    target: f64,
+    samples: usize,
+    seed: u64,
+    progress: &dyn Fn(u64),
+) -> Result<Selection, SensitivityError> {
+    check(model, ranked, reference)?;
+    if samples == 0 || start > ranked.len() || !(target.is_finite()) {
+        return Err(SensitivityError::Invalid(format!(
+            "selection needs samples > 0 (got {samples}), a start within the {} ranked parameters (got {start}) and a finite target (got {target})",
+            ranked.len()
+        )));
+    }
+    let units = draw_units(samples, model.parameters().len(), seed);
+    let y0 = evaluate_all(model, &[reference.to_vec()], 1, &|_| {})?
+        .pop()
+        .ok_or_else(|| SensitivityError::Invalid("the model returned no outputs".into()))?;
+    let mut kept: Vec<String> = ranked[..start].to_vec();
+    let mut probes = Vec::new();
+    let passed = loop {
+        let p = run_probe(model, &kept, reference, &y0, &units, target, progress)?;
+        let (passed, worst) = (p.passed, p.worst.clone());
+        probes.push(p);
+        if passed {
+            break true;
+        }
+        let leader = influence
+            .total
+            .iter()
+            .find(|(o, _)| *o == worst)
+            .and_then(|(_, st)| {
+                influence
+                    .parameters
+                    .iter()
+                    .zip(st)
+                    .filter(|(n, _)| ranked.contains(n) && !kept.contains(n))
+                    .max_by(|a, b| a.1.total_cmp(b.1))
+                    .map(|(n, _)| n.clone())
+            });
+        match leader.or_else(|| ranked.iter().find(|n| !kept.contains(n)).cloned()) {
+            Some(next) => kept.push(next),
+            None => break false,
+        }
+    };
+    let evaluations = probes.iter().map(|p| p.samples).sum::<usize>() + 1;
+    Ok(Selection {
+        target,
+        samples,
+        seed,
+        start,
+        kept,
+        passed,
+        probes,
+        evaluations,
+    })
+}
+
 /// Validate the split `fixed` on the draws `units` batch by batch, stopping
 /// at the first batch whose least headline conformity is below `target`.
 fn run_probe(
@@ -216,6 +298,18 @@ mod tests {
         // Failing probes stop after their first batch.
         assert!(s.probes[0].samples == BATCH && s.probes[1].samples == BATCH);
         assert_eq!(s.probes[3].samples, 500);
+        // Guided by the worst output: y has the indices of G, so the order
+        // is the same here, one parameter per probe: 1, 2, 3 (pass).
+        let st = vec![("y".to_string(), vec![0.8, 0.2, 0.05, 0.01, 1e-4, 1e-4])];
+        let influence = Influence {
+            parameters: &ranked,
+            total: &st,
+        };
+        let g = select_guided(&m, &ranked, &influence, 1, &x0, 0.95, 500, 7, &|_| {});
+        let g = g.expect("runs");
+        assert_eq!(g.kept, ["x1", "x2", "x3"]);
+        let ks: Vec<usize> = g.probes.iter().map(|p| p.kept).collect();
+        assert_eq!(ks, [1, 2, 3]);
         // A start that already passes is kept as it is.
         let s = select_by_validation(&m, &ranked, 4, &x0, 0.95, 100, 7, &|_| {}).expect("runs");
         assert_eq!(s.kept.len(), 4);

@@ -6,7 +6,7 @@
 //! the split or the rule missed its target.
 
 use super::num;
-use super::spec::SobolSpec;
+use super::spec::{Grow, SobolSpec};
 use crate::parameter::nominal;
 use crate::sensitivity::{self, sobol::SobolReport, Adequacy, Screening, Selection};
 use crate::simulator::Model;
@@ -33,6 +33,7 @@ pub fn ranked(screening: &Screening) -> Vec<(String, f64)> {
 pub fn select(
     ctx: &StageContext,
     model: &dyn Model,
+    report: &SobolReport,
     screening: &mut Screening,
     s: &SobolSpec,
 ) -> Result<(Option<Selection>, f64), StageError> {
@@ -46,16 +47,32 @@ pub fn select(
         "selection: growing {start} parameters to min conformity {target}"
     ));
     let x0 = nominal(model.parameters());
-    let selection = sensitivity::select_by_validation(
-        model,
-        &names,
-        start,
-        &x0,
-        target,
-        s.validation,
-        ctx.seed ^ SELECTION_STREAM,
-        &|_| {},
-    )
+    let seed = ctx.seed ^ SELECTION_STREAM;
+    let selection = match s.grow {
+        Grow::Ranking => sensitivity::select_by_validation(
+            model,
+            &names,
+            start,
+            &x0,
+            target,
+            s.validation,
+            seed,
+            &|_| {},
+        ),
+        Grow::WorstOutput => {
+            let total: Vec<(String, Vec<f64>)> = report
+                .outputs
+                .iter()
+                .map(|(o, i)| (o.clone(), i.ST.clone()))
+                .collect();
+            let influence = sensitivity::Influence {
+                parameters: &report.parameters,
+                total: &total,
+            };
+            let (v, t) = (s.validation, target);
+            sensitivity::select_guided(model, &names, &influence, start, &x0, t, v, seed, &|_| {})
+        }
+    }
     .map_err(|e| StageError::Failed(format!("selection: {e}")))?;
     let k = selection.kept.len();
     let last = k.checked_sub(1).and_then(|i| ranked.get(i)).map(|r| r.1);

@@ -84,7 +84,7 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
         s.combine,
     )
     .map_err(|e| StageError::Failed(e.to_string()))?;
-    let (selection, applied) = adequacy::select(ctx, model.as_ref(), &mut screening, s)?;
+    let (selection, applied) = adequacy::select(ctx, model.as_ref(), &report, &mut screening, s)?;
     let adequacy = adequacy::intervals(&report, &screening, &weights, applied, s)?;
     // Stage warnings: what the user must know about the split (the
     // estimators' own notes stay in subproblems.json).

@@ -28,6 +28,14 @@ crate::string_enum! {
     }
 }
 
+crate::string_enum! {
+    /// How `min_conformity` grows the kept set.
+    pub enum Grow {
+        Ranking = "ranking",
+        WorstOutput = "worst_output",
+    }
+}
+
 /// FRF bands in Hz: listed pairs or `count` equal bands.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(untagged, expecting = "[[low, high], ...] or {min, max, count}")]
@@ -114,6 +122,11 @@ crate::params! {
         /// the kept set grows from the threshold's set in ranking order until
         /// the Monte Carlo validation reaches it (needs `validation`)
         pub min_conformity: Option<f64> = None; range Range::open_closed(0.0, 1.0),
+        /// sobol with `min_conformity`: ranking (shortest prefix of the
+        /// ranking, by doubling and bisection) or worst_output (add the
+        /// parameter the least conforming output depends on most, one per
+        /// probe)
+        pub grow: Grow = Grow::Ranking,
         /// seed of the scrambled Sobol sequence and the bootstrap (default:
         /// the pipeline's seed)
         pub seed: Option<u64> = None,
@@ -156,6 +169,8 @@ pub struct SobolSpec {
     pub validation: usize,
     /// Target minimum conformity that the kept set is grown to reach.
     pub min_conformity: Option<f64>,
+    /// How the kept set grows towards `min_conformity`.
+    pub grow: Grow,
 }
 
 /// Where the ANOVA's observations come from.
@@ -210,6 +225,7 @@ pub const SOBOL_ONLY: &[&str] = &[
     "combine",
     "validation",
     "min_conformity",
+    "grow",
 ];
 pub const ANOVA_ONLY: &[&str] = &[
     "data",
@@ -293,6 +309,7 @@ fn sobol(p: &Params) -> Result<SobolSpec, ParamProblem> {
         },
         validation: p.validation,
         min_conformity: p.min_conformity,
+        grow: p.grow,
     })
 }
 
