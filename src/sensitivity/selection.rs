@@ -315,4 +315,28 @@ mod tests {
         assert_eq!(s.kept.len(), 4);
         assert_eq!(s.probes.len(), 1);
     }
+
+    #[test]
+    fn identical_for_one_and_two_threads() {
+        let m = SobolG::new(vec![0.0, 1.0, 9.0, 99.0, 99.0, 99.0]).expect("valid a");
+        let ranked: Vec<String> = (1..=6).map(|i| format!("x{i}")).collect();
+        let x0 = [0.3; 6];
+        let st = vec![("y".to_string(), vec![0.8, 0.2, 0.05, 0.01, 1e-4, 1e-4])];
+        let on = |t: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(t)
+                .build()
+                .expect("pool")
+                .install(|| {
+                    let influence = Influence {
+                        parameters: &ranked,
+                        total: &st,
+                    };
+                    let a = select_by_validation(&m, &ranked, 0, &x0, 0.9, 300, 3, &|_| {});
+                    let b = select_guided(&m, &ranked, &influence, 0, &x0, 0.9, 300, 3, &|_| {});
+                    (a.expect("runs"), b.expect("runs"))
+                })
+        };
+        assert_eq!(on(1), on(2));
+    }
 }

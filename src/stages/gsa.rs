@@ -88,7 +88,8 @@ impl Kind for Gsa {
     ///    direction flips the sign), as `evaluate` does.
     /// 8: the split's bootstrap intervals (`significant.csv`: score_low,
     ///    score_high, undecided, samples_needed) and a warning when N cannot
-    ///    decide it; `min_conformity` (the validated threshold rule); the
+    ///    decide it; `min_conformity` and `grow` (the validated threshold
+    ///    rule, docs/screening.md); the
     ///    validation draws a coordinate for every parameter (common random
     ///    numbers), so its samples differ from version 7's.
     fn version(&self) -> u32 {
