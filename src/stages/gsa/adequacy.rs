@@ -120,6 +120,30 @@ pub fn intervals(
     .map_err(|e| StageError::Failed(e.to_string()))
 }
 
+/// The adequacy fields of `subproblems.json`: the kept set's size, the
+/// threshold applied, the undecided parameters with the suggested N, and
+/// the selection's probes.
+pub fn json(
+    adequacy: &Adequacy,
+    selection: Option<&Selection>,
+    applied: f64,
+    screening: &Screening,
+) -> serde_json::Map<String, serde_json::Value> {
+    let mut map = serde_json::Map::new();
+    map.insert("kept".into(), screening.significant.len().into());
+    map.insert("threshold_applied".into(), applied.into());
+    map.insert("undecided".into(), adequacy.undecided.clone().into());
+    map.insert(
+        "suggested_samples".into(),
+        adequacy.suggested_samples.into(),
+    );
+    map.insert(
+        "selection".into(),
+        serde_json::to_value(selection).unwrap_or(serde_json::Value::Null),
+    );
+    map
+}
+
 /// `significant.csv`: the split in parameter order with each combined
 /// index's interval, whether it straddles the threshold applied, and the
 /// base sample size that would decide it.
