@@ -2,6 +2,8 @@
 //! a user's simulator as a JSON-lines command, ANOVA of a factorial table,
 //! and validation of its params.
 
+mod adequacy;
+
 use crate::util;
 
 use serde_json::Value;
@@ -385,7 +387,9 @@ stages:
     assert_eq!(st("p0.mode1.mac", "c1"), 0.0);
     let significant = ws.read("results/v/gsa/significant.csv");
     assert!(
-        significant.starts_with("parameter,score,significant\nk1,"),
+        significant.starts_with(
+            "parameter,score,score_low,score_high,undecided,samples_needed,significant\nk1,"
+        ),
         "{significant}"
     );
     assert_eq!(significant.lines().count(), 4);

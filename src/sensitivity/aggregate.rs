@@ -94,16 +94,7 @@ pub fn aggregate(
             "the threshold must be a finite number".into(),
         ));
     }
-    let heaviest = weights.iter().copied().fold(0.0, f64::max);
-    let combined: Vec<f64> = (0..parameters.len())
-        .map(|i| {
-            let weighted = ST.iter().zip(weights).map(|(s, w)| w * s[i]);
-            match rule {
-                Combine::Mean => weighted.sum::<f64>() / total,
-                Combine::Max => weighted.fold(f64::NEG_INFINITY, f64::max) / heaviest,
-            }
-        })
-        .collect();
+    let combined = combine(parameters.len(), ST, weights, rule);
     let (mut significant, mut non_significant) = (Vec::new(), Vec::new());
     for (name, c) in parameters.iter().zip(&combined) {
         if *c >= threshold {
@@ -138,6 +129,28 @@ pub fn aggregate(
         threshold,
         rule,
     })
+}
+
+/// The combined index of each of `d` parameters from the per-output indices
+/// `ST[o][i]` (weights already checked: finite, ≥ 0, positive sum):
+/// Σ_o w_o ST_{o,i} / Σ_o w_o (mean) or max_o w_o ST_{o,i} / max_o w_o (max).
+/// Also applied to each bootstrap resample of the indices
+/// ([`super::adequacy::score_intervals`]).
+pub fn combine<S: AsRef<[f64]>>(d: usize, ST: &[S], weights: &[f64], rule: Combine) -> Vec<f64> {
+    let total: f64 = weights.iter().sum();
+    let heaviest = weights.iter().copied().fold(0.0, f64::max);
+    (0..d)
+        .map(|i| {
+            let weighted = ST
+                .iter()
+                .zip(weights)
+                .map(|(s, w)| w * s.as_ref().get(i).copied().unwrap_or(f64::NAN));
+            match rule {
+                Combine::Mean => weighted.sum::<f64>() / total,
+                Combine::Max => weighted.fold(f64::NEG_INFINITY, f64::max) / heaviest,
+            }
+        })
+        .collect()
 }
 
 #[cfg(test)]

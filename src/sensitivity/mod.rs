@@ -6,17 +6,27 @@
 //!   as in SALib, and `sobol::run` over a [`crate::simulator::Model`]);
 //! - [`aggregate`](mod@aggregate): weighted combination of total indices over outputs and a
 //!   threshold → significant parameters and per-output subproblems (PUB2);
+//! - [`adequacy`]: bootstrap intervals of the combined indices and the
+//!   parameters whose interval straddles the threshold (the sample size
+//!   cannot decide them), with a suggested sample size;
+//! - [`selection`]: the threshold rule checked by PUB2's Monte Carlo
+//!   validation (grow the kept set in ranking order until the minimum
+//!   conformity reaches a target);
 //! - [`anova`](mod@anova): ANOVA tables for factorial designs (section 2.1.1, PUB1).
 
+pub mod adequacy;
 pub mod aggregate;
 pub mod anova;
 pub mod factorial;
+pub mod selection;
 pub mod sobol;
 pub mod validation;
 
-pub use aggregate::{aggregate, Combine, Screening, Subproblem};
+pub use adequacy::{score_intervals, Adequacy, ScoreInterval};
+pub use aggregate::{aggregate, combine, Combine, Screening, Subproblem};
 pub use anova::{anova, AnovaRow, Design, Factor};
 pub use factorial::{factorial_anova, FactorialResult};
+pub use selection::{select_by_validation, select_guided, Influence, Probe, Selection};
 pub use validation::{validate, ConformityKind, OutputConformity, Validation};
 
 use crate::simulator::EvalError;

@@ -44,7 +44,7 @@ impl ConformityKind {
         }
     }
 
-    fn conformity(self, y: f64, reference: f64) -> f64 {
+    pub(crate) fn conformity(self, y: f64, reference: f64) -> f64 {
         match self {
             ConformityKind::Criterion => y,
             ConformityKind::Relative if reference == 0.0 => {
@@ -103,45 +103,15 @@ pub fn validate(
     seed: u64,
     progress: &dyn Fn(u64),
 ) -> Result<Validation, SensitivityError> {
-    let params = model.parameters();
-    if reference.len() != params.len() {
-        return Err(SensitivityError::Invalid(format!(
-            "{} reference values for {} parameters",
-            reference.len(),
-            params.len()
-        )));
-    }
-    if let Some(name) = fixed.iter().find(|n| !params.iter().any(|p| &p.name == *n)) {
-        return Err(SensitivityError::UnknownParameter {
-            name: name.clone(),
-            known: params.iter().map(|p| p.name.clone()).collect(),
-        });
-    }
+    let is_fixed = check(model, fixed, reference)?;
     if samples == 0 {
         return Err(SensitivityError::Invalid(
             "validation needs at least one sample, e.g. 1000".into(),
         ));
     }
-    let is_fixed: Vec<bool> = params.iter().map(|p| fixed.contains(&p.name)).collect();
-    // Points are drawn in sequence from one stream, so they do not depend on
-    // how the evaluation is parallelized.
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let points: Vec<Vec<f64>> = (0..samples)
-        .map(|_| {
-            params
-                .iter()
-                .zip(reference)
-                .zip(&is_fixed)
-                .map(|((p, &r), &f)| {
-                    if f {
-                        r
-                    } else {
-                        p.from_unit(rng.random::<f64>())
-                    }
-                })
-                .collect()
-        })
-        .collect();
+    let params = model.parameters();
+    let units = draw_units(samples, params.len(), seed);
+    let points = points(model, reference, &is_fixed, &units);
     let y0 = evaluate_all(model, &[reference.to_vec()], 1, &|_| {})?
         .pop()
         .ok_or_else(|| SensitivityError::Invalid("the model returned no outputs".into()))?;
@@ -164,11 +134,7 @@ pub fn validate(
             p05: c[rank],
         });
     }
-    let headline = if outputs.iter().any(|o| o.kind == ConformityKind::Criterion) {
-        ConformityKind::Criterion
-    } else {
-        ConformityKind::Relative
-    };
+    let headline = headline_kind(names);
     let chosen: Vec<&OutputConformity> = outputs.iter().filter(|o| o.kind == headline).collect();
     let worst = chosen
         .iter()
@@ -192,6 +158,78 @@ pub fn validate(
         headline,
         worst,
     })
+}
+
+/// Which parameters are `fixed` (in model order), after checking the
+/// reference point and the names.
+pub(crate) fn check(
+    model: &(impl Model + ?Sized),
+    fixed: &[String],
+    reference: &[f64],
+) -> Result<Vec<bool>, SensitivityError> {
+    let params = model.parameters();
+    if reference.len() != params.len() {
+        return Err(SensitivityError::Invalid(format!(
+            "{} reference values for {} parameters",
+            reference.len(),
+            params.len()
+        )));
+    }
+    if let Some(name) = fixed.iter().find(|n| !params.iter().any(|p| &p.name == *n)) {
+        return Err(SensitivityError::UnknownParameter {
+            name: name.clone(),
+            known: params.iter().map(|p| p.name.clone()).collect(),
+        });
+    }
+    Ok(params.iter().map(|p| fixed.contains(&p.name)).collect())
+}
+
+/// Unit coordinates of `samples` points, one for every parameter whether
+/// fixed or not, drawn in sequence from one seeded stream: they do not
+/// depend on how the evaluation is parallelized, and every split of the
+/// parameters sees the same draws (common random numbers, so splits that
+/// differ by one parameter differ only in that parameter's coordinates).
+pub(crate) fn draw_units(samples: usize, d: usize, seed: u64) -> Vec<Vec<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..samples)
+        .map(|_| (0..d).map(|_| rng.random::<f64>()).collect())
+        .collect()
+}
+
+/// The points of `units`: fixed parameters at `reference`, the others at
+/// their unit coordinate mapped into their bounds (in their scale).
+pub(crate) fn points(
+    model: &(impl Model + ?Sized),
+    reference: &[f64],
+    is_fixed: &[bool],
+    units: &[Vec<f64>],
+) -> Vec<Vec<f64>> {
+    let params = model.parameters();
+    units
+        .iter()
+        .map(|u| {
+            params
+                .iter()
+                .zip(reference)
+                .zip(is_fixed)
+                .zip(u)
+                .map(|(((p, &r), &f), &u)| if f { r } else { p.from_unit(u) })
+                .collect()
+        })
+        .collect()
+}
+
+/// The kind of the headline outputs: the criteria if the model has any,
+/// otherwise every output.
+pub(crate) fn headline_kind(names: &[String]) -> ConformityKind {
+    if names
+        .iter()
+        .any(|n| ConformityKind::of(n) == ConformityKind::Criterion)
+    {
+        ConformityKind::Criterion
+    } else {
+        ConformityKind::Relative
+    }
 }
 
 #[cfg(test)]

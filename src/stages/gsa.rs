@@ -17,6 +17,7 @@
 //! FRAC and CSF per frequency band ([`crate::simulator::structural`]).
 //! Results are bit-identical for a seed whatever the thread count.
 
+mod adequacy;
 mod anova;
 mod model_spec;
 mod sobol;
@@ -89,8 +90,14 @@ impl Kind for Gsa {
     ///    direction flips the sign), as `evaluate` does.
     /// 8: eigenpairs from the problem-chosen shift and range start of the
     ///    Lanczos (issue 32).
+    /// 9: the split's bootstrap intervals (`significant.csv`: score_low,
+    ///    score_high, undecided, samples_needed) and a warning when N cannot
+    ///    decide it; `min_conformity` and `grow` (the validated threshold
+    ///    rule, docs/screening.md); the
+    ///    validation draws a coordinate for every parameter (common random
+    ///    numbers), so its samples differ from version 7's.
     fn version(&self) -> u32 {
-        8
+        9
     }
 
     fn summary(&self) -> &'static str {

@@ -58,6 +58,11 @@ pub struct SobolIndices {
     /// `S2[i][k]` for i < k (NaN elsewhere), with second order only.
     pub S2: Option<Vec<Vec<f64>>>,
     pub S2_conf: Option<Vec<Vec<f64>>>,
+    /// ST of every bootstrap resample (`bootstrap` × d). Resample k draws
+    /// the same base rows for every output of one study, so indices of
+    /// several outputs can be combined per resample (e.g. the weighted mean
+    /// of PUB2, [`crate::sensitivity::combined_intervals`]).
+    pub ST_resamples: Vec<Vec<f64>>,
     pub warnings: Vec<String>,
 }
 
@@ -249,6 +254,7 @@ pub fn analyze(
         ST_conf,
         S2,
         S2_conf,
+        ST_resamples: resamples.into_iter().map(|e| e.ST).collect(),
         warnings,
     })
 }

@@ -2,6 +2,7 @@
 //! indices, the PUB2 screening and its Monte Carlo validation, written as
 //! CSV/JSON tables and SVG pictures.
 
+use super::adequacy;
 use super::spec::{self, SobolSpec};
 use super::{build_model, num, write};
 use crate::parameter::nominal;
@@ -13,6 +14,101 @@ use std::path::PathBuf;
 
 pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError> {
     let model = build_model(ctx, &s.model)?;
+    let (report, d) = study(ctx, s, model.as_ref())?;
+
+    let indices = ctx.scratch.join("indices.csv");
+    write(&indices, &indices_csv(&report))?;
+
+    let names: Vec<String> = report.outputs.iter().map(|(o, _)| o.clone()).collect();
+    let st: Vec<Vec<f64>> = report.outputs.iter().map(|(_, i)| i.ST.clone()).collect();
+    let weights = spec::resolve_weights(&names, &s.weights);
+    let mut screening = sensitivity::aggregate(
+        &report.parameters,
+        &names,
+        &st,
+        &weights,
+        s.threshold,
+        s.combine,
+    )
+    .map_err(|e| StageError::Failed(e.to_string()))?;
+    let (selection, applied) = adequacy::select(ctx, model.as_ref(), &report, &mut screening, s)?;
+    let adequacy = adequacy::intervals(&report, &screening, &weights, applied, s)?;
+    // Stage warnings: what the user must know about the split (the
+    // estimators' own notes stay in subproblems.json).
+    let mut warnings = adequacy::warnings(&adequacy, selection.as_ref());
+    let extra = adequacy::json(&adequacy, selection.as_ref(), applied, &screening);
+    let stage_notes: Vec<&String> = report.warnings.iter().chain(&warnings).collect();
+    let json = subproblems_json(
+        s,
+        &report,
+        &screening,
+        extra,
+        &stage_notes,
+        &model.named_modes(),
+    );
+    let subproblems = ctx.scratch.join("subproblems.json");
+    let text =
+        serde_json::to_string_pretty(&json).map_err(|e| StageError::Failed(e.to_string()))?;
+    write(&subproblems, &(text + "\n"))?;
+
+    let heatmap = ctx.scratch.join("sobol.svg");
+    write(
+        &heatmap,
+        &heatmap_svg(ctx.stage, &names, &report.parameters, &st),
+    )?;
+
+    // The PUB2 split: parameters ranked by their weighted total index.
+    let ranked = adequacy::ranked(&screening);
+    let ranking = ctx.scratch.join("ranking.csv");
+    write(&ranking, &ranking_csv(&ranked, &screening.significant))?;
+
+    // The split itself, in parameter order, for tools that join on names,
+    // with each score's interval and whether N decides it.
+    let significant = ctx.scratch.join("significant.csv");
+    write(&significant, &adequacy::split_csv(&screening, &adequacy))?;
+
+    let mut files: Vec<(String, PathBuf)> = vec![
+        ("indices".into(), indices),
+        ("ranking".into(), ranking),
+        ("significant".into(), significant),
+        ("subproblems".into(), subproblems),
+        ("heatmap".into(), heatmap),
+    ];
+    if s.second_order {
+        let path = ctx.scratch.join("second_order.csv");
+        write(&path, &second_order_csv(&report, d))?;
+        files.push(("second_order".into(), path));
+    }
+    let mut evaluations = report.evaluations as u64;
+    if let Some(sel) = &selection {
+        evaluations += sel.evaluations as u64;
+    }
+    if s.validation > 0 {
+        let (v, written) = validate(ctx, model.as_ref(), &screening.significant, s.validation)?;
+        files.extend(written);
+        evaluations += s.validation as u64 + 1;
+        warnings.extend(adequacy::check_validation(
+            selection.as_ref(),
+            v.min,
+            &v.worst,
+            v.samples,
+        ));
+    }
+    Ok(StageOutputs {
+        warnings,
+        files,
+        counters: [("evaluations".to_string(), evaluations)].into(),
+    })
+}
+
+/// Check the names, sample the Saltelli design, evaluate it through the
+/// context and analyze every output: the Sobol report and the number of
+/// varied parameters.
+fn study(
+    ctx: &StageContext,
+    s: &SobolSpec,
+    model: &dyn Model,
+) -> Result<(sobol::SobolReport, usize), StageError> {
     let names: Vec<String> = model.parameters().iter().map(|p| p.name.clone()).collect();
     spec::check_names(
         &names,
@@ -51,10 +147,45 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
         .set_message(format!("{} evaluations", layout.len()));
     // Sharding hook: the design's batch is evaluated through the context
     // (here, as one shard of a job array, or from the shards' partials).
-    let evaluate = |xs: &[Vec<f64>]| ctx.evaluate_batch(model.as_ref(), xs, params.chunk);
-    let report = sobol::run_with(model.as_ref(), &params, &evaluate)
+    let evaluate = |xs: &[Vec<f64>]| ctx.evaluate_batch(model, xs, params.chunk);
+    let report = sobol::run_with(model, &params, &evaluate)
         .map_err(|e| StageError::Failed(e.to_string()))?;
+    Ok((report, d))
+}
 
+/// `subproblems.json`: the screening, its split and the per-output
+/// subproblems, with the adequacy fields (`extra`) merged in.
+fn subproblems_json(
+    s: &SobolSpec,
+    report: &sobol::SobolReport,
+    screening: &sensitivity::Screening,
+    extra: serde_json::Map<String, serde_json::Value>,
+    warnings: &[&String],
+    modes: &[(String, f64)],
+) -> serde_json::Value {
+    let mut json = serde_json::json!({
+        "method": "sobol",
+        "samples": s.samples,
+        "evaluations": report.evaluations,
+        "parameters": report.parameters,
+        "subproblems": screening.subproblems,
+        "significant": screening.significant,
+        "non_significant": screening.non_significant,
+        "combined_ST": screening.combined_ST.iter().map(|(p, v)| serde_json::json!({"parameter": p, "ST": v})).collect::<Vec<_>>(),
+        "weights": screening.weights.iter().map(|(o, w)| serde_json::json!({"output": o, "weight": w})).collect::<Vec<_>>(),
+        "threshold": screening.threshold,
+        "combine": screening.rule,
+        "warnings": warnings,
+        "modes": modes.iter().map(|(name, f)| serde_json::json!({"name": name, "frequency_hz": f})).collect::<Vec<_>>(),
+    });
+    if let Some(map) = json.as_object_mut() {
+        map.extend(extra);
+    }
+    json
+}
+
+/// `indices.csv`: S1, ST and their intervals per output and parameter.
+fn indices_csv(report: &sobol::SobolReport) -> String {
     let mut csv = String::from("output,parameter,S1,S1_conf,ST,ST_conf\n");
     for (o, idx) in &report.outputs {
         for (i, p) in report.parameters.iter().enumerate() {
@@ -68,117 +199,47 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
             );
         }
     }
-    let indices = ctx.scratch.join("indices.csv");
-    write(&indices, &csv)?;
+    csv
+}
 
-    let names: Vec<String> = report.outputs.iter().map(|(o, _)| o.clone()).collect();
-    let st: Vec<Vec<f64>> = report.outputs.iter().map(|(_, i)| i.ST.clone()).collect();
-    let weights = spec::resolve_weights(&names, &s.weights);
-    let screening = sensitivity::aggregate(
-        &report.parameters,
-        &names,
-        &st,
-        &weights,
-        s.threshold,
-        s.combine,
-    )
-    .map_err(|e| StageError::Failed(e.to_string()))?;
-    let json = serde_json::json!({
-        "method": "sobol",
-        "samples": s.samples,
-        "evaluations": report.evaluations,
-        "parameters": report.parameters,
-        "subproblems": screening.subproblems,
-        "significant": screening.significant,
-        "non_significant": screening.non_significant,
-        "combined_ST": screening.combined_ST.iter().map(|(p, v)| serde_json::json!({"parameter": p, "ST": v})).collect::<Vec<_>>(),
-        "weights": screening.weights.iter().map(|(o, w)| serde_json::json!({"output": o, "weight": w})).collect::<Vec<_>>(),
-        "threshold": screening.threshold,
-        "combine": screening.rule,
-        "warnings": report.warnings,
-        "modes": model.named_modes().iter().map(|(name, f)| serde_json::json!({"name": name, "frequency_hz": f})).collect::<Vec<_>>(),
-    });
-    let subproblems = ctx.scratch.join("subproblems.json");
-    let text =
-        serde_json::to_string_pretty(&json).map_err(|e| StageError::Failed(e.to_string()))?;
-    write(&subproblems, &(text + "\n"))?;
-
-    let heatmap = ctx.scratch.join("sobol.svg");
-    let svg = crate::report::svg::heatmap(
-        &format!("Total Sobol indices ST ({})", ctx.stage),
-        ("model output", &names),
-        ("parameter", &report.parameters),
-        &st,
-        (0.0, 1.0),
-        &format!(
-            "Total Sobol indices ST (Jansen) of every model output (rows) to every parameter (columns), {}",
-            ctx.stage
-        ),
-    );
-    write(&heatmap, &svg)?;
-
-    // The PUB2 split: parameters ranked by their weighted total index.
-    let mut ranked = screening.combined_ST.clone();
-    ranked.sort_by(|a, b| b.1.total_cmp(&a.1).then_with(|| a.0.cmp(&b.0)));
+/// `ranking.csv`: parameters by decreasing combined index.
+fn ranking_csv(ranked: &[(String, f64)], significant: &[String]) -> String {
     let mut csv = String::from("rank,parameter,score,significant\n");
     for (k, (p, v)) in ranked.iter().enumerate() {
-        let _ = writeln!(
-            csv,
-            "{},{p},{},{}",
-            k + 1,
-            num(*v),
-            screening.significant.contains(p)
-        );
+        let _ = writeln!(csv, "{},{p},{},{}", k + 1, num(*v), significant.contains(p));
     }
-    let ranking = ctx.scratch.join("ranking.csv");
-    write(&ranking, &csv)?;
+    csv
+}
 
-    // The split itself, in parameter order, for tools that join on names.
-    let mut csv = String::from("parameter,score,significant\n");
-    for (p, v) in &screening.combined_ST {
-        let _ = writeln!(csv, "{p},{},{}", num(*v), screening.significant.contains(p));
-    }
-    let significant = ctx.scratch.join("significant.csv");
-    write(&significant, &csv)?;
-
-    let mut files: Vec<(String, PathBuf)> = vec![
-        ("indices".into(), indices),
-        ("ranking".into(), ranking),
-        ("significant".into(), significant),
-        ("subproblems".into(), subproblems),
-        ("heatmap".into(), heatmap),
-    ];
-    if s.second_order {
-        let mut csv = String::from("output,parameter_1,parameter_2,S2,S2_conf\n");
-        for (o, idx) in &report.outputs {
-            if let (Some(s2), Some(c2)) = (&idx.S2, &idx.S2_conf) {
-                for i in 0..d {
-                    for k in i + 1..d {
-                        let (pi, pk) = (&report.parameters[i], &report.parameters[k]);
-                        let _ = writeln!(csv, "{o},{pi},{pk},{},{}", num(s2[i][k]), num(c2[i][k]));
-                    }
+/// `second_order.csv`: S2 and its interval per output and parameter pair.
+fn second_order_csv(report: &sobol::SobolReport, d: usize) -> String {
+    let mut csv = String::from("output,parameter_1,parameter_2,S2,S2_conf\n");
+    for (o, idx) in &report.outputs {
+        if let (Some(s2), Some(c2)) = (&idx.S2, &idx.S2_conf) {
+            for i in 0..d {
+                for k in i + 1..d {
+                    let (pi, pk) = (&report.parameters[i], &report.parameters[k]);
+                    let _ = writeln!(csv, "{o},{pi},{pk},{},{}", num(s2[i][k]), num(c2[i][k]));
                 }
             }
         }
-        let path = ctx.scratch.join("second_order.csv");
-        write(&path, &csv)?;
-        files.push(("second_order".into(), path));
     }
-    let mut evaluations = report.evaluations as u64;
-    if s.validation > 0 {
-        files.extend(validate(
-            ctx,
-            model.as_ref(),
-            &screening.significant,
-            s.validation,
-        )?);
-        evaluations += s.validation as u64 + 1;
-    }
-    Ok(StageOutputs {
-        warnings: Vec::new(),
-        files,
-        counters: [("evaluations".to_string(), evaluations)].into(),
-    })
+    csv
+}
+
+/// `sobol.svg`: the ST heatmap, outputs by parameters.
+fn heatmap_svg(stage: &str, names: &[String], parameters: &[String], st: &[Vec<f64>]) -> String {
+    crate::report::svg::heatmap(
+        &format!("Total Sobol indices ST ({stage})"),
+        ("model output", names),
+        ("parameter", parameters),
+        st,
+        (0.0, 1.0),
+        &format!(
+            "Total Sobol indices ST (Jansen) of every model output (rows) to every parameter (columns), {}",
+            stage
+        ),
+    )
 }
 
 /// PUB2's check of the split: `samples` points with the significant
@@ -191,7 +252,7 @@ fn validate(
     model: &dyn Model,
     significant: &[String],
     samples: usize,
-) -> Result<Vec<(String, PathBuf)>, StageError> {
+) -> Result<(sensitivity::Validation, Vec<(String, PathBuf)>), StageError> {
     ctx.progress
         .set_message(format!("validation: {samples} evaluations"));
     let x0 = nominal(model.parameters());
@@ -246,9 +307,10 @@ fn validate(
     );
     let plot = ctx.scratch.join("validation.svg");
     write(&plot, &svg)?;
-    Ok(vec![
+    let files = vec![
         ("validation".into(), table),
         ("validation_summary".into(), summary),
         ("validation_plot".into(), plot),
-    ])
+    ];
+    Ok((v, files))
 }

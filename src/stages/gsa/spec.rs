@@ -28,6 +28,14 @@ crate::string_enum! {
     }
 }
 
+crate::string_enum! {
+    /// How `min_conformity` grows the kept set.
+    pub enum Grow {
+        Ranking = "ranking",
+        WorstOutput = "worst_output",
+    }
+}
+
 /// FRF bands in Hz: listed pairs or `count` equal bands.
 #[derive(Clone, Debug, Deserialize, Serialize)]
 #[serde(untagged, expecting = "[[low, high], ...] or {min, max, count}")]
@@ -110,6 +118,15 @@ crate::params! {
         /// sobol: Monte Carlo samples validating the split (significant at
         /// nominal values, the others random; PUB2 used ≥ 1000); 0 = none
         pub validation: usize = 0; range Range::closed(0.0, 10_000_000.0),
+        /// sobol: target minimum conformity of the validation (PUB2: 0.89):
+        /// the kept set grows from the threshold's set in ranking order until
+        /// the Monte Carlo validation reaches it (needs `validation`)
+        pub min_conformity: Option<f64> = None; range Range::open_closed(0.0, 1.0),
+        /// sobol with `min_conformity`: ranking (shortest prefix of the
+        /// ranking, by doubling and bisection) or worst_output (add the
+        /// parameter the least conforming output depends on most, one per
+        /// probe)
+        pub grow: Grow = Grow::Ranking,
         /// seed of the scrambled Sobol sequence and the bootstrap (default:
         /// the pipeline's seed)
         pub seed: Option<u64> = None,
@@ -150,6 +167,10 @@ pub struct SobolSpec {
     pub combine: crate::sensitivity::Combine,
     /// Monte Carlo validation samples of the split (0: none).
     pub validation: usize,
+    /// Target minimum conformity that the kept set is grown to reach.
+    pub min_conformity: Option<f64>,
+    /// How the kept set grows towards `min_conformity`.
+    pub grow: Grow,
 }
 
 /// Where the ANOVA's observations come from.
@@ -203,6 +224,8 @@ pub const SOBOL_ONLY: &[&str] = &[
     "threshold",
     "combine",
     "validation",
+    "min_conformity",
+    "grow",
 ];
 pub const ANOVA_ONLY: &[&str] = &[
     "data",
@@ -263,6 +286,13 @@ fn sobol(p: &Params) -> Result<SobolSpec, ParamProblem> {
             ),
         ));
     }
+    if p.min_conformity.is_some() && p.validation == 0 {
+        return Err(problem(
+            &["min_conformity"],
+            "`min_conformity` grows the kept set until the validation reaches it, but `validation` is 0",
+            "give the validation's sample size, e.g. validation: 1000",
+        ));
+    }
     Ok(SobolSpec {
         model,
         samples: p.samples,
@@ -278,6 +308,8 @@ fn sobol(p: &Params) -> Result<SobolSpec, ParamProblem> {
             CombineName::Max => Combine::Max,
         },
         validation: p.validation,
+        min_conformity: p.min_conformity,
+        grow: p.grow,
     })
 }
 

@@ -12,34 +12,73 @@ struct Split {
     stage: String,
     significant: Vec<String>,
     total: usize,
+    /// Parameters whose score interval straddles the threshold (gsa ≥ 8).
+    undecided: Vec<String>,
+    /// The largest base sample size that decides an undecided parameter,
+    /// and whether some undecided parameter has none.
+    samples_needed: Option<usize>,
+    beyond_reach: bool,
 }
 
 fn read_split(stage: &str, path: &PathBuf) -> Result<Split, StageError> {
+    let bad = || StageError::InvalidInput {
+        input: "splits".into(),
+        message: format!(
+            "{stage}: expected a significant.csv (parameter,score,…,significant) from a gsa stage"
+        ),
+    };
     let text = std::fs::read_to_string(path)
         .map_err(|e| StageError::io("cannot read input `splits`", e))?;
     let mut lines = text.lines();
-    if lines.next() != Some("parameter,score,significant") {
-        return Err(StageError::InvalidInput {
-            input: "splits".into(),
-            message: format!(
-                "{stage}: expected a significant.csv (parameter,score,significant) from a gsa stage"
-            ),
-        });
-    }
-    let mut significant = Vec::new();
-    let mut total = 0;
+    let header: Vec<&str> = lines.next().ok_or_else(bad)?.split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name);
+    let (Some(c_name), Some(c_sig)) = (col("parameter"), col("significant")) else {
+        return Err(bad());
+    };
+    let (c_undecided, c_needed) = (col("undecided"), col("samples_needed"));
+    let mut split = Split {
+        stage: stage.to_string(),
+        significant: Vec::new(),
+        total: 0,
+        undecided: Vec::new(),
+        samples_needed: None,
+        beyond_reach: false,
+    };
     for line in lines.filter(|l| !l.trim().is_empty()) {
-        total += 1;
+        split.total += 1;
         let f: Vec<&str> = line.split(',').collect();
-        if f.get(2) == Some(&"true") {
-            significant.push(f[0].to_string());
+        let name = f.get(c_name).copied().unwrap_or_default().to_string();
+        if f.get(c_sig) == Some(&"true") {
+            split.significant.push(name.clone());
+        }
+        if c_undecided.and_then(|c| f.get(c)) == Some(&"true") {
+            split.undecided.push(name);
+            match c_needed
+                .and_then(|c| f.get(c))
+                .and_then(|n| n.parse::<usize>().ok())
+            {
+                Some(n) => split.samples_needed = split.samples_needed.max(Some(n)),
+                None => split.beyond_reach = true,
+            }
         }
     }
-    Ok(Split {
-        stage: stage.to_string(),
-        significant,
-        total,
-    })
+    Ok(split)
+}
+
+/// "k (names)" of the undecided parameters and the sample size they need.
+fn undecided_cells(s: &Split) -> [String; 2] {
+    if s.undecided.is_empty() {
+        return ["0".into(), "–".into()];
+    }
+    let needed = match (s.samples_needed, s.beyond_reach) {
+        (Some(n), false) => format!("N ≈ {n}"),
+        (Some(n), true) => format!("N ≈ {n}; some on the threshold"),
+        (None, _) => "on the threshold: no feasible N".into(),
+    };
+    [
+        format!("{} ({})", s.undecided.len(), s.undecided.join(" ")),
+        needed,
+    ]
 }
 
 /// The split of every stage, and the agreement of every pair of splits
@@ -53,14 +92,22 @@ pub fn splits(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(), St
         .map(|(s, p)| read_split(s, p))
         .collect::<Result<Vec<_>, _>>()?;
     doc.heading(2, "Significant parameters");
+    doc.paragraph(
+        "Kept: the parameters the split keeps (to be identified). Undecided: parameters whose bootstrap interval of the combined total index straddles the threshold, so this sample size cannot say on which side they lie; the sample size N that would decide them follows from the interval narrowing as 1/√N.",
+    );
     doc.table(
-        vec!["stage".into(), "significant".into(), "parameters".into()],
+        ["stage", "kept", "undecided", "would decide", "parameters"]
+            .map(String::from)
+            .to_vec(),
         splits
             .iter()
             .map(|s| {
+                let [undecided, needed] = undecided_cells(s);
                 vec![
                     s.stage.clone(),
                     format!("{} of {}", s.significant.len(), s.total),
+                    undecided,
+                    needed,
                     s.significant.join(" "),
                 ]
             })
