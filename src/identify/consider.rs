@@ -510,6 +510,7 @@ mod tests {
             &names,
             &[0.1, 0.1],
             rss / (m - 2) as f64,
+            1.0,
         );
         assert!(c.fixed[0].implicated, "{:?}", c.fixed);
         assert!(!c.fixed[1].implicated, "{:?}", c.fixed);

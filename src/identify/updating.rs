@@ -250,7 +250,11 @@ pub fn update(
         evaluations += cost;
         let next_judged = judge(o, &start, &next, guided_result.as_ref(), plan, progress)?;
         assessment_evaluations += next_judged.evaluations;
-        if refitting && !(fit_rms(&next_judged.verdict) < fit_rms(&judged.verdict)) {
+        // NaN (unsolvable) is never better.
+        let better = fit_rms(&next_judged.verdict)
+            .partial_cmp(&fit_rms(&judged.verdict))
+            .is_some_and(|o| o.is_lt());
+        if refitting && !better {
             judged.verdict.warnings.push(format!(
                 "refitting with the implicated parameters identified too did not fit better ({:.2}σ against {:.2}σ): not taken",
                 fit_rms(&next_judged.verdict),
