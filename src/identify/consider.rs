@@ -56,6 +56,7 @@
 #![allow(non_snake_case)]
 
 use super::identifiability::STRUCTURAL;
+use super::verdict::nan_if_null;
 use crate::dynamics::eigen::symmetric_eigen;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
@@ -69,18 +70,23 @@ pub const ALPHA: f64 = 0.05;
 pub struct FixedParameter {
     pub parameter: String,
     /// Standard deviation of ln c assumed for it (the consider spread).
+    #[serde(deserialize_with = "nan_if_null")]
     pub spread: f64,
     /// T_j, χ²₁ under "its value is right" (module docs).
+    #[serde(deserialize_with = "nan_if_null")]
     pub statistic: f64,
     /// P(χ²₁ ≥ T_j).
+    #[serde(deserialize_with = "nan_if_null")]
     pub p_value: f64,
     /// The change of ln c_j that would fit best (linearized), identified
     /// parameters re-adjusted; 0 when the residual cannot see it.
+    #[serde(deserialize_with = "nan_if_null")]
     pub change: f64,
     /// T_j above the Bonferroni-corrected χ²₁ quantile.
     pub implicated: bool,
     /// Its largest contribution to an identified parameter's standard error
     /// (of ln θ): |S_ij| σ_c,j.
+    #[serde(deserialize_with = "nan_if_null")]
     pub influence: f64,
 }
 
@@ -88,12 +94,23 @@ pub struct FixedParameter {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Consider {
     /// Per identified parameter: the standard error of ln θ with the fixed
-    /// parameters' spread included, √C_ii (+∞ in a structural direction).
+    /// parameters' spread included, √C_ii (+∞ in a structural direction;
+    /// JSON null, read back as NaN).
+    #[serde(deserialize_with = "nan_if_null_each")]
     pub std_error: Vec<f64>,
     /// Per fixed parameter, in the order given.
     pub fixed: Vec<FixedParameter>,
     /// The χ²₁ quantile a statistic must exceed to implicate.
+    #[serde(deserialize_with = "nan_if_null")]
     pub critical: f64,
+}
+
+/// Numbers that JSON may hold as null (non-finite ones), read back as NaN.
+fn nan_if_null_each<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    Ok(Vec::<Option<f64>>::deserialize(d)?
+        .into_iter()
+        .map(|v| v.unwrap_or(f64::NAN))
+        .collect())
 }
 
 impl Consider {
@@ -520,6 +537,30 @@ mod tests {
         let r0 = fit(&noise);
         let c0 = consider(&theta, &fixed, &r0, &names, &[0.1, 0.1], 1.0, 1.0);
         assert!(c0.fixed.iter().all(|f| !f.implicated), "{:?}", c0.fixed);
+    }
+
+    /// Non-finite numbers (structural directions, an undefined p-value)
+    /// are written as JSON null and read back.
+    #[test]
+    fn the_analysis_survives_json_with_non_finite_numbers() {
+        let c = Consider {
+            std_error: vec![0.1, f64::INFINITY],
+            fixed: vec![FixedParameter {
+                parameter: "a".into(),
+                spread: 0.8,
+                statistic: 3.0,
+                p_value: f64::NAN,
+                change: 0.1,
+                implicated: false,
+                influence: 0.01,
+            }],
+            critical: f64::INFINITY,
+        };
+        let text = serde_json::to_string(&c).unwrap();
+        let back: Consider = serde_json::from_str(&text).unwrap();
+        assert_eq!(back.std_error[0], 0.1);
+        assert!(back.std_error[1].is_nan() && back.fixed[0].p_value.is_nan());
+        assert_eq!(back.fixed[0].statistic, 3.0);
     }
 
     #[test]
