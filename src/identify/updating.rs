@@ -255,11 +255,21 @@ pub fn update(
             .partial_cmp(&fit_rms(&judged.verdict))
             .is_some_and(|o| o.is_lt());
         if refitting && !better {
-            judged.verdict.warnings.push(format!(
-                "refitting with the implicated parameters identified too did not fit better ({:.2}σ against {:.2}σ): not taken",
-                fit_rms(&next_judged.verdict),
-                fit_rms(&judged.verdict)
-            ));
+            let (now, then) = (fit_rms(&judged.verdict), fit_rms(&next_judged.verdict));
+            // Within the noise, an implication a refit cannot turn into a
+            // better fit is statistical, not practical (thousands of FRF
+            // lines make a tiny structure significant): a warning only.
+            if judged.verdict.fit == Fit::WithinNoise {
+                let names = judged.verdict.implicated.join(", ");
+                judged.verdict = judged.untested.clone();
+                judged.verdict.warnings.push(format!(
+                    "the score test implicated {names}, but identifying them too did not fit better ({then:.2}σ against {now:.2}σ) and the fit is within the noise: not counted against the verdict"
+                ));
+            } else {
+                judged.verdict.warnings.push(format!(
+                    "refitting with the implicated parameters identified too did not fit better ({then:.2}σ against {now:.2}σ): not taken"
+                ));
+            }
             break;
         }
         outcome = next;
@@ -304,6 +314,8 @@ fn fit_rms(v: &Verdict) -> f64 {
 /// The assessment and verdict of an [`Outcome`].
 struct Judged {
     verdict: Verdict,
+    /// The verdict before the score test's implicated parameters counted.
+    untested: Verdict,
     identifiability: Identifiability,
     consider: Option<Consider>,
     pairs: Vec<Vec<FinalPair>>,
@@ -381,6 +393,7 @@ fn judge(
             .collect()
     });
     Ok(Judged {
+        untested: verdict.clone(),
         verdict: verdict.with_implicated(&implicated),
         identifiability,
         consider,
