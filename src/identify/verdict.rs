@@ -34,6 +34,9 @@ use serde::{Deserialize, Serialize};
 /// Lag-1 correlation above which an FRF residual is called smooth.
 pub const SMOOTH_LAG1: f64 = 0.5;
 
+/// Implicated fixed parameters the message names (largest statistic first).
+const NAMED_IMPLICATED: usize = 5;
+
 /// Weighted-residual RMS (σ units) up to which a fit is within the noise.
 pub const NOISE_RMS: f64 = 2.0;
 
@@ -345,12 +348,19 @@ impl Verdict {
             return self;
         }
         self.ok = false;
-        let named: Vec<String> = implicated
+        let mut named: Vec<String> = implicated
             .iter()
+            .take(NAMED_IMPLICATED)
             .map(|(name, change, t)| {
                 format!("{name} ({:+.0} %, χ² {t:.0})", 100.0 * change.exp_m1())
             })
             .collect();
+        if implicated.len() > NAMED_IMPLICATED {
+            named.push(format!(
+                "and {} more (identifiability.json, parameters.csv)",
+                implicated.len() - NAMED_IMPLICATED
+            ));
+        }
         self.message.push_str(&format!(
             "; the residual points at parameter{} the update held fixed: {} — the screening left out what these data see; identify {} too (`refit_implicated`) or check the model file's values",
             if named.len() == 1 { "" } else { "s" },
