@@ -55,7 +55,7 @@
 
 #![allow(non_snake_case)]
 
-use super::identifiability::STRUCTURAL;
+use super::identifiability::{IN_NULL_SPACE, STRUCTURAL};
 use super::verdict::nan_if_null;
 use crate::dynamics::eigen::symmetric_eigen;
 use faer::Mat;
@@ -141,7 +141,7 @@ pub fn consider(
 ) -> Consider {
     let n = theta.len();
     let m = r.len();
-    let g_plus = pseudo_inverse(theta);
+    let (g_plus, structural) = pseudo_inverse(theta);
     // Jθᵀ x for a residual-space vector x.
     let project = |x: &[f64]| -> Vec<f64> {
         theta
@@ -203,7 +203,6 @@ pub fn consider(
     for f in &mut out {
         f.p_value = chi2.as_ref().map_or(f64::NAN, |d| 1.0 - d.cdf(f.statistic));
     }
-    let structural = structural_parameters(theta);
     let std_error = (0..n)
         .map(|i| {
             if structural[i] {
@@ -348,42 +347,34 @@ pub fn bounds_spread(value: f64, lower: f64, upper: f64, log: bool) -> f64 {
     }
 }
 
-/// Eigen-decomposition of G = JᵀJ: (eigenvalues, eigenvectors, null test).
-fn gram_eigen(columns: &[Vec<f64>]) -> (Vec<f64>, Mat<f64>) {
+/// G⁺ = (JᵀJ)⁺ over the determined directions and which parameters lie in
+/// a structural null direction, as [`super::identifiability`] decides them
+/// (one eigen-decomposition of G; sequential, so bit-identical).
+fn pseudo_inverse(columns: &[Vec<f64>]) -> (Mat<f64>, Vec<bool>) {
     let n = columns.len();
     if n == 0 {
-        return (Vec::new(), Mat::zeros(0, 0));
+        return (Mat::zeros(0, 0), Vec::new());
     }
     let G = Mat::<f64>::from_fn(n, n, |a, b| {
         columns[a].iter().zip(&columns[b]).map(|(x, y)| x * y).sum()
     });
-    symmetric_eigen(&G).unwrap_or_else(|_| (vec![0.0; n], Mat::<f64>::identity(n, n)))
-}
-
-fn is_null(mu: &[f64], k: usize) -> bool {
+    let (mu, V) =
+        symmetric_eigen(&G).unwrap_or_else(|_| (vec![0.0; n], Mat::<f64>::identity(n, n)));
     let largest = mu.iter().copied().fold(0.0f64, f64::max);
-    mu[k] <= STRUCTURAL * STRUCTURAL * largest || mu[k] <= 0.0
-}
-
-/// G⁺ over the determined directions (as [`super::identifiability`]).
-fn pseudo_inverse(columns: &[Vec<f64>]) -> Mat<f64> {
-    let n = columns.len();
-    let (mu, V) = gram_eigen(columns);
-    Mat::from_fn(n, n, |i, j| {
+    let null: Vec<bool> = mu
+        .iter()
+        .map(|&m| m <= STRUCTURAL * STRUCTURAL * largest || m <= 0.0)
+        .collect();
+    let g_plus = Mat::from_fn(n, n, |i, j| {
         (0..n)
-            .filter(|&k| !is_null(&mu, k))
+            .filter(|&k| !null[k])
             .map(|k| V[(i, k)] * V[(j, k)] / mu[k])
             .sum()
-    })
-}
-
-/// Parameters in a structural null direction (as identifiability names them).
-fn structural_parameters(columns: &[Vec<f64>]) -> Vec<bool> {
-    let n = columns.len();
-    let (mu, V) = gram_eigen(columns);
-    (0..n)
-        .map(|i| (0..n).any(|k| is_null(&mu, k) && V[(i, k)].abs() >= 0.05))
-        .collect()
+    });
+    let structural = (0..n)
+        .map(|i| (0..n).any(|k| null[k] && V[(i, k)].abs() >= IN_NULL_SPACE))
+        .collect();
+    (g_plus, structural)
 }
 
 #[cfg(test)]

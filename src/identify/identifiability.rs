@@ -40,7 +40,7 @@ use serde::{Deserialize, Serialize};
 pub(crate) const STRUCTURAL: f64 = 1e-6;
 
 /// Smallest |v_ik| for a parameter to share a structural null direction.
-const IN_NULL_SPACE: f64 = 0.05;
+pub(crate) const IN_NULL_SPACE: f64 = 0.05;
 
 /// Smallest |v_ik| for a parameter to be named in a combination.
 const NAMED_WEIGHT: f64 = 0.2;
