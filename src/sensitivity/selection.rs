@@ -70,6 +70,31 @@ pub struct Selection {
     pub evaluations: usize,
 }
 
+/// What both selections start from: the arguments checked, the seeded
+/// unit draws shared by every probe and the outputs at the reference point.
+fn prepare(
+    model: &(impl Model + ?Sized),
+    ranked: &[String],
+    start: usize,
+    reference: &[f64],
+    target: f64,
+    samples: usize,
+    seed: u64,
+) -> Result<(Vec<Vec<f64>>, Vec<f64>), SensitivityError> {
+    check(model, ranked, reference)?;
+    if samples == 0 || start > ranked.len() || !(target.is_finite()) {
+        return Err(SensitivityError::Invalid(format!(
+            "selection needs samples > 0 (got {samples}), a start within the {} ranked parameters (got {start}) and a finite target (got {target})",
+            ranked.len()
+        )));
+    }
+    let units = draw_units(samples, model.parameters().len(), seed);
+    let y0 = evaluate_all(model, &[reference.to_vec()], 1, &|_| {})?
+        .pop()
+        .ok_or_else(|| SensitivityError::Invalid("the model returned no outputs".into()))?;
+    Ok((units, y0))
+}
+
 /// Grow the kept set from the first `start` of `ranked` (parameter names in
 /// decreasing order of their combined index) until the validation's minimum
 /// conformity reaches `target`, `samples` random points per probe drawn
@@ -86,17 +111,7 @@ pub fn select_by_validation(
     seed: u64,
     progress: &dyn Fn(u64),
 ) -> Result<Selection, SensitivityError> {
-    check(model, ranked, reference)?;
-    if samples == 0 || start > ranked.len() || !(target.is_finite()) {
-        return Err(SensitivityError::Invalid(format!(
-            "selection needs samples > 0 (got {samples}), a start within the {} ranked parameters (got {start}) and a finite target (got {target})",
-            ranked.len()
-        )));
-    }
-    let units = draw_units(samples, model.parameters().len(), seed);
-    let y0 = evaluate_all(model, &[reference.to_vec()], 1, &|_| {})?
-        .pop()
-        .ok_or_else(|| SensitivityError::Invalid("the model returned no outputs".into()))?;
+    let (units, y0) = prepare(model, ranked, start, reference, target, samples, seed)?;
     let mut probes: Vec<Probe> = Vec::new();
     let mut probe = |k: usize| -> Result<bool, SensitivityError> {
         let p = run_probe(
@@ -178,17 +193,7 @@ pub fn select_guided(
     seed: u64,
     progress: &dyn Fn(u64),
 ) -> Result<Selection, SensitivityError> {
-    check(model, ranked, reference)?;
-    if samples == 0 || start > ranked.len() || !(target.is_finite()) {
-        return Err(SensitivityError::Invalid(format!(
-            "selection needs samples > 0 (got {samples}), a start within the {} ranked parameters (got {start}) and a finite target (got {target})",
-            ranked.len()
-        )));
-    }
-    let units = draw_units(samples, model.parameters().len(), seed);
-    let y0 = evaluate_all(model, &[reference.to_vec()], 1, &|_| {})?
-        .pop()
-        .ok_or_else(|| SensitivityError::Invalid("the model returned no outputs".into()))?;
+    let (units, y0) = prepare(model, ranked, start, reference, target, samples, seed)?;
     let mut kept: Vec<String> = ranked[..start].to_vec();
     let mut probes = Vec::new();
     let passed = loop {
