@@ -386,6 +386,7 @@ fn judge(
         ),
         None => verdict,
     };
+    let verdict = verdict.with_refitted(&outcome.refitted);
     let implicated: Vec<(String, f64, f64)> = consider.as_ref().map_or(Vec::new(), |c| {
         c.implicated()
             .iter()

@@ -89,6 +89,10 @@ pub struct ModeCounts {
     /// spurious or wrongly paired reference mode, or a local minimum).
     #[serde(default)]
     pub outliers: usize,
+    /// Paired, but far apart in frequency and shape: most likely a mode the
+    /// model does not contain (see `assessment::weak_pairs`).
+    #[serde(default)]
+    pub weak: usize,
 }
 
 /// A number that JSON may hold as null (serde_json writes NaN and ±∞ so).
@@ -120,6 +124,10 @@ pub struct Verdict {
     /// ([`super::consider`]), with the change the data point to.
     #[serde(default)]
     pub implicated: Vec<String>,
+    /// Fixed parameters the score test implicated earlier that a refit
+    /// identified too ([`super::follow_up`]).
+    #[serde(default)]
+    pub refitted: Vec<String>,
     /// Why the verdict is not ok (`none` when it is).
     #[serde(default)]
     pub cause: Cause,
@@ -249,7 +257,7 @@ impl Verdict {
         // Within the noise means the robust (Huber) residual; modes it
         // down-weighted or could not pair are not reproduced, so they keep
         // the verdict from being ok and are named in the message.
-        let lost = modes.unpaired + modes.outliers;
+        let lost = modes.unpaired + modes.outliers + modes.weak;
         let ok = status == Status::Converged && fit == Fit::WithinNoise && !worse && lost == 0;
         let mut parts = vec![status_text(status).to_string()];
         parts.push(match fit {
@@ -265,8 +273,8 @@ impl Verdict {
         }
         if lost > 0 {
             parts.push(format!(
-                "but {lost} of {} used reference modes are not reproduced ({} without a model partner, {} outliers): modes the model does not contain, spurious or wrongly paired modes, or a local minimum (named in the warnings)",
-                modes.used, modes.unpaired, modes.outliers
+                "but {lost} of {} used reference modes are not reproduced ({} without a model partner, {} outliers, {} weakly paired): modes the model does not contain, spurious or wrongly paired modes, or a local minimum (named in the warnings)",
+                modes.used, modes.unpaired, modes.outliers, modes.weak
             ));
         }
         if modes.unpaired > 0 {
@@ -299,6 +307,7 @@ impl Verdict {
             identifiable,
             frf: None,
             implicated: Vec::new(),
+            refitted: Vec::new(),
             cause: Cause::None,
             message: parts.join("; "),
             warnings,
@@ -371,11 +380,31 @@ impl Verdict {
         self.classified(SearchEvidence::default())
     }
 
+    /// The verdict with the fixed parameters a refit identified too (see
+    /// [`Cause::ScreenedOut`]).
+    pub fn with_refitted(mut self, refitted: &[String]) -> Verdict {
+        self.refitted = refitted.to_vec();
+        self.classified(SearchEvidence::default())
+    }
+
     /// The message with the cause named (once, at the end of an update).
     pub fn explained(mut self) -> Verdict {
-        let why = match self.cause {
+        let screened_out: String;
+        let why: &str = match self.cause {
             Cause::None => return self,
             Cause::Budget => "cause: the budget ran out before the fit converged — give more",
+            Cause::ScreenedOut if self.implicated.is_empty() => {
+                screened_out = format!(
+                    "cause: parameters the screening left fixed — {} refitted, and the fit is still above the noise{}",
+                    self.refitted.join(", "),
+                    if self.status == Status::BudgetExhausted {
+                        " (the refit stopped at the budget: give more to let it finish)"
+                    } else {
+                        ": more of them, or model error, remain"
+                    }
+                );
+                &screened_out
+            }
             Cause::ScreenedOut => "cause: parameters the screening left fixed (named above)",
             Cause::LocalMinimum => "cause: a local minimum — a further search from other starts found a better fit (taken), so this one may not be the best either; more `restarts` or a larger budget",
             Cause::ModelError => "cause: model error — further starts end no better and no fixed parameter is implicated: the model's form, its damping model or the test itself (leakage, attachments) differs from the structure",
@@ -390,11 +419,18 @@ impl Verdict {
     /// Name the cause (see [`Cause`]) from the verdict and the `evidence`
     /// of a further search.
     pub fn classified(mut self, evidence: SearchEvidence) -> Verdict {
+        // Parameters the screening held fixed and a refit had to add, with
+        // the fit still above the noise: the screening is the cause, even
+        // when that refit (not the strategy) ran out of budget — more budget
+        // for it is the remedy the message gives, not the diagnosis.
+        // (A strategy cut by the budget runs no refit: its implicated
+        // parameters come from an unconverged point, so the budget is named.)
+        let refit_short = !self.refitted.is_empty() && self.fit == Fit::AboveNoise;
         self.cause = if self.ok {
             Cause::None
-        } else if self.status == Status::BudgetExhausted {
+        } else if self.status == Status::BudgetExhausted && !refit_short {
             Cause::Budget
-        } else if !self.implicated.is_empty() {
+        } else if !self.implicated.is_empty() || refit_short {
             Cause::ScreenedOut
         } else if self.fit == Fit::AboveNoise {
             match evidence.escaped {
@@ -431,6 +467,7 @@ mod tests {
             unpaired: 0,
             ambiguous: 0,
             outliers: 0,
+            weak: 0,
         }
     }
 
@@ -461,6 +498,12 @@ mod tests {
         };
         let v = Verdict::judge(Status::Converged, 9.0, 1.0, outlier, 5, 5, vec![]);
         assert!(!v.ok && v.message.contains("1 outliers"), "{}", v.message);
+        let weak = ModeCounts {
+            weak: 1,
+            ..counts()
+        };
+        let v = Verdict::judge(Status::Converged, 9.0, 0.8, weak, 5, 5, vec![]);
+        assert!(!v.ok && v.message.contains("1 weakly paired"), "{}", v.message);
         // NaN residuals (model unsolvable) are never within the noise.
         let nan = Verdict::judge(Status::Converged, 9.0, f64::NAN, counts(), 5, 5, vec![]);
         assert!(!nan.ok && nan.worse_than_start);
@@ -526,6 +569,18 @@ mod tests {
         let b = Verdict::judge(Status::BudgetExhausted, 9.0, 5.0, counts(), 5, 5, vec![])
             .with_implicated(&[("a".into(), 0.1, 30.0)]);
         assert_eq!(b.cause, Cause::Budget);
+        // ... unless it was a refit of screened-out parameters that ran out,
+        // with the fit still above the noise: the screening is the cause.
+        let r = Verdict::judge(Status::BudgetExhausted, 9.0, 5.0, counts(), 5, 5, vec![])
+            .with_refitted(&["lb.k_y".into()]);
+        assert_eq!(r.cause, Cause::ScreenedOut);
+        let r = r.explained();
+        assert!(r.message.contains("lb.k_y refitted"), "{}", r.message);
+        assert!(r.message.contains("give more"), "{}", r.message);
+        // Within the noise the refit's own budget is what is left to fix.
+        let w = Verdict::judge(Status::BudgetExhausted, 9.0, 0.9, counts(), 5, 5, vec![])
+            .with_refitted(&["lb.k_y".into()]);
+        assert_eq!(w.cause, Cause::Budget);
         // Above the noise: a further start that won names a local minimum;
         // one that did not, model error.
         let above = Verdict::judge(Status::Converged, 9.0, 5.0, counts(), 5, 5, vec![]);
