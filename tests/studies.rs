@@ -209,9 +209,10 @@ fn near(pairs: &[(f64, f64, f64)], hz: f64) -> Option<(f64, f64, f64)> {
         .min_by(|a, b| (a.0 - hz).abs().total_cmp(&(b.0 - hz).abs()))
 }
 
-/// The real beam (README "real_beam"): updated on the roving-hammer test,
-/// the model predicts the shaker test it never saw. CI size: a small
-/// screening and the guided update on half the budget, no black box.
+/// The real beam (docs/studies/real_beam.md): updated on the roving-hammer
+/// test, the model (a beam on elastic ends that share one bouncing support
+/// frame) predicts the shaker test it never saw. CI size: a small screening
+/// and the guided update on 5/8 of the budget, no black box.
 #[test]
 fn real_beam_updated_on_the_hammer_predicts_the_shaker() {
     let Some(dir) = util::real_beam_dir() else {
@@ -230,7 +231,7 @@ fn real_beam_updated_on_the_hammer_predicts_the_shaker() {
             ("bootstrap: 50", "bootstrap: 10"),
             (
                 "strategy: sensitivity_guided\n      budget: 8000",
-                "strategy: sensitivity_guided\n      budget: 4000",
+                "strategy: sensitivity_guided\n      budget: 5000",
             ),
             (
                 "[guided, guided_frf, pso, ga, guided_on_shaker]",
@@ -243,23 +244,35 @@ fn real_beam_updated_on_the_hammer_predicts_the_shaker() {
     let hammer = paired(&ws, "on_hammer[run=guided]");
     let shaker = paired(&ws, "on_shaker[run=guided]");
     let initial = paired(&ws, "initial_on_hammer");
-    // Bending modes 2-5 (mode 1 is below the shaker's band edge there):
-    // updated within 2.5 % of the test fitted to, MAC >= 0.85, and closer
-    // than the model at its file values; on the test never seen within
-    // 3.5 % and MAC >= 0.8 — 5 % for mode 2, which the shaker test itself
-    // puts 2.1 % above the hammer test (70.6 vs 69.2 Hz: the stinger).
-    for (hz, unseen) in [(69.2, 0.05), (155.5, 0.035), (265.6, 0.035), (414.2, 0.035)] {
+    let e = |p: (f64, f64, f64)| (p.1 / p.0 - 1.0).abs();
+    // Bending modes 1-6: within 1.5 % of the test fitted to (the full
+    // study: +0.46, -1.16, -0.37, +0.29, -1.31, +0.52 %), MAC >= 0.9, and
+    // no farther than the model at its file values. On the test never
+    // seen: modes 3-6 within 2 %, MAC >= 0.85; modes 1 and 2, which the
+    // shaker test itself puts 2.8 % and 2.1 % above the hammer test
+    // (docs: no attachment at the drive point explains that), within 3.5 %;
+    // the shaker's mode 1 shape (two lines in its half-power band, Hanning)
+    // at MAC >= 0.7.
+    for (hz, unseen, unseen_mac) in [
+        (17.35, 0.035, 0.7),
+        (69.2, 0.035, 0.85),
+        (155.6, 0.02, 0.85),
+        (265.6, 0.02, 0.85),
+        (414.5, 0.02, 0.85),
+        (567.6, 0.02, 0.85),
+    ] {
         let h = near(&hammer, hz).unwrap_or_else(|| panic!("{hz} Hz unpaired: {hammer:?}"));
         let s = near(&shaker, hz).unwrap_or_else(|| panic!("{hz} Hz unpaired: {shaker:?}"));
-        let e = |p: (f64, f64, f64)| (p.1 / p.0 - 1.0).abs();
-        assert!(e(h) < 0.025 && h.2 >= 0.85, "hammer {hz}: {h:?}");
-        assert!(e(s) < unseen && s.2 >= 0.8, "shaker {hz}: {s:?}");
+        assert!(e(h) < 0.015 && h.2 >= 0.9, "hammer {hz}: {h:?}");
+        assert!(e(s) < unseen && s.2 >= unseen_mac, "shaker {hz}: {s:?}");
         if let Some(i) = near(&initial, hz) {
             assert!(e(h) <= e(i) + 0.005, "{hz}: updated {h:?} vs initial {i:?}");
         }
     }
-    let f1 = near(&hammer, 17.1).expect("first bending mode");
-    assert!((f1.1 / f1.0 - 1.0).abs() < 0.02, "{f1:?}");
+    // The support frame's bounce is the measured 118.6 Hz mode whose ends
+    // move (within 1 %; its shape only partly: MAC about 0.6).
+    let bounce = near(&hammer, 118.6).expect("the 118.6 Hz mode paired");
+    assert!(e(bounce) < 0.01 && bounce.2 >= 0.5, "{bounce:?}");
     // E plausible for steel (the bending modes fix E h²), with its interval.
     let params = csv_rows(&ws.read("results/real_beam/guided/parameters.csv"));
     let e = params.iter().find(|r| r[0] == "beam.E").unwrap();
@@ -268,7 +281,7 @@ fn real_beam_updated_on_the_hammer_predicts_the_shaker() {
         e[9].parse().unwrap(),
         e[10].parse().unwrap(),
     );
-    // Full study: 187.3 GPa, 95 % interval 177.1-198.1 GPa.
+    // Full study: 187.1 GPa, 95 % interval 177.9-196.9 GPa.
     assert!((1.75e11..2.15e11).contains(&value), "{e:?}");
     assert!(
         low < value && value < high && low > 1.6e11 && high < 2.2e11,

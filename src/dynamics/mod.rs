@@ -55,6 +55,7 @@ pub mod model_file;
 pub mod model_writer;
 pub mod reference;
 pub mod residual;
+pub(crate) mod resolve;
 pub mod rigid;
 pub mod shift;
 pub mod shift_invert;
