@@ -27,6 +27,14 @@ pub struct Score {
     pub message: String,
     /// The FRF residual at the end (noise units), NaN without FRFs.
     pub frf_rms: f64,
+    /// Identified parameters with a stated 95 % interval, and how many of
+    /// those intervals contain the true value (issue 26's coverage).
+    pub intervals: usize,
+    pub covered: usize,
+    /// The verdict names implicated (screened-out) parameters.
+    pub names_implicated: bool,
+    /// The verdict's cause (`none` when ok).
+    pub cause: String,
 }
 
 pub fn csv_rows(path: &Path) -> Vec<BTreeMap<String, String>> {
@@ -145,6 +153,7 @@ fn score_model(
         })
         .collect();
     errors.sort_by(f64::total_cmp);
+    let (intervals, covered) = coverage(id_dir, &kinds);
     // Read through the schema the identify stage writes: a renamed field
     // fails here instead of scoring as a silent default.
     let cost = Cost::read(&id_dir.join("cost.json")).unwrap_or_else(|e| panic!("{e}"));
@@ -160,8 +169,32 @@ fn score_model(
         ok: cost.verdict.ok,
         // NaN: identified from modes only (no `frf` input).
         frf_rms: cost.frf.map_or(f64::NAN, |f| f.end.rms),
+        names_implicated: !cost.verdict.implicated.is_empty() || !cost.verdict.refitted.is_empty(),
+        cause: format!("{:?}", cost.verdict.cause),
         message: cost.verdict.message,
+        intervals,
+        covered,
     }
+}
+
+/// (identified parameters with a stated interval, intervals containing the
+/// truth) of the identify results in `id_dir`; `truth`: name → (value, kind).
+fn coverage(id_dir: &Path, truth: &BTreeMap<String, (f64, String)>) -> (usize, usize) {
+    let rows = csv_rows(&id_dir.join("parameters.csv"));
+    let stated: Vec<(f64, f64, f64)> = rows
+        .iter()
+        .filter(|r| r["identified"] == "true")
+        .filter_map(|r| {
+            let lo = r.get("ci_low")?.parse::<f64>().ok()?;
+            let hi = r.get("ci_high")?.parse::<f64>().ok()?;
+            Some((lo, hi, truth[&r["parameter"]].0))
+        })
+        .collect();
+    let covered = stated
+        .iter()
+        .filter(|(lo, hi, t)| lo <= t && t <= hi)
+        .count();
+    (stated.len(), covered)
 }
 
 /// Relative frequency gap below which neighbouring true modes are one

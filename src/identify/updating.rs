@@ -7,7 +7,7 @@
 use super::assessment::{assess, bound_warnings, identifiability_at};
 use super::consider::Consider;
 use super::correspondence::Correspondence;
-use super::follow_up::{escape, escape_evidence, refit, Outcome};
+use super::follow_up::{escape, escape_evidence, refit, Outcome, ESCAPED};
 use super::frf_objective::FrfReference;
 use super::frf_refinement::{frf_refinement, FrfRefinement, FrfRefinementParams};
 use super::guided::{guided, GuidedParams, GuidedResult, Screening};
@@ -230,6 +230,13 @@ pub fn update(
     };
     let mut judged = judge(o, &start, &outcome, guided_result.as_ref(), plan, progress)?;
     let mut assessment_evaluations = judged.evaluations;
+    // Refitted parameters whose refit fitted materially better (cost below
+    // ESCAPED of before): only these make the screening the verdict's cause
+    // (a refit that gains little says the misfit lies elsewhere).
+    let mut material: Vec<String> = Vec::new();
+    // A refit that did not fit better refutes the implication: the verdict
+    // is judged without it, and the escape search may run instead.
+    let mut refuted = false;
     // The follow-ups ([`super::follow_up`]), each judged again; a refit that
     // does not fit better is not taken.
     for _ in 0..2 {
@@ -238,7 +245,7 @@ pub fn update(
             .saturating_sub(evaluations + assessment_evaluations + reserve);
         let mut implicated = judged.implicated(o);
         implicated.truncate(REFIT_AT_ONCE);
-        let refitting = !implicated.is_empty() && plan.refit_implicated;
+        let refitting = !implicated.is_empty() && plan.refit_implicated && !refuted;
         let step = if refitting {
             refit(o, plan, &start, &outcome, &implicated, left, progress)?
         } else if judged.verdict.fit == Fit::AboveNoise && !outcome.searched {
@@ -248,7 +255,7 @@ pub fn update(
         };
         let Some((next, cost)) = step else { break };
         evaluations += cost;
-        let next_judged = judge(o, &start, &next, guided_result.as_ref(), plan, progress)?;
+        let mut next_judged = judge(o, &start, &next, guided_result.as_ref(), plan, progress)?;
         assessment_evaluations += next_judged.evaluations;
         // NaN (unsolvable) is never better.
         let better = fit_rms(&next_judged.verdict)
@@ -256,30 +263,43 @@ pub fn update(
             .is_some_and(|o| o.is_lt());
         if refitting && !better {
             let (now, then) = (fit_rms(&judged.verdict), fit_rms(&next_judged.verdict));
-            // Within the noise, an implication a refit cannot turn into a
-            // better fit is statistical, not practical (thousands of FRF
-            // lines make a tiny structure significant): a warning only.
-            if judged.verdict.fit == Fit::WithinNoise {
-                let names = judged.verdict.implicated.join(", ");
-                judged.verdict = judged.untested.clone();
-                judged.verdict.warnings.push(format!(
-                    "the score test implicated {names}, but identifying them too did not fit better ({then:.2}σ against {now:.2}σ) and the fit is within the noise: not counted against the verdict"
-                ));
+            let names = judged.verdict.implicated.join(", ");
+            // The implication is refuted: within the noise it was
+            // statistical, not practical (thousands of FRF lines make a tiny
+            // structure significant); above it, the misfit is not theirs and
+            // the escape search may tell a local minimum from model error.
+            let within = judged.verdict.fit == Fit::WithinNoise;
+            judged.verdict = judged.untested.clone();
+            judged.verdict.warnings.push(format!(
+                "the score test implicated {names}, but identifying them too did not fit better ({then:.2}σ against {now:.2}σ): {}",
+                if within {
+                    "the fit is within the noise, not counted against the verdict"
+                } else {
+                    "not taken, and the misfit is judged as not theirs"
+                }
+            ));
+            refuted = true;
+            if within {
+                break;
+            }
+            continue;
+        }
+        if refitting {
+            let (now, then) = (fit_rms(&judged.verdict), fit_rms(&next_judged.verdict));
+            if (then / now).powi(2) < ESCAPED {
+                material.clone_from(&next.refitted);
             } else {
-                judged.verdict.warnings.push(format!(
-                    "refitting with the implicated parameters identified too did not fit better ({then:.2}σ against {now:.2}σ): not taken"
+                next_judged.verdict.warnings.push(format!(
+                    "refitting with the implicated parameters identified too fitted only slightly better ({then:.2}σ against {now:.2}σ): weak evidence that the screening is the cause"
                 ));
             }
-            break;
         }
         outcome = next;
         judged = next_judged;
     }
-    let verdict = judged
-        .verdict
-        .clone()
-        .classified(outcome.evidence)
-        .explained();
+    let mut verdict = judged.verdict.clone();
+    verdict.refitted = material;
+    let verdict = verdict.classified(outcome.evidence).explained();
     let objective = o.cost(&outcome.x);
     progress(1);
     assessment_evaluations += 1 + 1;
@@ -386,7 +406,6 @@ fn judge(
         ),
         None => verdict,
     };
-    let verdict = verdict.with_refitted(&outcome.refitted);
     let implicated: Vec<(String, f64, f64)> = consider.as_ref().map_or(Vec::new(), |c| {
         c.implicated()
             .iter()
