@@ -17,10 +17,10 @@
 use super::design::SobolSearch;
 use super::hyperbox::{AtBound, DataSummary, LOG_SCALE};
 use super::lsfd::LsfdFit;
-use super::noise::relative_noise;
+use super::noise::{coherence_relative_error, relative_noise, ASSUMED_AVERAGES};
 use super::peak_evidence::unresolved_pairs;
 use super::polymax::{polymax, PoleOrder, PolymaxParams};
-use super::residual::{relative_misfit, residual_peaks, ResidualPeak};
+use super::residual::{mark_identified, relative_misfit, residual_peaks, ResidualPeak};
 use super::selection::{
     final_fit, refine_selection, select_modes, Hyperparameters, Screening, Selection,
     SelectionParams, HYPERPARAMETER_NAMES,
@@ -283,7 +283,22 @@ pub fn auto_ema(
         &fit.reconstructed,
         &screening.noise,
     ));
-    let residual_peaks = residual_peaks(data, &fit.reconstructed, &screening.noise, relative_error);
+    let mut residual_peaks = residual_peaks(
+        data,
+        &fit.reconstructed,
+        &screening.noise,
+        relative_error,
+        &coherence_relative_error(data, ASSUMED_AVERAGES),
+    );
+    let modes: Vec<(f64, f64)> = best
+        .roots
+        .iter()
+        .map(|r| {
+            let p = r.pole(&orders);
+            (p.frequency_hz, p.damping_ratio)
+        })
+        .collect();
+    mark_identified(&mut residual_peaks, &modes, summary.line_spacing_hz);
     // Warnings ask the user to act: a box that limits the result (widen
     // `bounds`), a mode the data show and the fit misses (look at that band).
     // A bound the result does not depend on, and residual structure below
