@@ -466,14 +466,17 @@ fn probe_bounds(
             select_modes(screening, orders, &point(&y))
         });
         // The box limits the result when the search would have gone beyond
-        // it: a better objective there, or one within the tie tolerance of
-        // [`choose`] with other modes. A worse objective beyond the bound
-        // (with whatever modes) is a point the search would not pick.
+        // it: a better objective there, by more than the tie tolerance of
+        // [`choose`]. A worse objective beyond the bound is a point the
+        // search would not pick; an equal one with other modes is a tie the
+        // objective cannot break, and widening the box does not break it
+        // either (the UFSC beam's shaker test: `cluster_distance` widened
+        // from 0.05 to 0.15 gave 25 modes instead of 23, two more extras and
+        // two published modes lost), so it is listed, not warned about.
         let tie = (0.01 * (1.0 - best.objective)).max(1e-6);
-        let sensitive = probe.as_ref().is_some_and(|s| {
-            s.objective > best.objective + tie
-                || (s.objective >= best.objective - tie && s.n_modes() != best.n_modes())
-        });
+        let sensitive = probe
+            .as_ref()
+            .is_some_and(|s| s.objective > best.objective + tie);
         out.push(AtBound {
             name: HYPERPARAMETER_NAMES[k].to_string(),
             value: from(x[i]),
