@@ -239,9 +239,13 @@ fn autoema_outputs_say_what_was_decided() {
             "{r}"
         );
     }
-    // A bound the result sits on is a warning, in metrics.json.
+    // A bound that limits the result (a better objective beyond it) is a
+    // warning, in metrics.json; the others are listed only.
     let warned = m["warnings"].as_array().unwrap();
     for b in p["at_bound"].as_array().unwrap() {
+        if b["sensitive"] != true {
+            continue;
+        }
         let name = b["name"].as_str().unwrap();
         assert!(
             warned.iter().any(|w| w.as_str().unwrap().contains(name)),
@@ -512,4 +516,52 @@ fn real_beam_modes_do_not_depend_on_the_seed() {
         m["layout"],
         "transposed by reciprocity (30 references × 1 response fitted as 30 outputs × 1 reference)"
     );
+}
+
+/// The real beam's roving-hammer test on its full band with default
+/// params: the published modes found, at most 3 warnings, and none that
+/// calls a mode missing where one was identified (issue 31).
+#[test]
+fn real_beam_warnings_are_few_and_none_at_an_identified_mode() {
+    let Some(dir) = util::real_beam_dir() else {
+        return;
+    };
+    let ws = Workspace::new();
+    std::os::unix::fs::symlink(&dir, ws.path().join("data")).unwrap();
+    let yaml = format!(
+        "name: ema\nread_outside: [{}]\nstages:\n  beam: {{kind: import, params: {{path: data/frf_hammer_as_measured.uff, band: [5, 800]}}}}\n  full: {{kind: autoema, inputs: {{frf: beam.frf}}, params: {{band: [5, 800]}}}}\n",
+        dir.display()
+    );
+    ws.write("p.yaml", &yaml);
+    ws.run(&[], 0);
+    let modes = modes_csv(&ws, "full");
+    let published = [
+        17.212, 68.840, 118.878, 155.391, 226.395, 235.230, 265.219, 362.805, 414.118, 567.539,
+        602.292, 643.435, 707.200, 740.567,
+    ];
+    let found = published
+        .iter()
+        .filter(|f| modes.iter().any(|(x, _)| (x - *f).abs() <= 0.01 * *f))
+        .count();
+    assert!(found >= 12, "{found} of 14 published modes: {modes:?}");
+    let m: serde_json::Value =
+        serde_json::from_str(&ws.read("results/ema/full/metrics.json")).unwrap();
+    let warnings: Vec<&str> = m["warnings"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|w| w.as_str().unwrap())
+        .collect();
+    assert!(warnings.len() <= 3, "{warnings:#?}");
+    for w in &warnings {
+        let Some(at) = w.split("the data peak at ").nth(1) else {
+            continue;
+        };
+        let f: f64 = at.split(" Hz").next().unwrap().parse().unwrap();
+        // The window in which a data peak belongs to a mode: max(2 Δf, ζ f).
+        let at_mode = modes
+            .iter()
+            .any(|(x, z)| (x - f).abs() <= (2.0f64).max(z * x));
+        assert!(!at_mode, "{w} — a mode was identified there: {modes:?}");
+    }
 }

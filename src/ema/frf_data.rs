@@ -30,6 +30,9 @@ pub struct FrfData {
     pub h: Vec<Complex64>,
     /// Weight per output and line, w[o · n_lines + f].
     pub weight: Vec<f64>,
+    /// Ordinary coherence γ² per channel and line, laid out as `h`; empty
+    /// unless every channel carries it.
+    pub coherence: Vec<f64>,
 }
 
 impl FrfData {
@@ -73,6 +76,7 @@ impl FrfData {
             references,
             h,
             weight: Vec::new(),
+            coherence: Vec::new(),
         };
         d.weight = d.uniform_weights();
         d.check()?;
@@ -137,6 +141,7 @@ impl FrfData {
             references,
             h,
             weight: Vec::new(),
+            coherence: Vec::new(),
         };
         if channels.len() != d.n_out() * d.n_ref() {
             return Err(EmaError::InvalidData(format!(
@@ -152,6 +157,12 @@ impl FrfData {
             .iter()
             .filter_map(|c| c.coherence.as_ref())
             .collect();
+        if coherence.len() == channels.len() {
+            d.coherence = coherence
+                .iter()
+                .flat_map(|g| lines.iter().map(move |&f| g[f]))
+                .collect();
+        }
         if weighting == Weighting::Coherence && coherence.len() == channels.len() {
             let n_ref = d.n_ref();
             for o in 0..d.n_out() {

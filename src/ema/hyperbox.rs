@@ -134,8 +134,8 @@ pub struct AtBound {
     pub modes_beyond: Option<usize>,
     pub objective_at: f64,
     pub objective_beyond: Option<f64>,
-    /// Whether the result changes beyond the bound (more or fewer modes, or
-    /// a better objective).
+    /// Whether the result is better beyond the bound (an objective above
+    /// the chosen one by more than the search's tie tolerance).
     pub sensitive: bool,
 }
 
@@ -147,7 +147,13 @@ impl AtBound {
                 "; at {b:.4} beyond it the screening selects {m} modes with objective {o:.6} (here {} and {:.6}, before the final refinement){}",
                 self.modes_at,
                 self.objective_at,
-                if self.sensitive { ": the box limits the result, widen it with `bounds`" } else { ": the result does not depend on it" }
+                if self.sensitive {
+                    ": the box limits the result, widen it with `bounds`"
+                } else if self.modes_beyond != Some(self.modes_at) {
+                    ": as good, not better, so the box does not limit the result"
+                } else {
+                    ": the result does not depend on it"
+                }
             ),
             _ => " (not tried beyond it)".to_string(),
         };

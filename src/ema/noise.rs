@@ -101,6 +101,29 @@ pub fn relative_noise(data: &FrfData, noise: &[f64]) -> f64 {
     median(&mut r) / std::f64::consts::LN_2
 }
 
+/// Number of averages n_d assumed for the H1 error from coherence. UFF 58
+/// and most exports do not carry it; 1 is the fewest a coherence can come
+/// with, so the error below is the largest the coherence allows: it can
+/// only widen the noise where the coherence is poor (antiresonances, weak
+/// excitation), never narrow it where it is good.
+pub const ASSUMED_AVERAGES: f64 = 1.0;
+
+/// Relative variance of each measured H1 value from its coherence,
+/// E|Ĥ − H|²/|H|² ≈ (1 − γ²)/(n_d γ²): the random error of |Ĥ|,
+/// var|Ĥ|/|H|² ≈ (1 − γ²)/(2 n_d γ²) (Bendat & Piersol, *Random Data*,
+/// eq. 9.90), and an equal one in phase (ibid. eq. 9.91, in radians),
+/// laid out as `data.h`; empty without coherence. γ² is clamped to
+/// [10⁻³, 1] (a zero coherence would give an infinite error).
+pub fn coherence_relative_error(data: &FrfData, n_averages: f64) -> Vec<f64> {
+    data.coherence
+        .iter()
+        .map(|&g| {
+            let g = g.clamp(1e-3, 1.0);
+            (1.0 - g) / (n_averages.max(1.0) * g)
+        })
+        .collect()
+}
+
 fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return 0.0;
