@@ -82,7 +82,7 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
     assert_eq!(cost.optimizer, "slsqp");
     let params = ws.read("results/id/fit/parameters.csv");
     assert!(params.starts_with(
-        "parameter,value,lower,upper,initial,identified,identifiable,std_error,std_error_with_fixed,ci_low,ci_high,score,implicated,suggested_change\n"
+        "parameter,value,lower,upper,initial,identified,identifiable,std_error_rel,std_error_with_fixed_rel,ci_low,ci_high,score,implicated,suggested_change_rel\n"
     ));
     // The start is the model file's nominal value; exact data determine
     // every stiffness: a standard error and an interval around the value.
@@ -306,7 +306,7 @@ fn the_updated_model_file_reproduces_the_updated_modes() {
         "bounds unchanged: {yaml}"
     );
     let changes = ws.read(&format!("{dir}/changes.csv"));
-    assert!(changes.starts_with("parameter,kind,initial,identified,change,"));
+    assert!(changes.starts_with("parameter,kind,initial,value,change_rel,identified,"));
     assert_eq!(changes.lines().count(), 1 + 8);
     ws.write(
         "p.yaml",
