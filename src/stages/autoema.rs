@@ -216,7 +216,8 @@ impl Kind for AutoEma {
 
     /// 5: modes.csv always has the position columns (issue 31);
     /// frf_fit keeps the input's uncalibrated mark. 6: uncertainty.csv
-    /// says `frequency_std_rel,damping_std_rel` (issue 28).
+    /// says `frequency_std_rel,damping_std_rel`, poles.csv's flags are
+    /// `true`/`false` (issue 28).
     fn version(&self) -> u32 {
         6
     }
@@ -344,7 +345,8 @@ fn mode_spread(sets: &[FrfSet], results: &[AutoEmaResult]) -> Vec<artifacts::mod
 }
 
 /// poles.csv: every pole with its stabilization flags and class, its
-/// cluster and root, and whether it represents a mode.
+/// cluster and root, and whether it represents a mode (booleans
+/// `true`/`false`, as in every artifact).
 fn poles_csv(sets: &[FrfSet], results: &[AutoEmaResult]) -> String {
     let mut out = String::from("position,order,frequency_hz,damping_ratio,physical,stable_frequency,stable_damping,stable_vector,class,cluster,root,selected\n");
     for (set, r) in sets.iter().zip(results) {
@@ -375,7 +377,7 @@ fn poles_csv(sets: &[FrfSet], results: &[AutoEmaResult]) -> String {
                 let (root, selected) = root_of
                     .get(&(j, k))
                     .map_or((String::new(), false), |&(c, s)| (c.to_string(), s));
-                let b = |v: bool| u8::from(v);
+                let b = |v: bool| v;
                 let _ = writeln!(
                     out,
                     "{},{},{},{},{},{},{},{},{},{},{},{}",
