@@ -33,12 +33,18 @@ pub fn external_files(spec: &model_file::ModelFile, rel: &str) -> Vec<String> {
 /// and list the files it references, for cache keys of other kinds that
 /// read model files.
 pub fn model_file_dependencies(dir: &Path, rel: &str) -> Result<Vec<String>, String> {
+    Ok(checked_model_file(dir, rel)?.1)
+}
+
+/// [`model_file_dependencies`] and the model itself, for checks that need
+/// it at validation (e.g. a budget against its parameter count).
+pub fn checked_model_file(dir: &Path, rel: &str) -> Result<(Model, Vec<String>), String> {
     let (model, text) = load_model(dir, rel)?;
     if let Some(p) = model_memory(&model) {
         return Err(p.message);
     }
     let spec = model_file::parse(&text, rel).map_err(|e| e.to_string())?;
-    Ok(external_files(&spec, rel))
+    Ok((model, external_files(&spec, rel)))
 }
 
 /// The eigenproblem of a model against the memory limit

@@ -147,13 +147,27 @@ impl Kind for Identify {
         let Some(path) = &p.model else {
             return Ok(Vec::new());
         };
-        super::model_files::model_file_dependencies(dir, path).map_err(|m| {
+        let (model, files) = super::model_files::checked_model_file(dir, path).map_err(|m| {
             problem(
                 &["model"],
                 m,
                 "paths are relative to the pipeline file; see pipelines/models/",
             )
-        })
+        })?;
+        let minimum = minimum_budget(model.parameters.len());
+        if p.budget < minimum {
+            return Err(problem(
+                &["budget"],
+                format!(
+                    "budget {} cannot pay the assessment of the result over the model's {} \
+                     parameters and a strategy",
+                    p.budget,
+                    model.parameters.len()
+                ),
+                &format!("give at least budget: {minimum} (2000 is the default)"),
+            ));
+        }
+        Ok(files)
     }
 
     fn check_inputs(&self, p: &Params, bound: &[&str]) -> Vec<ParamProblem> {
@@ -289,6 +303,14 @@ impl Kind for Identify {
             refit_implicated: spec.refit_implicated,
         };
         let mut u = update(&mut objective, &plan, &progress).map_err(|e| match e {
+            // A budget the model or the screening make too small (a model
+            // from the `model` input is first seen here): the param's fault.
+            crate::identify::IdentifyError::Invalid(m) if m.starts_with("budget ") => {
+                StageError::InvalidParam {
+                    param: "budget".into(),
+                    message: m,
+                }
+            }
             crate::identify::IdentifyError::Invalid(m) => StageError::InvalidInput {
                 input: "reference".into(),
                 message: m,
@@ -314,6 +336,13 @@ impl Kind for Identify {
             counters: [("evaluations".to_string(), u.evaluations as u64)].into(),
         })
     }
+}
+
+/// The fewest evaluations an identification over `n` parameters can run
+/// with: the assessment of the result (the final pairing 3, J 1, a
+/// Jacobian 2n + 1; `crate::identify::updating`) and one for a strategy.
+fn minimum_budget(n: usize) -> usize {
+    2 * n + 5 + 2
 }
 
 /// Write every output into the scratch directory.
