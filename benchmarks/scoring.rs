@@ -9,10 +9,10 @@
 
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
+use modalflow::artifacts::cost::Cost;
+use modalflow::artifacts::modes::read_modes;
 use modalflow::metrics::mac;
 use modalflow::pairing::{pair_modes, Pairing};
-use modalflow::stages::artifacts::read_modes;
-use modalflow::stages::identify::cost::Cost;
 use num_complex::Complex64;
 use std::collections::BTreeMap;
 use std::path::Path;

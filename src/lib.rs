@@ -5,6 +5,7 @@
 //! file; the numerical core (frequency-response data in [`frf`], modal models
 //! in [`modal`]) knows nothing of pipelines.
 
+pub mod artifacts;
 pub mod dense;
 pub mod dynamics;
 pub mod ema;
@@ -15,6 +16,7 @@ pub mod identify;
 pub mod io;
 pub mod metrics;
 pub mod modal;
+pub mod numbers;
 pub mod optimize;
 pub mod pairing;
 pub mod parameter;

@@ -9,7 +9,6 @@
 //! default half of the machine's RAM (`MemTotal` in `/proc/meminfo`;
 //! 8 GiB where that cannot be read). It never enters a cache key.
 
-use crate::stages::ParamProblem;
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// 0: not set, use [`default_memory_limit`].
@@ -93,41 +92,46 @@ pub fn human(bytes: f64) -> String {
     }
 }
 
-/// The problem of an estimate of `bytes` for `what` above the memory
-/// limit, located at `path` (the param to reduce).
-pub fn memory_problem(path: &[&str], what: &str, bytes: f64) -> Option<ParamProblem> {
+/// An estimate above a limit: what it needs and how to bring it down.
+/// Plain text, so this module depends on nothing above it; stages turn it
+/// into a located param problem (`stages::limits`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Excess {
+    pub message: String,
+    pub help: String,
+}
+
+/// The excess of an estimate of `bytes` for `what` above the memory limit,
+/// `path` naming the param to reduce.
+pub fn memory_excess(path: &[&str], what: &str, bytes: f64) -> Option<Excess> {
     let limit = memory_limit();
     if bytes <= limit as f64 {
         return None;
     }
-    Some(ParamProblem::new(
-        path,
-        format!(
+    Some(Excess {
+        message: format!(
             "`{}` needs an estimated {} of memory ({what}), more than the limit of {}",
             path.join("."),
             human(bytes),
             human(limit as f64)
         ),
-        format!(
+        help: format!(
             "reduce `{}`, or raise the limit with --max-memory (default: half the machine's RAM)",
             path.join(".")
         ),
-    ))
+    })
 }
 
-/// The problem of `samples` simulated samples (for `what`) above
-/// [`MAX_SIMULATED_SAMPLES`], located at `path`.
-pub fn work_problem(path: &[&str], what: &str, samples: f64) -> Option<ParamProblem> {
-    (samples > MAX_SIMULATED_SAMPLES).then(|| {
-        ParamProblem::new(
-            path,
-            format!(
-                "`{}` asks for an estimated {samples:.2e} samples to simulate ({what}), more than \
-                 the limit of {MAX_SIMULATED_SAMPLES:.1e} (hours of work)",
-                path.join(".")
-            ),
-            format!("reduce `{}`", path.join(".")),
-        )
+/// The excess of `samples` simulated samples (for `what`) above
+/// [`MAX_SIMULATED_SAMPLES`], `path` naming the param to reduce.
+pub fn work_excess(path: &[&str], what: &str, samples: f64) -> Option<Excess> {
+    (samples > MAX_SIMULATED_SAMPLES).then(|| Excess {
+        message: format!(
+            "`{}` asks for an estimated {samples:.2e} samples to simulate ({what}), more than \
+             the limit of {MAX_SIMULATED_SAMPLES:.1e} (hours of work)",
+            path.join(".")
+        ),
+        help: format!("reduce `{}`", path.join(".")),
     })
 }
 

@@ -69,7 +69,11 @@ fn autoema_identifies_the_modes_of_a_synthetic_system() {
 
     let poles = ws.read("results/ema/ema/poles.csv");
     assert!(poles.starts_with("position,order,frequency_hz,damping_ratio,"));
-    let selected = poles.lines().skip(1).filter(|l| l.ends_with(",1")).count();
+    let selected = poles
+        .lines()
+        .skip(1)
+        .filter(|l| l.ends_with(",true"))
+        .count();
     assert_eq!(selected, 4);
 
     let fit = read_frf_artifact(

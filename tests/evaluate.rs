@@ -7,7 +7,7 @@
 
 use crate::util;
 
-use modalflow::stages::evaluate::{Metrics, ModeRef};
+use modalflow::artifacts::metrics::{Metrics, ModeRef};
 use util::Workspace;
 
 const MODELS: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/pipelines/models");

@@ -8,10 +8,10 @@
 
 use crate::util;
 
+use modalflow::artifacts::cost::Cost;
+use modalflow::artifacts::metrics::Metrics;
 use modalflow::identify::verdict::Fit;
 use modalflow::report::svg::esc;
-use modalflow::stages::evaluate::Metrics;
-use modalflow::stages::identify::cost::Cost;
 use serde_json::Value;
 use util::Workspace;
 

@@ -19,6 +19,7 @@ mod identify;
 mod import;
 mod import_modes;
 mod import_units;
+mod layering;
 mod metrics_properties;
 mod optimize;
 mod path_safety;

@@ -35,7 +35,7 @@ pub struct ParameterUpdate {
 impl ParameterUpdate {
     /// The comment line written above the parameter (without `# `).
     pub fn comment(&self) -> String {
-        let sig = |v: f64| crate::report::format::sig(v, 6);
+        let sig = |v: f64| crate::numbers::sig(v, 6);
         let change = if self.initial != 0.0 {
             format!(
                 " ({:+.2} %)",
@@ -48,7 +48,7 @@ impl ParameterUpdate {
             (false, _, _, _) => "not identified: kept its start value".to_string(),
             (true, Some(true), Some(se), Some((lo, hi))) => format!(
                 "standard error {} %, 95 % interval [{}, {}]",
-                crate::report::format::sig(100.0 * se, 3),
+                crate::numbers::sig(100.0 * se, 3),
                 sig(lo),
                 sig(hi)
             ),

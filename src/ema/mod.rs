@@ -34,7 +34,6 @@ pub mod search;
 pub mod selection;
 pub mod significance;
 pub mod stabilization;
-pub mod stabilization_diagram;
 pub mod summary;
 pub mod synthetic;
 

@@ -503,7 +503,11 @@ mod tests {
             ..counts()
         };
         let v = Verdict::judge(Status::Converged, 9.0, 0.8, weak, 5, 5, vec![]);
-        assert!(!v.ok && v.message.contains("1 weakly paired"), "{}", v.message);
+        assert!(
+            !v.ok && v.message.contains("1 weakly paired"),
+            "{}",
+            v.message
+        );
         // NaN residuals (model unsolvable) are never within the noise.
         let nan = Verdict::judge(Status::Converged, 9.0, f64::NAN, counts(), 5, 5, vec![]);
         assert!(!nan.ok && nan.worse_than_start);

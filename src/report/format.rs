@@ -2,24 +2,9 @@
 //! scientific notation for very small and very large magnitudes, p-values,
 //! and powers of ten with superscript exponents for log-axis ticks.
 
-/// `v` to `digits` significant digits: plain between 10⁻³ and 10⁵
-/// (`0.005685`, `46.51`), else scientific (`2.406e6`, `3.953e-5`); `–` for
-/// a non-finite value.
-pub fn sig(v: f64, digits: usize) -> String {
-    if !v.is_finite() {
-        return "–".into();
-    }
-    if v == 0.0 {
-        return "0".into();
-    }
-    let d = digits.max(1);
-    let rounded: f64 = format!("{v:.*e}", d - 1).parse().unwrap_or(v);
-    if (1e-3..1e5).contains(&rounded.abs()) {
-        format!("{rounded}")
-    } else {
-        format!("{rounded:e}")
-    }
-}
+/// `v` to `digits` significant digits (defined below the report, in
+/// [`crate::numbers`], because model files written by the core use it too).
+pub use crate::numbers::sig;
 
 /// A p-value: 2 significant digits, scientific below 10⁻³, and `< 1e-16`
 /// below what a double resolves next to 1.

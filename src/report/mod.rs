@@ -1,6 +1,7 @@
 //! Reports: self-contained HTML and Markdown pages with SVG figures held to
 //! one style guide ([`style`]), figures also as PNG ([`raster`]), mode
-//! shapes drawn on the structure ([`shapes`]), and the structural checks
+//! shapes drawn on the structure ([`shapes`]), AutoEMA's stabilization
+//! diagrams ([`stabilization`]), and the structural checks
 //! of a figure ([`lint`]).
 
 pub mod axis;
@@ -11,6 +12,7 @@ pub mod heatmap;
 pub mod lint;
 pub mod raster;
 pub mod shapes;
+pub mod stabilization;
 pub mod style;
 pub mod svg;
 pub mod zoom;

@@ -11,10 +11,9 @@
 
 use super::params::{Numbers, TypeName};
 use super::{
-    artifacts, Artifact, InputSpec, Kind, ParamProblem, Range, StageContext, StageError,
-    StageOutputs,
+    Artifact, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
 };
-use crate::ema::stabilization_diagram::{render, Panel};
+use crate::artifacts;
 use crate::ema::summary::PositionSummary;
 use crate::ema::{
     auto_ema, layout, AutoEmaParams, AutoEmaResult, FrfData, Layout, Reciprocity, Weighting,
@@ -22,6 +21,7 @@ use crate::ema::{
 };
 use crate::frf::{FrfChannel, FrfSet};
 use crate::modal::{ModalModel, Mode};
+use crate::report::stabilization::{render, Panel};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -219,8 +219,10 @@ impl Kind for AutoEma {
     /// 6: no missing-mode warning at an identified mode; coherence widens
     /// the residual check's noise; a bound warns only when the objective
     /// beyond it is better (issue 31).
+    /// 7: uncertainty.csv says `frequency_std_rel,damping_std_rel`, poles.csv's
+    /// flags are `true`/`false` (issue 28).
     fn version(&self) -> u32 {
-        6
+        7
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"
@@ -246,7 +248,7 @@ impl Kind for AutoEma {
         let s = settings(p);
         // Uncalibrated FRFs (no physical scale) are fine for AutoEMA; the
         // fitted FRFs carry the same mark.
-        let (sets, calibrated) = artifacts::read_frf_scaled(ctx.input("frf")?, "frf")?;
+        let (sets, calibrated) = artifacts::frf::read_scaled(ctx.input("frf")?, "frf")?;
         // Lines at 0 Hz are dropped: the LSFD lower residual −LR/ω² is singular there.
         let band = s
             .band
@@ -328,13 +330,13 @@ fn modal_models(sets: &[FrfSet], data: &[FrfData], results: &[AutoEmaResult]) ->
 /// column spread ([`crate::ema::roots::Root::spread`]): the estimate's own
 /// statement of how well it knows the mode, which `identify` turns into
 /// residual weights.
-fn mode_spread(sets: &[FrfSet], results: &[AutoEmaResult]) -> Vec<artifacts::ModeSpread> {
+fn mode_spread(sets: &[FrfSet], results: &[AutoEmaResult]) -> Vec<artifacts::modes::ModeSpread> {
     sets.iter()
         .zip(results)
         .flat_map(|(set, r)| {
             r.fit.shape_pole.iter().enumerate().map(move |(m, &k)| {
                 let (frequency, damping) = r.best.roots[k].spread(&r.orders);
-                artifacts::ModeSpread {
+                artifacts::modes::ModeSpread {
                     position: set.position.index,
                     mode: m + 1,
                     frequency,
@@ -346,7 +348,8 @@ fn mode_spread(sets: &[FrfSet], results: &[AutoEmaResult]) -> Vec<artifacts::Mod
 }
 
 /// poles.csv: every pole with its stabilization flags and class, its
-/// cluster and root, and whether it represents a mode.
+/// cluster and root, and whether it represents a mode (booleans
+/// `true`/`false`, as in every artifact).
 fn poles_csv(sets: &[FrfSet], results: &[AutoEmaResult]) -> String {
     let mut out = String::from("position,order,frequency_hz,damping_ratio,physical,stable_frequency,stable_damping,stable_vector,class,cluster,root,selected\n");
     for (set, r) in sets.iter().zip(results) {
@@ -377,7 +380,7 @@ fn poles_csv(sets: &[FrfSet], results: &[AutoEmaResult]) -> String {
                 let (root, selected) = root_of
                     .get(&(j, k))
                     .map_or((String::new(), false), |&(c, s)| (c.to_string(), s));
-                let b = |v: bool| u8::from(v);
+                let b = |v: bool| v;
                 let _ = writeln!(
                     out,
                     "{},{},{},{},{},{},{},{},{},{},{},{}",
@@ -494,9 +497,9 @@ fn write_outputs(
     layouts: &[Layout],
     results: &[AutoEmaResult],
 ) -> Result<StageOutputs, StageError> {
-    let modes_dir = ctx.scratch.join(artifacts::MODES_DIR);
-    artifacts::write_modes(&modes_dir, &modal_models(sets, data, results))?;
-    artifacts::write_mode_spread(&modes_dir, &mode_spread(sets, results))?;
+    let modes_dir = ctx.scratch.join(artifacts::modes::DIR);
+    artifacts::modes::write_modes(&modes_dir, &modal_models(sets, data, results))?;
+    artifacts::modes::write_mode_spread(&modes_dir, &mode_spread(sets, results))?;
     write(
         &modes_dir.join("layout.json"),
         &serde_json::to_vec_pretty(&layout::to_json(&positions_of(sets, layouts)))
@@ -506,7 +509,7 @@ fn write_outputs(
     write(&poles_path, poles_csv(sets, results).as_bytes())?;
     let fit_path = ctx.scratch.join("frf_fit.uff");
     let fitted = fitted_sets(sets, data, layouts, results);
-    artifacts::write_frf_scaled(&fit_path, &fitted, calibrated)?;
+    artifacts::frf::write_scaled(&fit_path, &fitted, calibrated)?;
     let panels: Vec<Panel> = sets
         .iter()
         .zip(data)

@@ -8,8 +8,8 @@
 //! names a file in it by path (an `import` with `path: FOLDER/frf.uff`)
 //! depends on this stage, so export → import works in one pipeline.
 
-use super::artifacts::{read_modes, read_shape_scaling};
 use super::{Artifact, InputSpec, Kind, StageContext, StageError, StageOutputs};
+use crate::artifacts::modes::{read_modes, read_shape_scaling};
 use crate::io::{self, ByteOrder, NumberText, Storage, Uff58Format};
 
 pub struct Export;
@@ -128,14 +128,15 @@ impl Kind for Export {
         };
         let failed = |e: io::IoError| StageError::Failed(e.to_string());
         if ctx.inputs.contains_key("frf") {
-            let (sets, calibrated) = super::artifacts::read_frf_scaled(ctx.input("frf")?, "frf")?;
+            let (sets, calibrated) = crate::artifacts::frf::read_scaled(ctx.input("frf")?, "frf")?;
             match format {
                 Format::Csv if !calibrated => {
-                    return Err(super::artifacts::uncalibrated_refused(
+                    return Err(crate::artifacts::frf::uncalibrated_refused(
                         "export",
                         "frf",
                         "CSV format (whose values are SI by definition)",
-                    ))
+                    )
+                    .into())
                 }
                 Format::Csv => write("frf.csv", &io::write_frf_csv(&sets).map_err(failed)?)?,
                 _ => {

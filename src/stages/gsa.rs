@@ -23,11 +23,11 @@ mod model_spec;
 mod sobol;
 mod spec;
 
-use super::artifacts;
 use super::{
     Artifact, FileRef, InputSpec, Kind, Output, ParamProblem, StageContext, StageError,
     StageOutputs,
 };
+use crate::artifacts;
 use crate::dynamics;
 use crate::simulator::{BandOptions, FrfBands, Model, StructuralModel, StructuralOptions};
 use model_spec::{ModelParam, ModelSpec};
@@ -221,7 +221,7 @@ impl Kind for Gsa {
         let Some(ModelParam::File(path)) = &p.model else {
             return Ok(Vec::new());
         };
-        super::synthesize::model_file_dependencies(dir, path).map_err(|message| {
+        super::model_files::model_file_dependencies(dir, path).map_err(|message| {
             ParamProblem::new(
                 &["model"],
                 message,
@@ -273,7 +273,10 @@ pub(super) fn build_model(
     let model =
         dynamics::Model::from_yaml(&text, path, &resolver).map_err(|e| invalid(e.to_string()))?;
     let reference = match ctx.inputs.get("reference") {
-        Some(_) => Some(artifacts::read_modes(ctx.input("reference")?, "reference")?),
+        Some(_) => Some(artifacts::modes::read_modes(
+            ctx.input("reference")?,
+            "reference",
+        )?),
         None => None,
     };
     let options = StructuralOptions {
@@ -291,7 +294,7 @@ pub(super) fn build_model(
     };
     let frf_bands = match ctx.inputs.get("reference_frf") {
         Some(_) => {
-            let sets = artifacts::read_calibrated_frf(
+            let sets = artifacts::frf::read_calibrated(
                 ctx.input("reference_frf")?,
                 "reference_frf",
                 "gsa",

@@ -8,7 +8,6 @@
 //! change. The contract itself ([`Stage`], [`StageContext`], [`Progress`])
 //! is in [`stage`], below the engine.
 
-pub mod artifacts;
 pub mod autoema;
 pub mod command;
 pub mod evaluate;
@@ -16,15 +15,13 @@ pub mod export;
 pub mod gsa;
 pub mod identify;
 pub mod import;
-pub mod import_modes;
+pub mod limits;
+pub mod model_files;
 pub mod params;
 pub mod report;
 pub mod shard;
 pub mod stage;
 pub mod synthesize;
-pub mod synthesize_params;
-pub mod synthesize_values;
-pub mod updated_model;
 
 pub use params::{Field, ParamProblem, ParamSet, Range};
 pub use stage::{

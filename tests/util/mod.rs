@@ -5,7 +5,7 @@
 
 pub mod slurm;
 
-use modalflow::stages::identify::cost::Cost;
+use modalflow::artifacts::cost::Cost;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

@@ -8,9 +8,9 @@
 
 use crate::cli::output::{print_json, print_text, Locations};
 use indexmap::IndexMap;
+use modalflow::artifacts::cost::Cost;
+use modalflow::artifacts::metrics::Metrics;
 use modalflow::pipeline::plan::{self, Node};
-use modalflow::stages::evaluate::Metrics;
-use modalflow::stages::identify::cost::Cost;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
@@ -90,7 +90,8 @@ fn matches(name: &str, pattern: &str) -> bool {
 fn flatten(v: &Value, prefix: &str, out: &mut IndexMap<String, Value>) {
     match v {
         Value::Object(m) => {
-            for (k, x) in m {
+            // The schema version describes the file, not the result.
+            for (k, x) in m.iter().filter(|(k, _)| k.as_str() != "schema_version") {
                 let p = if prefix.is_empty() {
                     k.clone()
                 } else {
@@ -109,7 +110,9 @@ fn flatten(v: &Value, prefix: &str, out: &mut IndexMap<String, Value>) {
 /// A metrics file as JSON, through its writer's schema where the stage kind
 /// has one.
 fn read_metrics(node: &Node, file: &str, path: &Path) -> anyhow::Result<Value> {
-    let stale = |m: String| anyhow::anyhow!("{m} (rerun `modalflow run` to refresh the results)");
+    let stale = |e: modalflow::artifacts::ArtifactError| {
+        anyhow::anyhow!("{e} (rerun `modalflow run` to refresh the results)")
+    };
     Ok(match (node.kind.kind(), file) {
         ("evaluate", "metrics.json") => serde_json::to_value(Metrics::read(path).map_err(stale)?)?,
         ("identify", "cost.json") => serde_json::to_value(Cost::read(path).map_err(stale)?)?,

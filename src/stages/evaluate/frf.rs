@@ -9,8 +9,9 @@
 //! jω is left out), and each conversion is listed in metrics.json, so a
 //! receptance model and accelerance measurements compare as they should.
 
-use super::schema::{mean, FrfMetrics, PositionFrf};
+use super::mean;
 use super::write;
+use crate::artifacts::metrics::{FrfMetrics, PositionFrf};
 use crate::frf::{convert_quantity, FrfSet};
 use crate::metrics;
 use crate::report::svg::{stacked, Plot, Series, PALETTE};

@@ -2,7 +2,8 @@
 //! model.json (the model file's sensor points, per position) or an import
 //! stage's geometry.json (one geometry for every position).
 
-use crate::dynamics::model_file::{self, ModelFile};
+use crate::artifacts::model::ModelJson;
+use crate::dynamics::model_file::ModelFile;
 use crate::geometry::Geometry;
 use crate::stages::StageError;
 use std::path::Path;
@@ -33,10 +34,17 @@ pub fn read(path: &Path) -> Result<Source, StageError> {
         std::fs::read(path).map_err(|e| StageError::io("cannot read input `geometry`", e))?;
     let json: serde_json::Value =
         serde_json::from_slice(&bytes).map_err(|e| bad(format!("not JSON: {e}")))?;
-    if let Some(yaml) = json.get("yaml").and_then(|v| v.as_str()) {
-        let name = json["file"].as_str().unwrap_or("model.json");
-        let spec = model_file::parse(yaml, name).map_err(|e| bad(e.to_string()))?;
-        return Ok(Source::Model(Box::new(spec)));
+    if json.get("yaml").is_some() {
+        let model: ModelJson =
+            serde_json::from_value(json).map_err(|e| bad(format!("model.json: {e}")))?;
+        model
+            .schema_version
+            .check(
+                crate::artifacts::model::FILE,
+                crate::artifacts::model::SCHEMA_VERSION,
+            )
+            .map_err(bad)?;
+        return Ok(Source::Model(Box::new(model.spec().map_err(bad)?)));
     }
     if json.get("nodes").is_some() {
         let g: Geometry =

@@ -11,26 +11,23 @@
 //! listed in metrics.json. An optional `cost` input (an identify
 //! cost.json) copies the identification's verdict into metrics.json.
 //!
-//! metrics.json has one schema, [`Metrics`], for the writer and readers.
+//! metrics.json has one schema, [`crate::artifacts::metrics::Metrics`], for
+//! the writer and readers.
 
 mod frf;
 pub mod geometry;
 mod modes;
 mod parameters;
-mod schema;
 
-pub use parameters::read_parameters;
-pub use schema::{
-    AmbiguousPair, FrfMetrics, Metrics, ModeMetrics, ModeRef, ParameterMetrics, PositionFrf,
-    PositionModes,
-};
-
-use super::artifacts::{read_frf_scaled, read_modes, uncalibrated_refused};
 use super::{
     Artifact, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
 };
+use crate::artifacts::cost::Cost;
+use crate::artifacts::frf::{read_scaled as read_frf_scaled, uncalibrated_refused};
+use crate::artifacts::metrics::Metrics;
+use crate::artifacts::modes::read_modes;
+use crate::artifacts::parameters::read_values as read_parameters;
 use crate::pairing::Pairing;
-use crate::stages::identify::cost::Cost;
 use std::path::Path;
 
 pub struct Evaluate;
@@ -136,9 +133,10 @@ impl Kind for Evaluate {
     /// reference's quantity, figures to the style guide (magnitude + phase,
     /// titled MAC axes), mode shapes on the geometry. 5: shapes and FRF
     /// channels pair by node and axis, a transducer of opposite sign
-    /// flipping the sign (a test's −Z against a model's +Z).
+    /// flipping the sign (a test's −Z against a model's +Z). 6: metrics.json
+    /// states `schema_version` (issue 28).
     fn version(&self) -> u32 {
-        5
+        6
     }
     fn summary(&self) -> &'static str {
         "compare candidate modes/FRFs/parameters with a reference: MAC, MACXP, NFD, NDD, FRAC, CSF, parameter errors, unpaired and ambiguous modes, the identification's verdict"
@@ -221,11 +219,11 @@ impl Kind for Evaluate {
                 .find(|(_, cal)| *cal != r_cal)
                 .map(|(n, cal)| if *cal { "reference_frf" } else { n })
             {
-                return Err(uncalibrated_refused(
+                return Err(StageError::from(uncalibrated_refused(
                     "evaluate",
                     input,
                     "FRAC/CSF against a calibrated FRF (a model's or a measurement's in SI units)",
-                ));
+                )));
             }
             summary.frf = Some(frf::compare_frfs(
                 &r,
@@ -241,21 +239,18 @@ impl Kind for Evaluate {
             summary.parameters = Some(parameters::compare_parameters(&t, &e, &tables)?);
         }
         if has("cost") {
-            let cost =
-                Cost::read(ctx.input("cost")?).map_err(|message| StageError::InvalidInput {
-                    input: "cost".into(),
-                    message: format!("{message}; bind an identify stage's `cost` output"),
-                })?;
+            let cost = Cost::read(ctx.input("cost")?).map_err(|e| StageError::InvalidInput {
+                input: "cost".into(),
+                message: format!("{e}; bind an identify stage's `cost` output"),
+            })?;
             if !cost.verdict.ok {
                 ctx.progress
                     .set_message(format!("verdict: {}", cost.verdict.message));
             }
             summary.verdict = Some(cost.verdict);
         }
-        let path = ctx.scratch.join("metrics.json");
-        let json = serde_json::to_vec_pretty(&summary)
-            .map_err(|e| StageError::Failed(format!("cannot encode metrics.json: {e}")))?;
-        write(&path, &json)?;
+        let path = ctx.scratch.join(crate::artifacts::metrics::FILE);
+        summary.write(&path)?;
         Ok(StageOutputs {
             warnings: Vec::new(),
             files: vec![
@@ -271,4 +266,15 @@ impl Kind for Evaluate {
 fn write(path: &Path, bytes: impl AsRef<[u8]>) -> Result<(), StageError> {
     std::fs::write(path, bytes)
         .map_err(|e| StageError::io(format!("cannot write {}", path.display()), e))
+}
+
+/// The mean of `v`, `None` when empty or not finite.
+fn mean(v: &[f64]) -> Option<f64> {
+    let m = v.iter().sum::<f64>() / v.len() as f64;
+    (!v.is_empty() && m.is_finite()).then_some(m)
+}
+
+/// The extreme of `v` by `pick` (`f64::min`, `f64::max`), `None` when empty.
+fn extreme(v: &[f64], pick: fn(f64, f64) -> f64) -> Option<f64> {
+    v.iter().copied().reduce(pick).filter(|x| x.is_finite())
 }

@@ -16,8 +16,9 @@
 //! shapes are paired by frequency alone (cost NFD/s_f, no MAC, no MAC
 //! matrix); `notes` in metrics.json says how many.
 
-use super::schema::{extreme, mean, AmbiguousPair, ModeMetrics, ModeRef, PositionModes};
 use super::write;
+use super::{extreme, mean};
+use crate::artifacts::metrics::{AmbiguousPair, ModeMetrics, ModeRef, PositionModes};
 use crate::geometry::Geometry;
 use crate::metrics;
 use crate::modal::{ModalModel, SharedShapes};

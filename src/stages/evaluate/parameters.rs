@@ -1,48 +1,13 @@
 //! Parameter comparison of the evaluate kind: relative errors of estimated
-//! parameters against the truth (`parameter_errors.csv`), and the reader of
-//! parameter tables (`parameter,value,...`) other kinds share.
+//! parameters against the truth (`parameter_errors.csv`).
 
-use super::schema::{extreme, mean, ParameterMetrics};
 use super::write;
+use super::{extreme, mean};
+use crate::artifacts::metrics::ParameterMetrics;
 use crate::stages::StageError;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
-
-/// `parameter → value` from a parameters.csv (`parameter,value,...`).
-pub fn read_parameters(path: &Path, input: &str) -> Result<BTreeMap<String, f64>, StageError> {
-    let bad = |message: String| StageError::InvalidInput {
-        input: input.into(),
-        message,
-    };
-    let mut reader =
-        csv::Reader::from_path(path).map_err(|e| bad(format!("not a parameters.csv: {e}")))?;
-    let headers = reader.headers().map_err(|e| bad(e.to_string()))?.clone();
-    let col = |name: &str| {
-        headers.iter().position(|h| h == name).ok_or_else(|| {
-            bad(format!(
-                "no `{name}` column (columns: {})",
-                headers.iter().collect::<Vec<_>>().join(", ")
-            ))
-        })
-    };
-    let (pc, vc) = (col("parameter")?, col("value")?);
-    let mut out = BTreeMap::new();
-    for (line, rec) in reader.records().enumerate() {
-        let rec = rec.map_err(|e| bad(e.to_string()))?;
-        let v: f64 = rec
-            .get(vc)
-            .unwrap_or_default()
-            .trim()
-            .parse()
-            .map_err(|_| bad(format!("line {}: value is not a number", line + 2)))?;
-        if !v.is_finite() {
-            return Err(bad(format!("line {}: value is not finite", line + 2)));
-        }
-        out.insert(rec.get(pc).unwrap_or_default().to_string(), v);
-    }
-    Ok(out)
-}
 
 /// Relative errors of `estimate` against `truth` over their common parameters.
 pub fn compare_parameters(

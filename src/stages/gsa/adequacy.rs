@@ -7,6 +7,7 @@
 
 use super::num;
 use super::spec::{Grow, SobolSpec};
+use crate::artifacts::significant::SignificantRow;
 use crate::parameter::nominal;
 use crate::sensitivity::{self, sobol::SobolReport, Adequacy, Screening, Selection};
 use crate::simulator::Model;
@@ -147,22 +148,21 @@ pub fn json(
 /// `significant.csv`: the split in parameter order with each combined
 /// index's interval, whether it straddles the threshold applied, and the
 /// base sample size that would decide it.
-pub fn split_csv(screening: &Screening, adequacy: &Adequacy) -> String {
-    let mut csv =
-        String::from("parameter,score,score_low,score_high,undecided,samples_needed,significant\n");
-    for ((p, v), iv) in screening.combined_ST.iter().zip(&adequacy.intervals) {
-        let needed = iv.samples_needed.map_or(String::new(), |n| n.to_string());
-        let _ = writeln!(
-            csv,
-            "{p},{},{},{},{},{needed},{}",
-            num(*v),
-            num(v - iv.half_width),
-            num(v + iv.half_width),
-            iv.undecided,
-            screening.significant.contains(p)
-        );
-    }
-    csv
+pub fn split_rows(screening: &Screening, adequacy: &Adequacy) -> Vec<SignificantRow> {
+    screening
+        .combined_ST
+        .iter()
+        .zip(&adequacy.intervals)
+        .map(|((p, v), iv)| SignificantRow {
+            parameter: p.clone(),
+            score: *v,
+            score_low: Some(v - iv.half_width),
+            score_high: Some(v + iv.half_width),
+            undecided: Some(iv.undecided),
+            samples_needed: iv.samples_needed,
+            significant: screening.significant.contains(p),
+        })
+        .collect()
 }
 
 /// The stage warnings: parameters the sample size cannot decide, with the

@@ -8,9 +8,10 @@
 
 use super::spec::{AnovaSource, AnovaSpec};
 use super::{build_model, num, write};
+use crate::artifacts;
 use crate::modal::ModalModel;
 use crate::sensitivity::{self, AnovaRow, Design, Factor, FactorialResult};
-use crate::stages::{artifacts, StageContext, StageError, StageOutputs};
+use crate::stages::{StageContext, StageError, StageOutputs};
 use std::fmt::Write;
 
 pub fn run(ctx: &StageContext, a: &AnovaSpec) -> Result<StageOutputs, StageError> {
@@ -119,7 +120,7 @@ fn run_modes(
     selected: &[String],
     interactions: u8,
 ) -> Result<StageOutputs, StageError> {
-    let reference = artifacts::read_modes(ctx.input("reference")?, "reference")?;
+    let reference = artifacts::modes::read_modes(ctx.input("reference")?, "reference")?;
     let paths = ctx.inputs.get("modes").cloned().unwrap_or_default();
     let sources = ctx.sources.get("modes").cloned().unwrap_or_default();
     let invalid = |message: String| StageError::InvalidInput {
@@ -170,7 +171,8 @@ fn run_modes(
     let table: Vec<Vec<Option<f64>>> = paths
         .iter()
         .map(|path| {
-            artifacts::read_modes(path, "modes").map(|run| track(&reference, &run, window, min_mac))
+            artifacts::modes::read_modes(path, "modes")
+                .map(|run| track(&reference, &run, window, min_mac))
         })
         .collect::<Result<_, _>>()?;
     let names = tracked_outputs(&reference);

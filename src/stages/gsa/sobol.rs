@@ -65,7 +65,10 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
     // The split itself, in parameter order, for tools that join on names,
     // with each score's interval and whether N decides it.
     let significant = ctx.scratch.join("significant.csv");
-    write(&significant, &adequacy::split_csv(&screening, &adequacy))?;
+    crate::artifacts::significant::write(
+        &significant,
+        &adequacy::split_rows(&screening, &adequacy),
+    )?;
 
     let mut files: Vec<(String, PathBuf)> = vec![
         ("indices".into(), indices),

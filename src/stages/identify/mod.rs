@@ -10,33 +10,32 @@
 //! errors and 95 % intervals), `history` (history.csv:
 //! `evaluation,best_objective,mean_mac`), `updated_modes` (the model's modes
 //! at the identified values, at the reference DOFs), `cost` (cost.json:
-//! evaluations, seconds, the match and the verdict, [`cost::Cost`]),
+//! evaluations, seconds, the match and the verdict, [`crate::artifacts::cost::Cost`]),
 //! `correlation` (correlation.csv: every reference mode, its partner and
 //! why it is used or left out), `identifiability` (identifiability.json),
 //! and for `sensitivity_guided` also `subproblems` (per subproblem: repeats,
 //! values, spread; per parameter the subproblem it came from; the
 //! refinement runs and stages; the damping fit).
 
-pub mod cost;
 mod outputs;
 mod params;
-pub mod tables;
+mod updated_model;
 
-use super::artifacts;
 use super::{
     Artifact, FileRef, InputSpec, Kind, Output, ParamProblem, StageContext, StageError,
     StageOutputs,
 };
+use crate::artifacts;
+use crate::artifacts::cost::{Cost, Phases};
+use crate::artifacts::model::ModelJson;
 use crate::dynamics;
 use crate::identify::frf_objective::{FrfNoise, FrfReference};
 use crate::identify::updating::{update, Plan, Strategy, Update};
 use crate::identify::{ModalObjective, NamedMode, Screening, SubproblemSpec};
 use crate::optimize::Optimizer;
-use cost::{Cost, Phases};
 use outputs::write;
 pub use params::Params;
 use params::{problem, spec, Spec, StrategyName};
-use std::collections::BTreeMap;
 use std::path::Path;
 use std::time::Instant;
 
@@ -93,8 +92,14 @@ impl Kind for Identify {
     /// 15: consider covariance of the fixed parameters in the intervals,
     /// their score tests, refit of implicated ones, the escape search, the
     /// verdict's cause (issue 26).
+    /// 16: artifacts through their schemas (issue 28): parameters.csv says
+    /// `std_error_rel`, `std_error_with_fixed_rel`, `suggested_change_rel`;
+    /// cost.json and identifiability.json state `schema_version`;
+    /// changes.csv has typed columns (`change_rel`, `identified`); weak final
+    /// pairs count as not reproduced, a refit that fits no better refutes the
+    /// implication (issue 26).
     fn version(&self) -> u32 {
-        15
+        16
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -144,13 +149,27 @@ impl Kind for Identify {
         let Some(path) = &p.model else {
             return Ok(Vec::new());
         };
-        super::synthesize::model_file_dependencies(dir, path).map_err(|m| {
+        let (model, files) = super::model_files::checked_model_file(dir, path).map_err(|m| {
             problem(
                 &["model"],
                 m,
                 "paths are relative to the pipeline file; see pipelines/models/",
             )
-        })
+        })?;
+        let minimum = minimum_budget(model.parameters.len());
+        if p.budget < minimum {
+            return Err(problem(
+                &["budget"],
+                format!(
+                    "budget {} cannot pay the assessment of the result over the model's {} \
+                     parameters and a strategy",
+                    p.budget,
+                    model.parameters.len()
+                ),
+                &format!("give at least budget: {minimum} (2000 is the default)"),
+            ));
+        }
+        Ok(files)
     }
 
     fn check_inputs(&self, p: &Params, bound: &[&str]) -> Vec<ParamProblem> {
@@ -188,7 +207,8 @@ impl Kind for Identify {
         })?;
         let model = load_model(ctx, p.model.as_deref())?;
         let reference_dir = ctx.input("reference")?;
-        let reference = artifacts::read_damped_modes(reference_dir, "reference", "identify")?;
+        let reference =
+            artifacts::modes::read_damped_modes(reference_dir, "reference", "identify")?;
         let invalid_reference = |e: crate::identify::IdentifyError| StageError::InvalidInput {
             input: "reference".into(),
             message: e.to_string(),
@@ -203,7 +223,7 @@ impl Kind for Identify {
         .map_err(invalid_reference)?;
         objective.set_uncertainty(spec.uncertainty);
         if spec.uncertainty.from_estimate {
-            let spread = artifacts::read_mode_spread(reference_dir, "reference")?;
+            let spread = artifacts::modes::read_mode_spread(reference_dir, "reference")?;
             for m in spread.unwrap_or_default() {
                 objective.raise_uncertainty(
                     &spec.uncertainty,
@@ -250,7 +270,7 @@ impl Kind for Identify {
             .get("frf")
             .and_then(|v| v.first())
             .map(|path| {
-                let sets = artifacts::read_calibrated_frf(
+                let sets = artifacts::frf::read_calibrated(
                     path,
                     "frf",
                     "identify",
@@ -285,6 +305,14 @@ impl Kind for Identify {
             refit_implicated: spec.refit_implicated,
         };
         let mut u = update(&mut objective, &plan, &progress).map_err(|e| match e {
+            // A budget the model or the screening make too small (a model
+            // from the `model` input is first seen here): the param's fault.
+            crate::identify::IdentifyError::Invalid(m) if m.starts_with("budget ") => {
+                StageError::InvalidParam {
+                    param: "budget".into(),
+                    message: m,
+                }
+            }
             crate::identify::IdentifyError::Invalid(m) => StageError::InvalidInput {
                 input: "reference".into(),
                 message: m,
@@ -302,7 +330,7 @@ impl Kind for Identify {
         // The updated model file (see stages::updated_model).
         let model_dir = ctx.scratch.join("updated_model");
         let parameters = ctx.scratch.join("parameters.csv");
-        crate::stages::updated_model::write(ctx, p.model.as_deref(), &parameters, &model_dir)?;
+        updated_model::write(ctx, p.model.as_deref(), &parameters, &model_dir)?;
         files.push(("updated_model".to_string(), model_dir));
         Ok(StageOutputs {
             warnings: Vec::new(),
@@ -310,6 +338,13 @@ impl Kind for Identify {
             counters: [("evaluations".to_string(), u.evaluations as u64)].into(),
         })
     }
+}
+
+/// The fewest evaluations an identification over `n` parameters can run
+/// with: the assessment of the result (the final pairing 3, J 1, a
+/// Jacobian 2n + 1; `crate::identify::updating`) and one for a strategy.
+fn minimum_budget(n: usize) -> usize {
+    2 * n + 5 + 2
 }
 
 /// Write every output into the scratch directory.
@@ -322,28 +357,33 @@ fn write_outputs(
 ) -> Result<Vec<(String, std::path::PathBuf)>, StageError> {
     let failed = |e: crate::identify::IdentifyError| StageError::Failed(e.to_string());
     let mut files = Vec::new();
+    let mut add = |name: &str, file: &str| {
+        let path = ctx.scratch.join(file);
+        files.push((name.to_string(), path.clone()));
+        path
+    };
+    crate::artifacts::parameters::write(
+        &add("parameters", crate::artifacts::parameters::FILE),
+        &outputs::parameter_rows(o, u),
+    )?;
+    crate::artifacts::history::write(
+        &add("history", crate::artifacts::history::FILE),
+        &outputs::history_rows(u),
+    )?;
+    crate::artifacts::correlation::write(
+        &add("correlation", crate::artifacts::correlation::FILE),
+        &outputs::correlation_rows(o, u),
+    )?;
+    outputs::identifiability(u).write(&add(
+        "identifiability",
+        crate::artifacts::identifiability::FILE,
+    ))?;
     let mut put = |name: &str, file: &str, text: String| -> Result<(), StageError> {
         let path = ctx.scratch.join(file);
         write(&path, &text)?;
         files.push((name.to_string(), path));
         Ok(())
     };
-    put(
-        "parameters",
-        "parameters.csv",
-        outputs::parameters_csv(o, u)?,
-    )?;
-    put("history", "history.csv", outputs::history_csv(u))?;
-    put(
-        "correlation",
-        "correlation.csv",
-        outputs::correlation_csv(o, u)?,
-    )?;
-    put(
-        "identifiability",
-        "identifiability.json",
-        outputs::identifiability_json(u)?,
-    )?;
     let mut phases = Phases {
         assessment: u.assessment_evaluations,
         frf: u.frf.as_ref().map_or(0, |r| r.summary.evaluations),
@@ -373,10 +413,11 @@ fn write_outputs(
             serde_json::to_string_pretty(&json).unwrap_or_default() + "\n",
         )?;
     }
-    let updated = ctx.scratch.join(artifacts::MODES_DIR);
-    artifacts::write_modes(&updated, &o.model_modes(&u.x).map_err(failed)?)?;
+    let updated = ctx.scratch.join(artifacts::modes::DIR);
+    artifacts::modes::write_modes(&updated, &o.model_modes(&u.x).map_err(failed)?)?;
     files.push(("updated_modes".to_string(), updated));
     let cost = Cost {
+        schema_version: Default::default(),
         evaluations: u.evaluations,
         seconds: started.elapsed().as_secs_f64(),
         best_objective: u.objective,
@@ -396,11 +437,8 @@ fn write_outputs(
         frf: u.frf.as_ref().map(|r| r.summary.clone()),
         verdict: u.verdict.clone(),
     };
-    let path = ctx.scratch.join("cost.json");
-    write(
-        &path,
-        &(serde_json::to_string_pretty(&cost).unwrap_or_default() + "\n"),
-    )?;
+    let path = ctx.scratch.join(crate::artifacts::cost::FILE);
+    cost.write(&path)?;
     files.push(("cost".to_string(), path));
     Ok(files)
 }
@@ -434,37 +472,16 @@ fn load_model(ctx: &StageContext, param: Option<&str>) -> Result<dynamics::Model
             message: "no model: bind the `model` input to a synthesize stage's `model` output, or give the `model` param".into(),
         });
     };
-    let bad = |message: String| StageError::InvalidInput {
+    let json = ModelJson::read(path, "model")?;
+    dynamics::Model::from_yaml(
+        &json.yaml,
+        json.file_name(crate::artifacts::model::FILE),
+        &|p: &str| json.resolve(p),
+    )
+    .map_err(|e| StageError::InvalidInput {
         input: "model".into(),
-        message,
-    };
-    let bytes = std::fs::read(path).map_err(|e| StageError::io("cannot read input `model`", e))?;
-    let json: serde_json::Value =
-        serde_json::from_slice(&bytes).map_err(|e| bad(format!("not a model.json: {e}")))?;
-    let yaml = json["yaml"].as_str().ok_or_else(|| {
-        bad("model.json has no `yaml` text; bind a synthesize stage's `model` output".into())
-    })?;
-    let name = json["file"].as_str().unwrap_or("model.json").to_string();
-    let external: BTreeMap<String, String> = json["external"]
-        .as_object()
-        .map(|m| {
-            m.iter()
-                .filter_map(|(k, v)| v.as_str().map(|s| (k.clone(), s.to_string())))
-                .collect()
-        })
-        .unwrap_or_default();
-    let resolver = |p: &str| -> std::io::Result<Vec<u8>> {
-        external
-            .get(p)
-            .map(|s| s.as_bytes().to_vec())
-            .ok_or_else(|| {
-                std::io::Error::new(
-                    std::io::ErrorKind::NotFound,
-                    format!("`{p}` is not embedded in model.json"),
-                )
-            })
-    };
-    dynamics::Model::from_yaml(yaml, &name, &resolver).map_err(|e| bad(e.to_string()))
+        message: e.to_string(),
+    })
 }
 
 /// The `subproblems` of a gsa subproblems.json, its `significant` list and

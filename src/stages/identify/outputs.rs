@@ -3,15 +3,17 @@
 //! why it is used or not, its partner at the result), identifiability.json
 //! and history.csv.
 
-use super::tables::{to_csv, CorrelationRow, IdentifiabilityFile, ParameterRow};
+use crate::artifacts::correlation::CorrelationRow;
+use crate::artifacts::history::HistoryRow;
+use crate::artifacts::identifiability::IdentifiabilityFile;
+use crate::artifacts::parameters::ParameterRow;
 use crate::identify::updating::Update;
 use crate::identify::ModalObjective;
 use crate::stages::StageError;
-use std::fmt::Write as _;
 use std::path::Path;
 
 /// What the intervals assume (identifiability.json, the report).
-pub const ASSUMPTIONS: &str = "Linearized (Gauss–Newton) at the result; residuals scaled by the reference's stated uncertainty and by the residual variance when it is larger; the parameters held fixed vary as `fixed_spread` says (default: uniform over their bounds), conditioned on what the data say of them, and their effect is carried in linearly (consider covariance); intervals are cut at the parameter's bounds; the model's form is right. `std_error` alone assumes the fixed parameters exact.";
+pub const ASSUMPTIONS: &str = "Linearized (Gauss–Newton) at the result; residuals scaled by the reference's stated uncertainty and by the residual variance when it is larger; the parameters held fixed vary as `fixed_spread` says (default: uniform over their bounds), conditioned on what the data say of them, and their effect is carried in linearly (consider covariance); intervals are cut at the parameter's bounds; the model's form is right. `std_error_rel` alone assumes the fixed parameters exact.";
 
 /// z of a two-sided 95 % interval.
 const Z95: f64 = 1.959_963_984_540_054;
@@ -26,13 +28,12 @@ fn finite(v: Option<f64>) -> Option<f64> {
     v.filter(|v| !v.is_nan())
 }
 
-/// parameters.csv ([`ParameterRow`]): `std_error` is relative (of ln p),
-/// the fixed parameters taken as exact; `std_error_with_fixed` carries their
+/// parameters.csv ([`ParameterRow`]): `std_error_rel` is relative (of ln p),
+/// the fixed parameters taken as exact; `std_error_with_fixed_rel` carries their
 /// assumed spread in and gives the interval p·exp(∓1.96 σ) — both only for
 /// parameters the data determine. Fixed parameters get the score test.
-pub fn parameters_csv(o: &ModalObjective, u: &Update) -> Result<String, StageError> {
-    let rows: Vec<ParameterRow> = o
-        .parameters()
+pub fn parameter_rows(o: &ModalObjective, u: &Update) -> Vec<ParameterRow> {
+    o.parameters()
         .iter()
         .enumerate()
         .map(|(i, p)| {
@@ -61,22 +62,21 @@ pub fn parameters_csv(o: &ModalObjective, u: &Update) -> Result<String, StageErr
                 initial: u.start[i],
                 identified: analysis.is_some(),
                 identifiable: analysis.map(|a| a.identifiable),
-                std_error: se,
-                std_error_with_fixed: with_fixed,
+                std_error_rel: se,
+                std_error_with_fixed_rel: with_fixed,
                 // Within the bounds: the update cannot leave them.
                 ci_low: with_fixed.map(|s| (v * (-Z95 * s).exp()).max(p.lower)),
                 ci_high: with_fixed.map(|s| (v * (Z95 * s).exp()).min(p.upper)),
                 score: test.map(|t| t.statistic),
                 implicated: test.map(|t| t.implicated),
-                suggested_change: test.map(|t| t.change.exp_m1()),
+                suggested_change_rel: test.map(|t| t.change.exp_m1()),
             }
         })
-        .collect();
-    to_csv(&rows).map_err(StageError::Failed)
+        .collect()
 }
 
 /// correlation.csv ([`CorrelationRow`]): one row per reference mode.
-pub fn correlation_csv(o: &ModalObjective, u: &Update) -> Result<String, StageError> {
+pub fn correlation_rows(o: &ModalObjective, u: &Update) -> Vec<CorrelationRow> {
     let mut rows = Vec::new();
     for (p, slot) in u.correspondence.slots.iter().enumerate() {
         for r in 0..o.modes_at(p) {
@@ -105,13 +105,14 @@ pub fn correlation_csv(o: &ModalObjective, u: &Update) -> Result<String, StageEr
             });
         }
     }
-    to_csv(&rows).map_err(StageError::Failed)
+    rows
 }
 
 /// identifiability.json ([`IdentifiabilityFile`]): the analysis with each
 /// undetermined combination written out.
-pub fn identifiability_json(u: &Update) -> Result<String, StageError> {
-    let file = IdentifiabilityFile {
+pub fn identifiability(u: &Update) -> IdentifiabilityFile {
+    IdentifiabilityFile {
+        schema_version: Default::default(),
         analysis: u.identifiability.clone(),
         undetermined_text: u
             .identifiability
@@ -121,17 +122,17 @@ pub fn identifiability_json(u: &Update) -> Result<String, StageError> {
             .collect(),
         fixed: u.consider.clone(),
         assumptions: ASSUMPTIONS.to_string(),
-    };
-    serde_json::to_string_pretty(&file)
-        .map(|t| t + "\n")
-        .map_err(|e| StageError::Failed(e.to_string()))
+    }
 }
 
-/// history.csv: `evaluation,best_objective,mean_mac`.
-pub fn history_csv(u: &Update) -> String {
-    let mut csv = String::from("evaluation,best_objective,mean_mac\n");
-    for h in &u.history {
-        let _ = writeln!(csv, "{},{:?},{:?}", h.evaluation, h.objective, h.mean_mac);
-    }
-    csv
+/// history.csv ([`HistoryRow`]).
+pub fn history_rows(u: &Update) -> Vec<HistoryRow> {
+    u.history
+        .iter()
+        .map(|h| HistoryRow {
+            evaluation: h.evaluation,
+            best_objective: h.objective,
+            mean_mac: h.mean_mac,
+        })
+        .collect()
 }

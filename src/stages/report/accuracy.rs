@@ -6,8 +6,8 @@
 
 use super::pct;
 use super::verdicts::ok_cell;
+use crate::artifacts::metrics::{Metrics, ModeRef, PositionModes};
 use crate::report::document::{Document, Tone};
-use crate::stages::evaluate::{Metrics, ModeRef, PositionModes};
 
 pub fn accuracy(doc: &mut Document, inputs: &[(String, Metrics)]) {
     if inputs.is_empty() {
@@ -17,7 +17,7 @@ pub fn accuracy(doc: &mut Document, inputs: &[(String, Metrics)]) {
         .iter()
         .map(|(stage, m)| {
             let modes = m.modes.as_ref();
-            let count = |f: fn(&crate::stages::evaluate::ModeMetrics) -> usize| {
+            let count = |f: fn(&crate::artifacts::metrics::ModeMetrics) -> usize| {
                 modes.map_or("–".into(), |x| match f(x) {
                     0 => "0".to_string(),
                     k => format!("✗ {k}"),

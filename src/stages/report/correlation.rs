@@ -5,15 +5,10 @@
 //! a partner at the result is marked ✗.
 
 use super::sig4;
+use crate::artifacts::correlation::{self, CorrelationRow};
 use crate::report::document::Document;
-use crate::stages::identify::tables::{read_rows, CorrelationRow};
 use crate::stages::StageError;
-use std::path::{Path, PathBuf};
-
-/// Read an identify correlation.csv.
-pub fn read_correlation(path: &Path) -> Result<Vec<CorrelationRow>, String> {
-    read_rows(path, "correlation.csv")
-}
+use std::path::PathBuf;
 
 fn hz(v: Option<f64>) -> String {
     v.map_or(String::new(), |f| format!(" ({f:.4} Hz)"))
@@ -63,9 +58,9 @@ pub fn correlation(doc: &mut Document, inputs: &[(String, PathBuf)]) -> Result<(
          model partner at the result.",
     );
     for (stage, path) in inputs {
-        let rows = read_correlation(path).map_err(|message| StageError::InvalidInput {
+        let rows = correlation::read(path).map_err(|e| StageError::InvalidInput {
             input: "correlation".into(),
-            message: format!("{stage}: {message}"),
+            message: format!("{stage}: {e}"),
         })?;
         let used = rows.iter().filter(|r| r.used).count();
         let unpaired = rows

@@ -9,15 +9,11 @@
 //! many that fit equally well, not a measurement.
 
 use super::{pct, sig4};
+use crate::artifacts::identifiability::IdentifiabilityFile;
+use crate::artifacts::parameters::{read_identified, ParameterRow};
 use crate::report::document::{Document, Tone};
-use crate::stages::identify::tables::{read_rows, IdentifiabilityFile, ParameterRow};
 use crate::stages::StageError;
-use std::path::{Path, PathBuf};
-
-/// Read an identify parameters.csv.
-pub fn read_parameters(path: &Path) -> Result<Vec<ParameterRow>, String> {
-    read_rows(path, "parameters.csv")
-}
+use std::path::PathBuf;
 
 /// Stages in order of first appearance in either list.
 fn stages<'a>(a: &'a [(String, PathBuf)], b: &'a [(String, PathBuf)]) -> Vec<&'a str> {
@@ -53,11 +49,11 @@ pub fn identifiability(
                 .map(|(_, p)| p.clone())
         };
         let analysis = find(analyses)
-            .map(|p| IdentifiabilityFile::read(&p))
+            .map(|p| IdentifiabilityFile::read(&p).map_err(|e| e.to_string()))
             .transpose()
             .map_err(|m| invalid("identifiability", stage, m))?;
         let rows = find(parameters)
-            .map(|p| read_parameters(&p))
+            .map(|p| read_identified(&p).map_err(|e| e.to_string()))
             .transpose()
             .map_err(|m| invalid("parameters", stage, m))?;
         doc.heading(3, stage);
@@ -140,7 +136,7 @@ fn parameter_table(doc: &mut Document, rows: &[ParameterRow], a: Option<&Identif
                 r.parameter.clone(),
                 sig4(Some(r.value)),
                 sig4(Some(r.initial)),
-                pct(r.std_error),
+                pct(r.std_error_rel),
                 interval,
                 identifiable_cell(r.identifiable, structural(&r.parameter)),
             ]

@@ -7,8 +7,8 @@
 //! errors, GSA splits, any CSV table and any SVG figures.
 //!
 //! JSON inputs are read through their writers' schemas
-//! ([`crate::stages::evaluate::Metrics`], [`crate::stages::identify::cost::Cost`],
-//! [`identification::IdentifiabilityFile`]).
+//! ([`crate::artifacts`]: metrics, cost, identifiability, parameters,
+//! correlation, significant).
 
 mod accuracy;
 mod charts;
@@ -19,9 +19,9 @@ mod tables;
 mod verdicts;
 
 use super::{Artifact, InputSpec, Kind, StageContext, StageError, StageOutputs};
+use crate::artifacts::cost::Cost;
+use crate::artifacts::metrics::Metrics;
 use crate::report::document::Document;
-use crate::stages::evaluate::Metrics;
-use crate::stages::identify::cost::Cost;
 use serde_json::Value as Json;
 use std::path::{Path, PathBuf};
 
@@ -233,7 +233,7 @@ impl Kind for Report {
 fn read_all<T>(
     inputs: &[(String, PathBuf)],
     input: &str,
-    read: fn(&Path) -> Result<T, String>,
+    read: fn(&Path) -> Result<T, crate::artifacts::ArtifactError>,
 ) -> Result<Vec<(String, T)>, StageError> {
     inputs
         .iter()

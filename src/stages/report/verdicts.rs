@@ -5,9 +5,9 @@
 //! message — followed by every warning per stage.
 
 use super::{sig4, Metrics};
+use crate::artifacts::cost::Cost;
 use crate::identify::verdict::{Fit, Status, Verdict};
 use crate::report::document::{Document, Tone};
-use crate::stages::identify::cost::Cost;
 
 /// `✓ ok` or `✗ failed`.
 pub fn ok_cell(v: &Verdict) -> String {

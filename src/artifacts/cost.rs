@@ -1,10 +1,18 @@
-//! `cost.json`, the identify kind's summary: what the run cost, how well
-//! the result matches, and the verdict. One schema for the writer and every
-//! reader (report, evaluate, compare).
+//! `cost`: `cost.json`, the identify kind's summary: what the run cost, how
+//! well the result matches, and the verdict. One schema for the writer and
+//! every reader (report, evaluate, compare).
 
+use super::{read_json, to_json, write_file, ArtifactError, SchemaVersion};
 use crate::identify::objective::ModeSummary;
 use crate::identify::Verdict;
 use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The file name of a `cost` output.
+pub const FILE: &str = "cost.json";
+
+/// The schema this build writes (2: `schema_version` stated).
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// Model evaluations per phase of the guided strategy (and the assessment
 /// every strategy ends with).
@@ -22,6 +30,9 @@ pub struct Phases {
 /// The contents of cost.json.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Cost {
+    /// Set by [`Cost::write`]; absent in files of version 1.
+    #[serde(default)]
+    pub schema_version: SchemaVersion,
     /// Model evaluations in all (never more than `budget`).
     pub evaluations: usize,
     pub seconds: f64,
@@ -40,11 +51,21 @@ pub struct Cost {
 }
 
 impl Cost {
-    /// Read a cost.json.
-    pub fn read(path: &std::path::Path) -> Result<Cost, String> {
-        let bytes =
-            std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        serde_json::from_slice(&bytes)
-            .map_err(|e| format!("{} is not an identify cost.json: {e}", path.display()))
+    /// Read a cost.json (any version up to [`SCHEMA_VERSION`]).
+    pub fn read(path: &Path) -> Result<Cost, ArtifactError> {
+        let c: Cost = read_json(path, "an identify cost.json")?;
+        c.schema_version
+            .check(FILE, SCHEMA_VERSION)
+            .map_err(|e| ArtifactError::malformed(path, e))?;
+        Ok(c)
+    }
+
+    /// Write a cost.json of the current schema version.
+    pub fn write(&self, path: &Path) -> Result<(), ArtifactError> {
+        let current = Cost {
+            schema_version: SchemaVersion(SCHEMA_VERSION),
+            ..self.clone()
+        };
+        write_file(path, to_json(&current, FILE)?)
     }
 }

@@ -7,10 +7,11 @@
 //! (singular values of the FRF matrix per line, log scale; one curve per
 //! reference, so a repeated root shows as two curves peaking together).
 //! One panel per position.
+//!
+//! Drawn here, beside the other figures and the style guide, so the
+//! numerical core (`crate::ema`) never reaches the report.
 
-use super::search::AutoEmaResult;
-use super::stabilization::PoleClass;
-use super::FrfData;
+use crate::ema::{AutoEmaResult, FrfData, PoleClass};
 use std::fmt::Write;
 
 /// One position's panel content.
@@ -151,7 +152,7 @@ fn panel(s: &mut String, p: &Panel) {
         );
     }
     for rej in &r.best.rejected {
-        if matches!(rej.reason, super::Reason::MultiplicityReduced { .. }) {
+        if matches!(rej.reason, crate::ema::Reason::MultiplicityReduced { .. }) {
             continue;
         }
         let _ = writeln!(
@@ -274,7 +275,7 @@ fn frame(
             RIGHT + 5.0,
             RIGHT + 8.0,
             y_mag(d) + 4.0,
-            crate::report::format::power_of_ten(d as i32)
+            super::format::power_of_ten(d as i32)
         );
         d += 1.0;
     }

@@ -20,7 +20,9 @@
 //! so stages that need a physical scale refuse it while frequencies,
 //! damping, shapes and MAC work. FRFs read as SI for want of any unit label
 //! are a stage warning. `content: modes` reads reference modes instead
-//! ([`super::import_modes`]).
+//! ([`modes`]).
+
+mod modes;
 
 use super::{
     Artifact, FileRef, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
@@ -294,7 +296,7 @@ impl Kind for Import {
 
     fn run(&self, params: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
         if params.content == Content::Modes {
-            return super::import_modes::run(params, ctx);
+            return modes::run(params, ctx);
         }
         let sel = selection(params).map_err(|p| {
             StageError::Failed(

@@ -1,19 +1,29 @@
-//! `metrics.json`, the evaluate kind's summary: one schema for the writer
-//! ([`super::Evaluate`]) and every reader (`report`, `modalflow compare`,
-//! tests), so a field cannot be renamed on one side only.
+//! `metrics`: `metrics.json`, the evaluate kind's summary: one schema for
+//! the writer (the evaluate kind) and every reader (`report`, `modalflow
+//! compare`, tests), so a field cannot be renamed on one side only.
 //!
 //! Criteria are fractions (MAC, NFD, NDD, FRAC, CSF; eq. 2.62–2.67). A mean
 //! over nothing (no pair, no channel) is `null`. Mode numbers are 1-based,
 //! as in `modes.csv`.
 
+use super::{read_json, to_json, write_file, ArtifactError, SchemaVersion};
 use crate::identify::Verdict;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
+
+/// The file name of a `metrics` output.
+pub const FILE: &str = "metrics.json";
+
+/// The schema this build writes (2: `schema_version` stated).
+pub const SCHEMA_VERSION: u32 = 2;
 
 /// The contents of metrics.json; a part is absent when its inputs were not
 /// bound.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Metrics {
+    /// Set by [`Metrics::write`]; absent in files of version 1.
+    #[serde(default)]
+    pub schema_version: SchemaVersion,
     /// Modes: pairing and the criteria of the pairs.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub modes: Option<ModeMetrics>,
@@ -30,12 +40,22 @@ pub struct Metrics {
 }
 
 impl Metrics {
-    /// Read a metrics.json.
-    pub fn read(path: &Path) -> Result<Metrics, String> {
-        let bytes =
-            std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
-        serde_json::from_slice(&bytes)
-            .map_err(|e| format!("{} is not an evaluate metrics.json: {e}", path.display()))
+    /// Read a metrics.json (any version up to [`SCHEMA_VERSION`]).
+    pub fn read(path: &Path) -> Result<Metrics, ArtifactError> {
+        let m: Metrics = read_json(path, "an evaluate metrics.json")?;
+        m.schema_version
+            .check("metrics.json", SCHEMA_VERSION)
+            .map_err(|e| ArtifactError::malformed(path, e))?;
+        Ok(m)
+    }
+
+    /// Write a metrics.json of the current schema version.
+    pub fn write(&self, path: &Path) -> Result<(), ArtifactError> {
+        let current = Metrics {
+            schema_version: SchemaVersion(SCHEMA_VERSION),
+            ..self.clone()
+        };
+        write_file(path, to_json(&current, "metrics.json")?)
     }
 
     /// Whether anything needs a reader's attention: unpaired or ambiguous
@@ -165,15 +185,4 @@ pub struct ParameterMetrics {
     pub parameters: usize,
     pub mean_abs_relative_error: Option<f64>,
     pub max_abs_relative_error: Option<f64>,
-}
-
-/// The mean of `v`, `None` when empty or not finite.
-pub(super) fn mean(v: &[f64]) -> Option<f64> {
-    let m = v.iter().sum::<f64>() / v.len() as f64;
-    (!v.is_empty() && m.is_finite()).then_some(m)
-}
-
-/// The extreme of `v` by `pick` (`f64::min`, `f64::max`), `None` when empty.
-pub(super) fn extreme(v: &[f64], pick: fn(f64, f64) -> f64) -> Option<f64> {
-    v.iter().copied().reduce(pick).filter(|x| x.is_finite())
 }

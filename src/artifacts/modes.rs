@@ -1,92 +1,33 @@
-//! The artifact formats stages exchange, read and written in one place so
-//! every kind agrees on them:
-//!
-//! - `frf`: a UFF 58b file (see [`crate::io::write_frf_artifact`]), one data
-//!   set per position; uncalibrated FRFs carry a mark
-//!   ([`read_frf_scaled`], [`read_calibrated_frf`]);
-//! - `modes`: a directory with `modes.csv` (`position,position_label,mode,
-//!   frequency_hz,damping_ratio`; an empty damping cell: not given) and
-//!   `mode_shapes.csv` (`position,mode,node,direction,real,imag`), and, when the estimate states it, `uncertainty.csv`
-//!   (`position,mode,frequency_spread,damping_spread`: relative standard
-//!   deviations per mode, see [`ModeSpread`]), and, when the shapes are known
-//!   to be mass-normalized (computed modes), `scaling.json`
-//!   (`{"scaling": "mass_normalized"}`, see [`ShapeScaling`]); without it
-//!   the scale is arbitrary.
+//! `modes`: a directory with `modes.csv` (`position,position_label,mode,
+//! frequency_hz,damping_ratio`; an empty damping cell: not given) and
+//! `mode_shapes.csv` (`position,mode,node,direction,real,imag`), and, when
+//! the estimate states it, `uncertainty.csv` (`position,mode,
+//! frequency_std_rel,damping_std_rel`: relative standard deviations per
+//! mode, see [`ModeSpread`]), and, when the shapes are known to be
+//! mass-normalized (computed modes), `scaling.json`
+//! (`{"scaling": "mass_normalized"}`, see [`ShapeScaling`]); without it the
+//! scale is arbitrary.
 
-use super::StageError;
-use crate::frf::FrfSet;
+use super::{write_file, ArtifactError};
 use crate::io;
 use crate::modal::{ModalModel, ShapeScaling};
 use std::path::Path;
 
-pub const FRF_FILE: &str = "frf.uff";
-pub const MODES_DIR: &str = "modes";
+/// The directory name of a `modes` output.
+pub const DIR: &str = "modes";
 
-fn write(path: &Path, bytes: &[u8]) -> Result<(), StageError> {
-    std::fs::write(path, bytes)
-        .map_err(|e| StageError::io(format!("cannot write {}", path.display()), e))
-}
-
-/// Write an `frf` artifact.
-pub fn write_frf(path: &Path, sets: &[FrfSet]) -> Result<(), StageError> {
-    write(path, &io::write_frf_artifact(sets))
-}
-
-/// Write an `frf` artifact, marked uncalibrated when `calibrated` is false
-/// ([`io::write_frf_artifact_scaled`]).
-pub fn write_frf_scaled(path: &Path, sets: &[FrfSet], calibrated: bool) -> Result<(), StageError> {
-    write(path, &io::write_frf_artifact_scaled(sets, calibrated))
-}
-
-/// Read the `frf` artifact bound to input `input`.
-pub fn read_frf(path: &Path, input: &str) -> Result<Vec<FrfSet>, StageError> {
-    Ok(read_frf_scaled(path, input)?.0)
-}
-
-/// Read the `frf` artifact bound to input `input` and whether its FRFs are
-/// calibrated (`false`: imported as voltage or uncalibrated data).
-pub fn read_frf_scaled(path: &Path, input: &str) -> Result<(Vec<FrfSet>, bool), StageError> {
-    let bytes = std::fs::read(path)
-        .map_err(|e| StageError::io(format!("cannot read input `{input}`"), e))?;
-    io::read_frf_artifact_scaled(&bytes, input).map_err(|e| StageError::InvalidInput {
-        input: input.to_string(),
-        message: e.to_string(),
-    })
-}
-
-/// The refusal of uncalibrated FRFs where `need` (what the stage `kind`
-/// does with them) requires a physical scale.
-pub fn uncalibrated_refused(kind: &str, input: &str, need: &str) -> StageError {
-    StageError::InvalidInput {
-        input: input.to_string(),
-        message: format!(
-            "the FRFs are uncalibrated (imported with `calibrated: false` or voltage `units`), \
-             but {kind}'s {need} needs FRFs in physical units (m/N, m/s/N or m/s²/N); \
-             re-import them with the sensors' units (`units: {{response: g, reference: N}}`), \
-             or compare modes only (frequencies, damping, shapes and MAC need no scale)"
-        ),
-    }
-}
-
-/// Read an `frf` artifact that must have a physical scale: uncalibrated
-/// FRFs are refused naming the stage kind and what needs the scale.
-pub fn read_calibrated_frf(
-    path: &Path,
-    input: &str,
-    kind: &str,
-    need: &str,
-) -> Result<Vec<FrfSet>, StageError> {
-    match read_frf_scaled(path, input)? {
-        (sets, true) => Ok(sets),
-        (_, false) => Err(uncalibrated_refused(kind, input, need)),
-    }
+fn write(path: &Path, bytes: &[u8]) -> Result<(), ArtifactError> {
+    write_file(path, bytes)
 }
 
 /// Write a `modes` artifact directory.
-pub fn write_modes(dir: &Path, models: &[ModalModel]) -> Result<(), StageError> {
+pub fn write_modes(dir: &Path, models: &[ModalModel]) -> Result<(), ArtifactError> {
     std::fs::create_dir_all(dir)
-        .map_err(|e| StageError::io(format!("cannot create {}", dir.display()), e))?;
-    let csv = io::write_modal_csv(models).map_err(|e| StageError::Failed(e.to_string()))?;
+        .map_err(|e| ArtifactError::io(format!("cannot create {}", dir.display()), e))?;
+    let csv = io::write_modal_csv(models).map_err(|e| ArtifactError::Encode {
+        what: "a modes artifact".into(),
+        message: e.to_string(),
+    })?;
     write(&dir.join("modes.csv"), &csv.modes)?;
     write(&dir.join("mode_shapes.csv"), &csv.mode_shapes)
 }
@@ -95,7 +36,7 @@ const SCALING_FILE: &str = "scaling.json";
 
 /// Write a `modes` artifact directory of mass-normalized (computed) modes:
 /// the tables and `scaling.json`.
-pub fn write_mass_normalized_modes(dir: &Path, models: &[ModalModel]) -> Result<(), StageError> {
+pub fn write_mass_normalized_modes(dir: &Path, models: &[ModalModel]) -> Result<(), ArtifactError> {
     write_modes(dir, models)?;
     write(
         &dir.join(SCALING_FILE),
@@ -106,21 +47,20 @@ pub fn write_mass_normalized_modes(dir: &Path, models: &[ModalModel]) -> Result<
 /// How the shapes of the `modes` artifact in `dir` are scaled: stated by
 /// `scaling.json`, else arbitrary. An unreadable or unknown statement is
 /// an error naming the input.
-pub fn read_shape_scaling(dir: &Path, input: &str) -> Result<ShapeScaling, StageError> {
+pub fn read_shape_scaling(dir: &Path, input: &str) -> Result<ShapeScaling, ArtifactError> {
     let text = match std::fs::read_to_string(dir.join(SCALING_FILE)) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(ShapeScaling::Arbitrary),
-        Err(e) => return Err(StageError::io(format!("cannot read input `{input}`"), e)),
+        Err(e) => return Err(ArtifactError::io(format!("cannot read input `{input}`"), e)),
     };
-    let v: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| StageError::InvalidInput {
-            input: input.into(),
-            message: format!("{SCALING_FILE}: {e}"),
-        })?;
+    let v: serde_json::Value = serde_json::from_str(&text).map_err(|e| ArtifactError::Invalid {
+        input: input.into(),
+        message: format!("{SCALING_FILE}: {e}"),
+    })?;
     match v["scaling"].as_str() {
         Some("mass_normalized") => Ok(ShapeScaling::MassNormalized),
         Some("arbitrary") => Ok(ShapeScaling::Arbitrary),
-        other => Err(StageError::InvalidInput {
+        other => Err(ArtifactError::Invalid {
             input: input.into(),
             message: format!(
                 "{SCALING_FILE}: scaling {other:?} is not `mass_normalized` or `arbitrary`"
@@ -130,16 +70,18 @@ pub fn read_shape_scaling(dir: &Path, input: &str) -> Result<ShapeScaling, Stage
 }
 
 /// Read the `modes` artifact bound to input `input`.
-pub fn read_modes(dir: &Path, input: &str) -> Result<Vec<ModalModel>, StageError> {
+pub fn read_modes(dir: &Path, input: &str) -> Result<Vec<ModalModel>, ArtifactError> {
     let read = |name: &str| {
-        std::fs::read(dir.join(name)).map_err(|e| StageError::InvalidInput {
-            input: input.to_string(),
-            message: format!("not a modes artifact (no {name}: {e}); bind a `modes` output"),
+        std::fs::read(dir.join(name)).map_err(|e| {
+            ArtifactError::invalid(
+                input,
+                format!("not a modes artifact (no {name}: {e}); bind a `modes` output"),
+            )
         })
     };
     let (modes, shapes) = (read("modes.csv")?, read("mode_shapes.csv")?);
     io::read_modal_csv(&modes, "modes.csv", &shapes, "mode_shapes.csv").map_err(|e| {
-        StageError::InvalidInput {
+        ArtifactError::Invalid {
             input: input.to_string(),
             message: e.to_string(),
         }
@@ -152,7 +94,7 @@ pub fn read_damped_modes(
     dir: &Path,
     input: &str,
     kind: &str,
-) -> Result<Vec<ModalModel>, StageError> {
+) -> Result<Vec<ModalModel>, ArtifactError> {
     let models = read_modes(dir, input)?;
     let missing: Vec<String> = models
         .iter()
@@ -165,7 +107,7 @@ pub fn read_damped_modes(
         })
         .collect();
     if let Some(first) = missing.first() {
-        return Err(StageError::InvalidInput {
+        return Err(ArtifactError::Invalid {
             input: input.to_string(),
             message: format!(
                 "{} mode(s) without a damping ratio (first: {first}); {kind} fits the damping \
@@ -191,10 +133,12 @@ pub struct ModeSpread {
 }
 
 const SPREAD_FILE: &str = "uncertainty.csv";
-const SPREAD_HEADER: &str = "position,mode,frequency_spread,damping_spread";
+const SPREAD_HEADER: &str = "position,mode,frequency_std_rel,damping_std_rel";
+/// The header before columns said `_rel` (read the same way).
+const SPREAD_HEADER_V1: &str = "position,mode,frequency_spread,damping_spread";
 
 /// Write `uncertainty.csv` into a `modes` artifact directory.
-pub fn write_mode_spread(dir: &Path, spread: &[ModeSpread]) -> Result<(), StageError> {
+pub fn write_mode_spread(dir: &Path, spread: &[ModeSpread]) -> Result<(), ArtifactError> {
     use std::fmt::Write as _;
     let mut out = format!("{SPREAD_HEADER}\n");
     for s in spread {
@@ -210,19 +154,27 @@ pub fn write_mode_spread(dir: &Path, spread: &[ModeSpread]) -> Result<(), StageE
 /// Read `uncertainty.csv` of the `modes` artifact bound to `input`: `None`
 /// when the artifact states no uncertainty; an error naming the line when
 /// the file is malformed or a value is not a finite number ≥ 0.
-pub fn read_mode_spread(dir: &Path, input: &str) -> Result<Option<Vec<ModeSpread>>, StageError> {
+pub fn read_mode_spread(dir: &Path, input: &str) -> Result<Option<Vec<ModeSpread>>, ArtifactError> {
     let path = dir.join(SPREAD_FILE);
     let text = match std::fs::read_to_string(&path) {
         Ok(t) => t,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(e) => return Err(StageError::io(format!("cannot read {}", path.display()), e)),
+        Err(e) => {
+            return Err(ArtifactError::io(
+                format!("cannot read {}", path.display()),
+                e,
+            ))
+        }
     };
-    let bad = |line: usize, why: String| StageError::InvalidInput {
+    let bad = |line: usize, why: String| ArtifactError::Invalid {
         input: input.to_string(),
         message: format!("{SPREAD_FILE} line {line}: {why} (expected `{SPREAD_HEADER}`)"),
     };
     let mut lines = text.lines();
-    if lines.next().map(str::trim) != Some(SPREAD_HEADER) {
+    if !matches!(
+        lines.next().map(str::trim),
+        Some(SPREAD_HEADER | SPREAD_HEADER_V1)
+    ) {
         return Err(bad(1, "unexpected header".into()));
     }
     let mut out = Vec::new();
@@ -231,7 +183,7 @@ pub fn read_mode_spread(dir: &Path, input: &str) -> Result<Option<Vec<ModeSpread
         if f.len() != 4 {
             return Err(bad(i + 2, format!("{} fields, not 4", f.len())));
         }
-        let number = |k: usize| -> Result<f64, StageError> {
+        let number = |k: usize| -> Result<f64, ArtifactError> {
             f[k].parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite() && *v >= 0.0)
@@ -286,7 +238,7 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         for (body, needle) in [
             (
-                "position,mode,frequency_spread,damping_spread\n0,1,NaN,0\n",
+                "position,mode,frequency_std_rel,damping_std_rel\n0,1,NaN,0\n",
                 "line 2",
             ),
             (

@@ -15,15 +15,16 @@
 //! NDD and MACXP for such pairs and says so. Modes without shapes are paired
 //! by frequency alone. `band` keeps the modes inside it.
 
-use super::import::{by_extension, write_json, Format, Params};
-use super::{artifacts, StageContext, StageError, StageOutputs};
+use super::{by_extension, write_json, Format, Params};
+use crate::artifacts;
 use crate::io;
 use crate::modal::ModalModel;
+use crate::stages::{StageContext, StageError, StageOutputs};
 use std::path::Path;
 
 /// Reads the reference modes `params.path` (and `params.shapes`) names.
 pub fn run(params: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
-    let files = super::expand_glob(ctx.pipeline_dir, &params.path).map_err(|message| {
+    let files = crate::stages::expand_glob(ctx.pipeline_dir, &params.path).map_err(|message| {
         StageError::InvalidParam {
             param: "path".into(),
             message,
@@ -81,8 +82,8 @@ pub fn run(params: &Params, ctx: &StageContext) -> Result<StageOutputs, StageErr
         });
     }
     warnings.extend(notes(&models, rel));
-    let dir = ctx.scratch.join(artifacts::MODES_DIR);
-    artifacts::write_modes(&dir, &models)?;
+    let dir = ctx.scratch.join(artifacts::modes::DIR);
+    artifacts::modes::write_modes(&dir, &models)?;
     let summary = serde_json::json!({
         "files": [rel],
         "content": "modes",

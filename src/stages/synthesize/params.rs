@@ -1,10 +1,10 @@
 //! Params of the `synthesize` kind: their serde schema and the checks that
 //! run during validation, before anything is computed.
 
-use super::params::TypeName;
-use super::ParamProblem;
 use crate::dynamics::measurement::{Estimator, ImpactTestParams};
 use crate::frf::FrfQuantity;
+use crate::stages::params::TypeName;
+use crate::stages::ParamProblem;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -266,8 +266,9 @@ pub fn impact_resources(
     let bytes = 8.0 * n * r * (modes + 3.0) + 48.0 * n * channels;
     let samples = averages * n * channels + modes * n * r;
     let what = format!("block_size × oversampling × {modes} modes, per excitation");
-    let memory = crate::resources::memory_problem(&["impact_test", "block_size"], &what, bytes);
-    let work = crate::resources::work_problem(
+    let memory =
+        crate::stages::limits::memory_problem(&["impact_test", "block_size"], &what, bytes);
+    let work = crate::stages::limits::work_problem(
         &["impact_test", "averages"],
         &format!("averages × block_size × {channels} channels, per excitation"),
         samples,

@@ -1,19 +1,41 @@
 //! The `updated_model` output of `identify`: a directory with the updated
 //! model file (`model.yaml`, see [`crate::dynamics::model_writer`]), the
 //! files it references (super-element matrices, same relative paths) and
-//! `changes.csv` (`parameter,kind,initial,identified,change,identifiable,
-//! std_error,ci_low,ci_high,lower,upper`: the table of the update).
+//! `changes.csv` ([`ChangeRow`]: `parameter,kind,initial,value,change_rel,
+//! identified,identifiable,std_error_rel,ci_low,ci_high,lower,upper`, the
+//! table of the update).
 //!
 //! Built from what identify already wrote (its parameters.csv) and the
 //! model it read (the `model` param or the model.json input), so the
 //! identification itself is untouched.
 
-use super::identify::tables::{read_rows, ParameterRow};
-use super::{StageContext, StageError};
+use crate::artifacts::model::ModelJson;
+use crate::artifacts::parameters::{read_identified, ParameterRow};
 use crate::dynamics::model_writer::{updated_model_file, ParameterUpdate};
+use crate::stages::{StageContext, StageError};
+use serde::Serialize;
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::{Component, Path};
+
+/// One row of changes.csv: a parameter's start and identified value, in
+/// its unit; the relative change; whether it moved and whether the data
+/// determine it (empty when it did not move); its relative standard error
+/// and absolute 95 % interval (as in parameters.csv).
+#[derive(Serialize)]
+struct ChangeRow<'a> {
+    parameter: &'a str,
+    kind: &'a str,
+    initial: f64,
+    value: f64,
+    change_rel: Option<f64>,
+    identified: bool,
+    identifiable: Option<bool>,
+    std_error_rel: Option<f64>,
+    ci_low: Option<f64>,
+    ci_high: Option<f64>,
+    lower: f64,
+    upper: f64,
+}
 
 /// The model file's text, name and referenced files, as identify read them.
 fn model_source(
@@ -40,24 +62,9 @@ fn model_source(
         }
         return Ok((text, rel.to_string(), external));
     }
-    let path = ctx.input("model")?;
-    let bytes = std::fs::read(path).map_err(|e| StageError::io("cannot read input `model`", e))?;
-    let json: serde_json::Value =
-        serde_json::from_slice(&bytes).map_err(|e| StageError::InvalidInput {
-            input: "model".into(),
-            message: format!("not a model.json: {e}"),
-        })?;
-    let text = json["yaml"].as_str().unwrap_or_default().to_string();
-    let name = json["file"].as_str().unwrap_or("model.yaml").to_string();
-    let external = json["external"]
-        .as_object()
-        .map(|m| {
-            m.iter()
-                .filter_map(|(k, v)| Some((k.clone(), v.as_str()?.to_string())))
-                .collect()
-        })
-        .unwrap_or_default();
-    Ok((text, name, external))
+    let json = ModelJson::read(ctx.input("model")?, "model")?;
+    let name = json.file_name("model.yaml").to_string();
+    Ok((json.yaml, name, json.external))
 }
 
 /// Write the `updated_model` directory `dir` from identify's
@@ -69,7 +76,7 @@ pub fn write(
     dir: &Path,
 ) -> Result<(), StageError> {
     let failed = |m: String| StageError::Failed(format!("updated model: {m}"));
-    let rows: Vec<ParameterRow> = read_rows(parameters, "parameters.csv").map_err(failed)?;
+    let rows: Vec<ParameterRow> = read_identified(parameters).map_err(|e| failed(e.to_string()))?;
     let (text, name, external) = model_source(ctx, model_param)?;
     let updates: Vec<ParameterUpdate> = rows
         .iter()
@@ -79,7 +86,7 @@ pub fn write(
             identified: r.value,
             moved: r.identified,
             identifiable: r.identifiable,
-            std_error: r.std_error,
+            std_error: r.std_error_rel,
             interval: r.ci_low.zip(r.ci_high),
         })
         .collect();
@@ -123,34 +130,23 @@ pub fn write(
                 .collect()
         })
         .unwrap_or_default();
-    let mut csv = String::from(
-        "parameter,kind,initial,identified,change,identifiable,std_error,ci_low,ci_high,lower,upper\n",
-    );
-    let opt = |v: Option<f64>| v.map_or(String::new(), |x| format!("{x:e}"));
-    for r in &rows {
-        let _ = writeln!(
-            csv,
-            "{},{},{:e},{:e},{},{},{},{},{},{:e},{:e}",
-            r.parameter,
-            kinds.get(&r.parameter).map_or("", String::as_str),
-            r.initial,
-            r.value,
-            if r.initial != 0.0 {
-                format!("{:e}", r.value / r.initial - 1.0)
-            } else {
-                String::new()
-            },
-            match (r.identified, r.identifiable) {
-                (false, _) => "not identified".to_string(),
-                (true, Some(b)) => b.to_string(),
-                (true, None) => String::new(),
-            },
-            opt(r.std_error),
-            opt(r.ci_low),
-            opt(r.ci_high),
-            r.lower,
-            r.upper
-        );
-    }
+    let changes: Vec<ChangeRow> = rows
+        .iter()
+        .map(|r| ChangeRow {
+            parameter: &r.parameter,
+            kind: kinds.get(&r.parameter).map_or("", String::as_str),
+            initial: r.initial,
+            value: r.value,
+            change_rel: (r.initial != 0.0).then(|| r.value / r.initial - 1.0),
+            identified: r.identified,
+            identifiable: r.identifiable.filter(|_| r.identified),
+            std_error_rel: r.std_error_rel,
+            ci_low: r.ci_low,
+            ci_high: r.ci_high,
+            lower: r.lower,
+            upper: r.upper,
+        })
+        .collect();
+    let csv = crate::artifacts::to_csv(&changes, "changes.csv")?;
     put("changes.csv", &csv)
 }

@@ -9,12 +9,16 @@
 //! (model.json: the model file's text, referenced files and the values used,
 //! so downstream stages can rebuild it), `truth` (parameters.csv).
 
-use super::artifacts;
-use super::synthesize_params::{self as sp, Modes, Params, PositionRef};
-use super::synthesize_values::{override_from_table, significant_parameters, values};
+use crate::artifacts;
+mod params;
+mod values;
+
+use super::model_files::{external_files, load_model, model_memory};
 use super::{
     Artifact, FileRef, InputSpec, Kind, ParamProblem, StageContext, StageError, StageOutputs,
 };
+use crate::artifacts::model::{ModelJson, ModelParameter, ModelPosition};
+use crate::artifacts::parameters::TruthRow;
 use crate::dynamics::measurement;
 use crate::dynamics::model_file::{self, ParameterKind};
 use crate::dynamics::solve::ModeSelection;
@@ -22,47 +26,16 @@ use crate::dynamics::{Model, PreparedModel};
 use crate::frf::{Dof, FrfSet};
 use crate::modal::{ModalModel, Mode};
 use num_complex::Complex64;
+use params::{self as sp, Modes, Params, PositionRef};
 use rayon::prelude::*;
 use std::collections::BTreeMap;
 use std::path::Path;
+use values::{override_from_table, significant_parameters, values};
 
 pub struct Synthesize;
 
 fn problem(path: &[&str], message: String, help: &str) -> ParamProblem {
     ParamProblem::new(path, message, help)
-}
-
-/// Load and validate the model file named by `params.model` below `dir`.
-fn load_model(dir: &Path, rel: &str) -> Result<(Model, String), String> {
-    let path = dir.join(rel);
-    let text =
-        std::fs::read_to_string(&path).map_err(|e| format!("cannot read model file {rel}: {e}"))?;
-    let base = path.parent().unwrap_or(dir).to_path_buf();
-    let resolver = crate::paths::confined_reader(base.clone(), vec![dir.to_path_buf(), base]);
-    let model = Model::from_yaml(&text, rel, &resolver).map_err(|e| e.to_string())?;
-    Ok((model, text))
-}
-
-/// Files a model file references, relative to the pipeline directory
-/// (`rel` is the model file's path relative to it).
-fn external_files(spec: &model_file::ModelFile, rel: &str) -> Vec<String> {
-    let model_dir = Path::new(rel).parent().unwrap_or(Path::new(""));
-    spec.external_files()
-        .iter()
-        .map(|f| model_dir.join(f).to_string_lossy().into_owned())
-        .collect()
-}
-
-/// Validate the model file `rel` (relative to the pipeline directory `dir`)
-/// and list the files it references, for cache keys of other kinds that
-/// read model files.
-pub(crate) fn model_file_dependencies(dir: &Path, rel: &str) -> Result<Vec<String>, String> {
-    let (model, text) = load_model(dir, rel)?;
-    if let Some(p) = model_memory(&model) {
-        return Err(p.message);
-    }
-    let spec = model_file::parse(&text, rel).map_err(|e| e.to_string())?;
-    Ok(external_files(&spec, rel))
 }
 
 /// The synthesized FRFs against the memory limit: complex lines ×
@@ -76,20 +49,13 @@ fn frf_memory(p: &Params, spec: &model_file::ModelFile) -> Option<ParamProblem> 
     let excitations = count(p.excitations.as_ref().map(Vec::len), spec.excitations.len());
     let all_positions = spec.axes.iter().map(|a| a.positions.len().max(1)).product();
     let positions = count(p.positions.as_ref().map(Vec::len), all_positions);
-    crate::resources::memory_problem(
+    crate::stages::limits::memory_problem(
         &["frequency", "step"],
         &format!(
             "{lines} lines × {sensors} sensors × {excitations} excitations × {positions} positions"
         ),
         2.0 * 16.0 * lines * sensors * excitations * positions,
     )
-}
-
-/// The eigenproblem of a model against the memory limit
-/// ([`Model::memory_estimate`]: dense n × n matrices or a sparse factor).
-fn model_memory(model: &Model) -> Option<ParamProblem> {
-    let (bytes, what) = model.memory_estimate();
-    crate::resources::memory_problem(&["model"], &what, bytes)
 }
 
 /// Configuration indices selected by `positions` (indices or labels).
@@ -159,8 +125,10 @@ impl Kind for Synthesize {
         // position columns (one shape for every writer, issue 31). v7: the
         // Lanczos starts in the operator's range, the shift is chosen from
         // the problem (free-free models: rigid-body modes detected), the
-        // residual check is per mode (issue 32): eigenpairs change.
-        7
+        // residual check is per mode (issue 32): eigenpairs change. v8:
+        // model.json and parameters.csv written through their schemas
+        // (`schema_version` stated, fields in schema order; issue 28).
+        8
     }
     fn summary(&self) -> &'static str {
         "solve a model file and write reference FRFs (with noise or a simulated impact test), modes and the truth"
@@ -334,15 +302,18 @@ impl Kind for Synthesize {
             truth.push(modes);
         }
         let n_modes: usize = truth.iter().map(|m| m.modes.len()).sum();
-        artifacts::write_frf(&ctx.scratch.join(artifacts::FRF_FILE), &sets)?;
-        artifacts::write_mass_normalized_modes(&ctx.scratch.join(artifacts::MODES_DIR), &truth)?;
+        artifacts::frf::write(&ctx.scratch.join(artifacts::frf::FILE), &sets)?;
+        artifacts::modes::write_mass_normalized_modes(
+            &ctx.scratch.join(artifacts::modes::DIR),
+            &truth,
+        )?;
         write_model_json(ctx, &model, &text, &p.model, &x, &prepared)?;
         write_truth_csv(ctx, &model, &x)?;
         Ok(StageOutputs {
             warnings: impact_step_warning(p, quantity).into_iter().collect(),
             files: vec![
-                ("frf".into(), artifacts::FRF_FILE.into()),
-                ("modes".into(), artifacts::MODES_DIR.into()),
+                ("frf".into(), artifacts::frf::FILE.into()),
+                ("modes".into(), artifacts::modes::DIR.into()),
                 ("model".into(), "model.json".into()),
                 ("truth".into(), "parameters.csv".into()),
             ],
@@ -490,36 +461,57 @@ fn write_model_json(
             .map_err(|e| StageError::io(format!("cannot read {f}"), e))?;
         external.insert(f, content);
     }
-    let json = serde_json::json!({
-        "file": Path::new(rel).file_name().map(|n| n.to_string_lossy().into_owned()),
-        "yaml": text,
-        "external": external,
-        "parameters": model.parameters.iter().zip(x).map(|(p, v)| serde_json::json!({
-            "name": p.name, "value": v, "lower": p.lower, "upper": p.upper,
-            "scale": p.scale.as_str(), "kind": kind_text(p.kind),
-        })).collect::<Vec<_>>(),
-        "positions": prepared.configurations.iter().map(|c| serde_json::json!({"index": c.position.index, "label": c.position.label})).collect::<Vec<_>>(),
-        "dofs": prepared.n_dofs(),
-    });
-    let bytes = serde_json::to_vec_pretty(&json).unwrap_or_default();
-    std::fs::write(ctx.scratch.join("model.json"), bytes)
-        .map_err(|e| StageError::io("cannot write model.json", e))
+    let json = ModelJson {
+        schema_version: Default::default(),
+        file: Path::new(rel)
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned()),
+        yaml: text.to_string(),
+        external,
+        parameters: model
+            .parameters
+            .iter()
+            .zip(x)
+            .map(|(p, &value)| ModelParameter {
+                name: p.name.clone(),
+                value,
+                lower: p.lower,
+                upper: p.upper,
+                scale: p.scale.as_str().into(),
+                kind: kind_text(p.kind).into(),
+            })
+            .collect(),
+        positions: prepared
+            .configurations
+            .iter()
+            .map(|c| ModelPosition {
+                index: c.position.index,
+                label: c.position.label.clone(),
+            })
+            .collect(),
+        dofs: prepared.n_dofs(),
+    };
+    Ok(json.write(&ctx.scratch.join(crate::artifacts::model::FILE))?)
 }
 
 fn write_truth_csv(ctx: &StageContext, model: &Model, x: &[f64]) -> Result<(), StageError> {
-    let mut out = String::from("parameter,value,lower,upper,scale,kind\n");
-    for (p, v) in model.parameters.iter().zip(x) {
-        out.push_str(&format!(
-            "{},{v:?},{:?},{:?},{},{}\n",
-            p.name,
-            p.lower,
-            p.upper,
-            p.scale.as_str(),
-            kind_text(p.kind)
-        ));
-    }
-    std::fs::write(ctx.scratch.join("parameters.csv"), out)
-        .map_err(|e| StageError::io("cannot write parameters.csv", e))
+    let rows: Vec<TruthRow> = model
+        .parameters
+        .iter()
+        .zip(x)
+        .map(|(p, &value)| TruthRow {
+            parameter: p.name.clone(),
+            value,
+            lower: p.lower,
+            upper: p.upper,
+            scale: p.scale.as_str().into(),
+            kind: kind_text(p.kind).into(),
+        })
+        .collect();
+    Ok(crate::artifacts::parameters::write(
+        &ctx.scratch.join(crate::artifacts::parameters::FILE),
+        &rows,
+    )?)
 }
 
 /// An impact test's FRF lines are `sample_rate_hz / block_size` apart,

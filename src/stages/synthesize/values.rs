@@ -3,10 +3,10 @@
 //! by glob), the `significant` input (which parameters a perturbation moves)
 //! and the `values` input (a parameter table applied last).
 
-use super::synthesize_params::{Params, Values};
-use super::StageError;
+use super::params::{Params, Values};
 use crate::dynamics::measurement::GaussianStream;
 use crate::dynamics::Model;
+use crate::stages::StageError;
 use std::path::Path;
 
 /// Override `x` with the `value` column of a parameter table (rows named by
@@ -20,7 +20,7 @@ pub(super) fn override_from_table(
         input: "values".into(),
         message,
     };
-    for (name, v) in super::evaluate::read_parameters(path, "values")? {
+    for (name, v) in crate::artifacts::parameters::read_values(path, "values")? {
         let k = model
             .parameter_index(&name)
             .ok_or_else(|| invalid(format!("the model has no parameter `{name}`")))?;
@@ -56,27 +56,11 @@ pub(super) fn significant_parameters(path: &Path, p: &Params) -> Result<Vec<Stri
             ))
         }
     }
-    let mut reader =
-        csv::Reader::from_path(path).map_err(|e| bad(format!("not a significant.csv: {e}")))?;
-    let headers = reader
-        .headers()
-        .map_err(|e| bad(format!("not a significant.csv: {e}")))?
-        .clone();
-    let col = |name: &str| {
-        headers.iter().position(|h| h == name).ok_or_else(|| {
-            bad(format!(
-                "no `{name}` column; bind a gsa stage's `significant` output"
-            ))
-        })
-    };
-    let (c_name, c_sig) = (col("parameter")?, col("significant")?);
-    let mut out = Vec::new();
-    for row in reader.records() {
-        let row = row.map_err(|e| bad(format!("significant.csv: {e}")))?;
-        if row.get(c_sig) == Some("true") {
-            out.push(row.get(c_name).unwrap_or_default().to_string());
-        }
-    }
+    let out: Vec<String> = crate::artifacts::significant::read(path, "significant")?
+        .into_iter()
+        .filter(|r| r.significant)
+        .map(|r| r.parameter)
+        .collect();
     if out.is_empty() {
         return Err(bad("the screening found no significant parameter".into()));
     }
