@@ -112,3 +112,58 @@ pub fn largest_eigenpairs_locked<O: ShiftInvertOperator + ?Sized>(
         applications,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// M = I, K = diag(λ) with every λ doubled (λ_i = 1 + ⌊i/2⌋ in a
+    /// shuffled order): (K + σM)⁻¹ M = diag(1/(λ_i + σ)).
+    struct Diagonal(Vec<f64>);
+
+    impl ShiftInvertOperator for Diagonal {
+        fn dim(&self) -> usize {
+            self.0.len()
+        }
+        fn mass(&self, X: MatRef<'_, f64>, mut Y: MatMut<'_, f64>) {
+            Y.copy_from(X);
+        }
+        fn solve(&mut self, mut X: MatMut<'_, f64>) {
+            for j in 0..X.ncols() {
+                for (i, l) in self.0.iter().enumerate() {
+                    X[(i, j)] /= l + 1.0;
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn locked_chunks_find_every_mode_once_with_repeated_pairs_across_chunk_borders() {
+        let n = 600;
+        let lambda: Vec<f64> = (0..n).map(|i| 1.0 + ((i * 7) % n / 2) as f64).collect();
+        let mut op = Diagonal(lambda.clone());
+        // Chunks of 25 (99 = 4 × 25 − 1): borders split the pairs at 24|25,
+        // 49|50 and 74|75.
+        let nev = 99;
+        let options = LanczosOptions::default();
+        let mut ws = KrylovWorkspace::default();
+        let r = largest_eigenpairs_locked(&mut op, nev, &options, &mut ws).unwrap();
+        let mut sorted = lambda.clone();
+        sorted.sort_by(f64::total_cmp);
+        for (k, &m) in r.mu.iter().enumerate() {
+            let expected = 1.0 / (sorted[k] + 1.0);
+            assert!((m / expected - 1.0).abs() < 1e-12, "{k}: {m} vs {expected}");
+        }
+        let G = r.X.transpose() * &r.X;
+        let off = (&G - Mat::<f64>::identity(nev, nev)).norm_max();
+        assert!(off < 1e-10, "XᵀX − I = {off:e}: a mode doubled");
+        // Each vector is an eigenvector of its own μ.
+        for k in 0..nev {
+            let res: f64 = (0..n)
+                .map(|i| (r.X[(i, k)] / (lambda[i] + 1.0) - r.mu[k] * r.X[(i, k)]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            assert!(res < 1e-10 * r.mu[k], "{k}: residual {res:e}");
+        }
+    }
+}
