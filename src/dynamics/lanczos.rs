@@ -28,7 +28,10 @@
 //! basis-sized storage once it has grown to the problem.
 #![allow(non_snake_case)]
 
+mod locking;
 mod orthogonalize;
+
+pub use locking::{largest_eigenpairs_locked, CHUNK};
 
 use faer::linalg::matmul::matmul;
 use faer::reborrow::ReborrowMut;

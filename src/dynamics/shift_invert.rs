@@ -8,7 +8,8 @@
 #![allow(non_snake_case)]
 
 use super::lanczos::{
-    largest_eigenpairs, KrylovWorkspace, LanczosError, LanczosOptions, ShiftInvertOperator,
+    largest_eigenpairs, largest_eigenpairs_locked, KrylovWorkspace, LanczosError, LanczosOptions,
+    ShiftInvertOperator,
 };
 use super::sparse::{Csc, FactorWorkspace, SparseCholesky};
 use faer::linalg::matmul::matmul;
@@ -67,7 +68,13 @@ pub fn lowest_modes<O: ShiftInvertOperator + ?Sized>(
     options: &LanczosOptions,
     ws: &mut KrylovWorkspace,
 ) -> Result<(Vec<f64>, Mat<f64>), LanczosError> {
-    let r = largest_eigenpairs(op, nev, options, ws)?;
+    // More than ~40 modes: chunks with the converged pairs locked
+    // (`lanczos/locking.rs`); up to 40 one run, as before.
+    let r = if nev > 40 {
+        largest_eigenpairs_locked(op, nev, options, ws)?
+    } else {
+        largest_eigenpairs(op, nev, options, ws)?
+    };
     // μ = 1/(λ + σ) > 0 for every finite λ; μ at the rounding level of the
     // largest is an infinite λ of a massless direction, a negative one an
     // indefinite M.

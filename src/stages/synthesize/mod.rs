@@ -127,7 +127,8 @@ impl Kind for Synthesize {
         // the problem (free-free models: rigid-body modes detected), the
         // residual check is per mode (issue 32): eigenpairs change. v8:
         // model.json and parameters.csv written through their schemas
-        // (`schema_version` stated, fields in schema order; issue 28).
+        // (`schema_version` stated, fields in schema order; issue 28); more
+        // than 40 modes are found in locked chunks (issue 32).
         8
     }
     fn summary(&self) -> &'static str {
