@@ -11,6 +11,7 @@
 
 use modalflow::artifacts::cost::Cost;
 use modalflow::artifacts::modes::read_modes;
+use modalflow::identify::verdict::Fit;
 use modalflow::metrics::mac;
 use modalflow::pairing::{pair_modes, Pairing};
 use num_complex::Complex64;
@@ -31,7 +32,8 @@ pub struct Score {
     /// those intervals contain the true value (issue 26's coverage).
     pub intervals: usize,
     pub covered: usize,
-    /// The verdict names implicated (screened-out) parameters.
+    /// The verdict names the parameters whose intervals do not hold
+    /// (implicated, refitted, or dampers whose damping is not reproduced).
     pub names_implicated: bool,
     /// The verdict's cause (`none` when ok).
     pub cause: String,
@@ -169,7 +171,15 @@ fn score_model(
         ok: cost.verdict.ok,
         // NaN: identified from modes only (no `frf` input).
         frf_rms: cost.frf.map_or(f64::NAN, |f| f.end.rms),
-        names_implicated: !cost.verdict.implicated.is_empty() || !cost.verdict.refitted.is_empty(),
+        // Named: screened-out parameters the residual implicates, those refitted,
+        // and the identified dampers a damping verdict disowns.
+        names_implicated: !cost.verdict.implicated.is_empty()
+            || !cost.verdict.refitted.is_empty()
+            || cost
+                .verdict
+                .damping
+                .as_ref()
+                .is_some_and(|d| d.fit != Fit::WithinNoise && !d.parameters.is_empty()),
         cause: format!("{:?}", cost.verdict.cause),
         message: cost.verdict.message,
         intervals,

@@ -9,8 +9,9 @@ use super::frf_objective::FrfReference;
 use super::identifiability::{analyze, Identifiability};
 use super::objective::{Match, ModalObjective, SlotPairing};
 use super::updating::{FinalPair, Plan};
-use super::verdict::ModeCounts;
+use super::verdict::{DampingJudgement, ModeCounts};
 use super::IdentifyError;
+use crate::numbers::sig;
 use crate::optimize::jacobian;
 use rayon::prelude::*;
 
@@ -22,6 +23,7 @@ pub(super) type Assessment = (
     Vec<Vec<FinalPair>>,
     (f64, f64, ModeCounts),
     Vec<String>,
+    Option<DampingJudgement>,
 );
 
 /// The final pairing with margins, the weighted-residual RMS at the start
@@ -82,6 +84,7 @@ pub(super) fn assess(
         close.extend(unresolved_pairs(p, &mf, &rf, &matched[p]));
         pairs.push(slot);
     }
+    let damping = damping_judgement(o, &matched, &usable, identified);
     let frf = plan.frf.map(|(r, _)| r);
     let fixed = fixed_parameters(o, x, identified, plan.fixed_spread);
     let identifiability =
@@ -91,7 +94,56 @@ pub(super) fn assess(
         pairs,
         (rms(&at_start), rms(&at_x), counts),
         close,
+        damping,
     ))
+}
+
+/// The damping ratios of the paired used modes against the reference's, when
+/// damping parameters are among the `identified` (see [`DampingJudgement`]).
+fn damping_judgement(
+    o: &ModalObjective,
+    matched: &[Vec<Option<Match>>],
+    usable: &super::ModeSet,
+    identified: &[usize],
+) -> Option<DampingJudgement> {
+    let dampers: Vec<String> = identified
+        .iter()
+        .map(|&i| &o.parameters()[i])
+        .filter(|p| p.kind == crate::dynamics::ParameterKind::Damping)
+        .map(|p| p.name.clone())
+        .collect();
+    if dampers.is_empty() {
+        return None;
+    }
+    let mut residuals = Vec::new();
+    let mut worst = (0.0, String::new());
+    for (p, ms) in matched.iter().enumerate() {
+        for (k, m) in ms.iter().enumerate() {
+            let (Some(m), true) = (m, usable[p][k]) else {
+                continue;
+            };
+            let zr = o.reference_damping(p, k);
+            if zr.is_nan() || zr <= 0.0 {
+                continue;
+            }
+            let r = (m.damping_ratio - zr) / (zr * o.reference_damping_sigma(p, k));
+            if r.abs() > worst.0 {
+                worst = (
+                    r.abs(),
+                    format!(
+                        "position {} mode {} at {} Hz, ζ {} against {}",
+                        o.position(p).index,
+                        k + 1,
+                        sig(o.reference_frequency(p, k), 4),
+                        sig(m.damping_ratio, 2),
+                        sig(zr, 2)
+                    ),
+                );
+            }
+            residuals.push(r);
+        }
+    }
+    DampingJudgement::new(&residuals, worst.1, dampers)
 }
 
 /// The used reference modes at position `p` without a model partner at the
@@ -343,8 +395,9 @@ pub(super) fn bound_warnings(o: &ModalObjective, x: &[f64], identified: &[usize]
             let p = &o.parameters()[i];
             let side = if u[i] < 0.5 { "lower" } else { "upper" };
             format!(
-                "{} ended at its {side} bound ({:e}): the bounds may be too tight or the model cannot represent the reference",
-                p.name, x[i]
+                "{} ended at its {side} bound ({}): the bounds may be too tight or the model cannot represent the reference",
+                p.name,
+                sig(x[i], 3)
             )
         })
         .collect()

@@ -13,19 +13,35 @@
 //!
 //! 1. t₀ = 0 (every free parameter at its lower bound), column j of A the
 //!    secant to its upper bound — exact for viscous damping;
-//! 2. t₀ = the first solution, columns from steps of 5 % of the range —
-//!    the correction for the pole's curvature.
+//! 2. from the best point so far, columns from steps of 5 % of the range —
+//!    the correction for the pole's curvature — repeated up to [`PASSES`]
+//!    times in all.
+//!
+//! Every candidate is evaluated on the model itself, and kept only when its
+//! actual misfit is lower (a rejected step is tried once at half length).
+//! The linear model is exact only for proportional damping: a damper local
+//! to a heavily damped mode (the test bench's axial drive, ζ ≈ 0.14) makes
+//! the mode complex and ζ(c) strongly curved, and two fixed passes then
+//! ended at a bound with the drive mode's ζ 4.7× the reference's (exact
+//! modes of 20 held-out truths: mean NDD 0.4–1.1 on 9 of them). The start
+//! (the values `x` holds) is a candidate too, so the fit never ends worse
+//! than it began.
 //!
 //! Each paired mode is one equation, weighted by 1/ζ_ref so the misfit is
 //! relative (NDD, eq. 2.65), as the reference's damping uncertainty is.
-//! Cost: 2 × (1 + number of free parameters) evaluations.
+//! Cost: at most [`evaluations`] model evaluations.
 
 use super::{IdentifyError, ModalObjective};
 
-/// Model evaluations a fit of `free` damping parameters costs: two
-/// Gauss–Newton passes of 1 + `free` each (the budget reserves this).
+/// Gauss–Newton passes at most (module docs).
+pub const PASSES: usize = 6;
+
+/// Model evaluations a fit of `free` damping parameters costs at most (the
+/// budget reserves this): the start, the secant pass and its candidate,
+/// then per further pass 1 + `free` for the linearization and at most two
+/// candidates.
 pub fn evaluations(free: usize) -> usize {
-    2 * (1 + free)
+    1 + (2 + free) + (PASSES - 1) * (3 + free)
 }
 
 /// The fitted damping values and the fit's bookkeeping.
@@ -37,7 +53,8 @@ pub struct DampingFit {
     pub evaluations: usize,
     /// Paired modes used as equations.
     pub equations: usize,
-    /// Root-mean-square relative damping-ratio residual at the solution.
+    /// Root-mean-square relative damping-ratio residual (ζ − ζ_ref)/ζ_ref of
+    /// the model at the solution.
     pub rms_residual: f64,
 }
 
@@ -55,23 +72,16 @@ fn ratios(o: &ModalObjective, x: &[f64]) -> Result<Vec<Option<(f64, f64)>>, Iden
 }
 
 /// One Gauss–Newton step from the unit-box point `t0` of the free
-/// parameters with steps `h` (signed, per parameter): the new `t` and the
-/// weighted residual of the linear model at it.
+/// parameters with steps `h` (signed, per parameter): the new `t`
+/// (1 + `free` evaluations).
 fn step(
     o: &ModalObjective,
     x: &[f64],
     free: &[usize],
     t0: &[f64],
     h: &[f64],
-) -> Result<(Vec<f64>, f64, usize), IdentifyError> {
-    let params = o.parameters();
-    let at = |t: &[f64]| -> Vec<f64> {
-        let mut p = x.to_vec();
-        for (k, &j) in free.iter().enumerate() {
-            p[j] = params[j].lower + t[k].clamp(0.0, 1.0) * (params[j].upper - params[j].lower);
-        }
-        p
-    };
+) -> Result<Vec<f64>, IdentifyError> {
+    let at = |t: &[f64]| at_unit(o, x, free, t);
     let z0 = ratios(o, &at(t0))?;
     let rows: Vec<usize> = (0..z0.len())
         .filter(|&i| z0[i].is_some_and(|(_, zr)| zr > 0.0))
@@ -103,16 +113,37 @@ fn step(
             weight(i) * (zr - z) + row.iter().zip(t0).map(|(x, y)| x * y).sum::<f64>()
         })
         .collect();
-    let t = bvls(&a, &b, 1e-13, 20_000);
-    let res: f64 = a
+    Ok(bvls(&a, &b, 1e-13, 20_000))
+}
+
+/// The free parameters' values at the unit-box point `t`, the others from `x`.
+fn at_unit(o: &ModalObjective, x: &[f64], free: &[usize], t: &[f64]) -> Vec<f64> {
+    let params = o.parameters();
+    let mut p = x.to_vec();
+    for (k, &j) in free.iter().enumerate() {
+        p[j] = params[j].lower + t[k].clamp(0.0, 1.0) * (params[j].upper - params[j].lower);
+    }
+    p
+}
+
+/// The actual relative misfit at the model point `p`: RMS over the paired
+/// modes with a reference damping ratio of (ζ − ζ_ref)/ζ_ref, and how many
+/// there are (+∞ when none pairs or the model cannot be solved).
+fn misfit(o: &ModalObjective, p: &[f64]) -> (f64, usize) {
+    let Ok(z) = ratios(o, p) else {
+        return (f64::INFINITY, 0);
+    };
+    let r: Vec<f64> = z
         .iter()
-        .zip(&b)
-        .map(|(row, bi)| {
-            let r: f64 = row.iter().zip(&t).map(|(x, y)| x * y).sum::<f64>() - bi;
-            r * r
-        })
-        .sum();
-    Ok((t, (res / rows.len() as f64).sqrt(), rows.len()))
+        .flatten()
+        .filter(|(_, zr)| *zr > 0.0)
+        .map(|(zm, zr)| (zm - zr) / zr)
+        .collect();
+    if r.is_empty() {
+        return (f64::INFINITY, 0);
+    }
+    let rms = (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt();
+    (if rms.is_finite() { rms } else { f64::INFINITY }, r.len())
 }
 
 /// Fit the damping parameters `free` (indices into the model's parameters)
@@ -122,24 +153,71 @@ pub fn identify_damping(
     x: &[f64],
     free: &[usize],
 ) -> Result<DampingFit, IdentifyError> {
+    fit_passes(objective, x, free, PASSES)
+}
+
+/// [`identify_damping`] with at most `passes` Gauss–Newton passes.
+fn fit_passes(
+    objective: &ModalObjective,
+    x: &[f64],
+    free: &[usize],
+    passes: usize,
+) -> Result<DampingFit, IdentifyError> {
     let params = objective.parameters();
     let n = free.len();
-    let (t1, _, _) = step(objective, x, free, &vec![0.0; n], &vec![1.0; n])?;
-    // Steps of 5 % of the range, inward from a bound.
-    let h: Vec<f64> = t1
-        .iter()
-        .map(|&t| if t + 0.05 <= 1.0 { 0.05 } else { -0.05 })
-        .collect();
-    let (t, rms, equations) = step(objective, x, free, &t1, &h)?;
-    let mut out = x.to_vec();
-    for (k, &j) in free.iter().enumerate() {
-        out[j] = params[j].lower + t[k] * (params[j].upper - params[j].lower);
+    let unit = |j: usize| {
+        let p = &params[j];
+        ((x[j] - p.lower) / (p.upper - p.lower)).clamp(0.0, 1.0)
+    };
+    let try_at = |t: &[f64]| misfit(objective, &at_unit(objective, x, free, t));
+    // The start is a candidate: the fit never ends worse than it began (and
+    // then returns `x` itself, not its round trip through the unit box).
+    let mut best: Vec<f64> = free.iter().map(|&j| unit(j)).collect();
+    let (mut best_rms, mut equations) = misfit(objective, x);
+    let mut moved = false;
+    let t1 = step(objective, x, free, &vec![0.0; n], &vec![1.0; n])?;
+    let (r1, e1) = try_at(&t1);
+    let mut evaluations = 1 + (2 + n);
+    if r1 < best_rms {
+        (best, best_rms, equations, moved) = (t1, r1, e1, true);
+    }
+    for _ in 1..passes {
+        // Steps of 5 % of the range, inward from a bound.
+        let h: Vec<f64> = best
+            .iter()
+            .map(|&t| if t + 0.05 <= 1.0 { 0.05 } else { -0.05 })
+            .collect();
+        let full = step(objective, x, free, &best, &h)?;
+        evaluations += 1 + n;
+        let half: Vec<f64> = best.iter().zip(&full).map(|(a, b)| 0.5 * (a + b)).collect();
+        let before = best_rms;
+        for candidate in [full, half] {
+            let (r, e) = try_at(&candidate);
+            evaluations += 1;
+            if r < best_rms {
+                (best, best_rms, equations, moved) = (candidate, r, e, true);
+                break;
+            }
+        }
+        // Converged: the pass gained less than 0.1 % of the misfit.
+        if best_rms.is_nan() || best_rms >= before * (1.0 - 1e-3) {
+            break;
+        }
+    }
+    if equations == 0 {
+        return Err(IdentifyError::Invalid(
+            "no reference mode with a damping ratio pairs with a model mode at the identified stiffness; widen the pairing window".into(),
+        ));
     }
     Ok(DampingFit {
-        x: out,
-        evaluations: evaluations(n),
+        x: if moved {
+            at_unit(objective, x, free, &best)
+        } else {
+            x.to_vec()
+        },
+        evaluations,
         equations,
-        rms_residual: rms,
+        rms_residual: best_rms,
     })
 }
 
@@ -262,6 +340,64 @@ mod tests {
         );
     }
 
+    /// Dampers far above their nominal values at one end of the chain:
+    /// the modes become complex and ζ(c) curved, so the secant and one
+    /// Gauss–Newton correction (the fit before the further passes) stop
+    /// off the truth; the passes that follow reach it.
+    #[test]
+    fn heavy_local_dampers_are_recovered_by_the_further_passes() {
+        use crate::dynamics::{Model, PreparedModel};
+        use crate::identify::black_box::tests::THREE_MASS;
+        use crate::identify::Weights;
+        let yaml = THREE_MASS
+            .replace(
+                "value: 40.0, lower: 10.0, upper: 160.0",
+                "value: 40.0, lower: 10.0, upper: 8000.0",
+            )
+            .replace(
+                "value: 30.0, lower: 7.5, upper: 120.0",
+                "value: 30.0, lower: 7.5, upper: 8000.0",
+            );
+        let read = |p: &str| std::fs::read(p);
+        let model = Model::from_yaml(&yaml, "three_mass.yaml", &read).unwrap();
+        // (c1, c12, whether two passes fall short): modal ζ up to 0.34,
+        // 0.61 and 0.83 respectively.
+        for (c1, c12, short) in [
+            (2500.0, 25.0, false),
+            (2500.0, 1500.0, true),
+            (6000.0, 400.0, true),
+        ] {
+            let mut t = truth();
+            (t[4], t[5]) = (c1, c12);
+            let prepared = PreparedModel::new(&model).unwrap();
+            let sol = prepared.evaluate(0, &t, 3).unwrap();
+            let reference = vec![prepared.modal_model(&sol).unwrap()];
+            let o = ModalObjective::new(
+                &model,
+                &reference,
+                None,
+                Weights::default(),
+                crate::pairing::Pairing::within(0.3),
+            )
+            .unwrap();
+            let mut x = t.clone();
+            let nominal = o.nominal();
+            x[4..7].copy_from_slice(&nominal[4..7]);
+            let err = |f: &DampingFit| {
+                (4..7)
+                    .map(|j| ((f.x[j] - t[j]) / t[j]).abs())
+                    .fold(0.0, f64::max)
+            };
+            let two = fit_passes(&o, &x, &[4, 5, 6], 2).unwrap();
+            let fit = identify_damping(&o, &x, &[4, 5, 6]).unwrap();
+            // Measured: two passes end 85–91 % off where they fall short.
+            assert_eq!(err(&two) > 0.3, short, "two passes: {}", err(&two));
+            assert!(err(&fit) < 1e-6, "c1 {c1}, c12 {c12}: {}", err(&fit));
+            assert!(fit.rms_residual < 1e-6, "{}", fit.rms_residual);
+            assert!(fit.evaluations <= evaluations(3));
+        }
+    }
+
     #[test]
     fn damping_is_recovered_at_the_true_stiffness() {
         let o = objective();
@@ -279,7 +415,6 @@ mod tests {
         }
         assert!(fit.rms_residual < 1e-9);
         assert!(o.cost(&fit.x) < 1e-9);
-        assert_eq!(fit.evaluations, 8);
-        assert_eq!(evaluations(3), 8);
+        assert!(fit.evaluations <= evaluations(3), "{}", fit.evaluations);
     }
 }

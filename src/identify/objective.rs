@@ -383,6 +383,13 @@ impl ModalObjective {
         self.references[p].damping[r]
     }
 
+    /// Relative standard deviation σ_ζ of the damping ratio of reference
+    /// mode `r` at position slot `p` ([`Uncertainty::damping`], raised by the
+    /// estimate's own spread).
+    pub fn reference_damping_sigma(&self, p: usize, r: usize) -> f64 {
+        self.references[p].sigma_z[r]
+    }
+
     /// Reference frequency of mode `r` at position slot `p`.
     pub fn reference_frequency(&self, p: usize, r: usize) -> f64 {
         self.references[p].frequencies[r]

@@ -365,7 +365,7 @@ fn judge(
     plan: &Plan,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Judged, IdentifyError> {
-    let ((identifiability, consider, cost), pairs, mut counts, close_pairs) =
+    let ((identifiability, consider, cost), pairs, mut counts, close_pairs, damping) =
         assess(o, start, &outcome.x, &outcome.identified, plan, progress)?;
     let mut warnings = bound_warnings(o, &outcome.x, &outcome.identified);
     warnings.extend(close_pairs);
@@ -398,13 +398,15 @@ fn judge(
         identifiable,
         warnings,
     );
-    // With FRFs they are the reference the verdict is about.
-    let verdict = match &outcome.frf {
-        Some(r) => verdict.with_frf(
+    // With FRFs they are the reference the verdict is about (damping
+    // included); from modes alone the identified damping is judged apart.
+    let verdict = match (&outcome.frf, damping) {
+        (Some(r), _) => verdict.with_frf(
             Status::of(&r.status),
             FrfJudgement::new(r.summary.start, r.summary.end),
         ),
-        None => verdict,
+        (None, Some(d)) => verdict.with_damping(d),
+        (None, None) => verdict,
     };
     let implicated: Vec<(String, f64, f64)> = consider.as_ref().map_or(Vec::new(), |c| {
         c.implicated()

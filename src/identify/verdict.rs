@@ -128,6 +128,10 @@ pub struct Verdict {
     /// identified too ([`super::follow_up`]).
     #[serde(default)]
     pub refitted: Vec<String>,
+    /// The damping ratios against the reference, when damping parameters
+    /// were identified from modes alone.
+    #[serde(default)]
+    pub damping: Option<DampingJudgement>,
     /// Why the verdict is not ok (`none` when it is).
     #[serde(default)]
     pub cause: Cause,
@@ -165,6 +169,51 @@ pub enum Cause {
     UnreproducedModes,
     /// The result fits worse than its start, or the optimizer stalled.
     Optimizer,
+    /// Frequencies and shapes within the noise, but the identified damping
+    /// parameters do not reproduce the reference's damping ratios
+    /// ([`DampingJudgement`]): their values and intervals do not hold.
+    Damping,
+}
+
+/// How well the identified damping reproduces the reference's damping
+/// ratios, judged when damping parameters are identified from modes alone
+/// (with FRFs, the FRF fit holds the damping): the RMS over the paired modes
+/// of (ζ_model − ζ_ref)/(ζ_ref σ_ζ), with σ_ζ each mode's stated relative
+/// uncertainty of its damping ratio (10 % by default; AutoEMA's spread
+/// raises it).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DampingJudgement {
+    /// RMS of the damping residuals (σ_ζ units).
+    pub rms: f64,
+    /// Paired reference modes with a damping ratio.
+    pub modes: usize,
+    pub fit: Fit,
+    /// The worst mode, in words (position, frequency, both damping ratios).
+    pub worst: String,
+    /// The damping parameters identified.
+    pub parameters: Vec<String>,
+}
+
+impl DampingJudgement {
+    /// Judge the damping residuals `r` (σ_ζ units) of the paired modes;
+    /// `worst` describes the largest. `None` without any paired mode.
+    pub fn new(r: &[f64], worst: String, parameters: Vec<String>) -> Option<DampingJudgement> {
+        if r.is_empty() {
+            return None;
+        }
+        let rms = (r.iter().map(|v| v * v).sum::<f64>() / r.len() as f64).sqrt();
+        Some(DampingJudgement {
+            rms,
+            modes: r.len(),
+            fit: if rms <= NOISE_RMS {
+                Fit::WithinNoise
+            } else {
+                Fit::AboveNoise
+            },
+            worst,
+            parameters,
+        })
+    }
 }
 
 /// What the update learned about its own search, for naming the cause.
@@ -308,6 +357,7 @@ impl Verdict {
             frf: None,
             implicated: Vec::new(),
             refitted: Vec::new(),
+            damping: None,
             cause: Cause::None,
             message: parts.join("; "),
             warnings,
@@ -380,6 +430,23 @@ impl Verdict {
         self.classified(SearchEvidence::default())
     }
 
+    /// The verdict with the identified damping judged against the
+    /// reference's damping ratios: above their uncertainty it is not ok.
+    pub fn with_damping(mut self, d: DampingJudgement) -> Verdict {
+        if d.fit == Fit::AboveNoise {
+            self.ok = false;
+            self.message.push_str(&format!(
+                "; but the damping ratios are not reproduced: {:.1}σ_ζ RMS over {} paired modes (worst: {}), so the identified damping ({}) and its intervals do not hold",
+                d.rms,
+                d.modes,
+                d.worst,
+                d.parameters.join(", ")
+            ));
+        }
+        self.damping = Some(d);
+        self.classified(SearchEvidence::default())
+    }
+
     /// The verdict with the fixed parameters a refit identified too (see
     /// [`Cause::ScreenedOut`]).
     pub fn with_refitted(mut self, refitted: &[String]) -> Verdict {
@@ -411,6 +478,7 @@ impl Verdict {
             Cause::NotSearched => "cause: not told apart — the fit ends above the noise with no fixed parameter implicated, and no further search from other starts ran (budget or strategy), so a local minimum and model error are both possible",
             Cause::UnreproducedModes => "cause: reference modes the model does not reproduce (named in the warnings)",
             Cause::Optimizer => "cause: the optimizer did not converge (stalled or ended worse than its start)",
+            Cause::Damping => "cause: the damping — frequencies and shapes fit, but the identified dampers cannot reproduce the damping ratios: dampers held fixed off their values, a damping model the structure does not follow, a mode shape wrong where the damper sits, or reference damping ratios poorer than stated",
         };
         self.message = format!("{}; {why}", self.message);
         self
@@ -440,6 +508,13 @@ impl Verdict {
             }
         } else if self.worse_than_start || self.status == Status::Stalled {
             Cause::Optimizer
+        } else if self.modes.unpaired + self.modes.outliers + self.modes.weak == 0
+            && self
+                .damping
+                .as_ref()
+                .is_some_and(|d| d.fit == Fit::AboveNoise)
+        {
+            Cause::Damping
         } else {
             Cause::UnreproducedModes
         };
@@ -456,185 +531,4 @@ fn status_text(status: Status) -> &'static str {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn counts() -> ModeCounts {
-        ModeCounts {
-            reference: 10,
-            used: 9,
-            excluded: 1,
-            unpaired: 0,
-            ambiguous: 0,
-            outliers: 0,
-            weak: 0,
-        }
-    }
-
-    #[test]
-    fn a_converged_fit_within_noise_is_ok_and_anything_else_is_not() {
-        let v = Verdict::judge(Status::Converged, 40.0, 0.3, counts(), 20, 18, vec![]);
-        assert!(v.ok && v.fit == Fit::WithinNoise && !v.worse_than_start);
-        assert_eq!(v.warnings.len(), 1, "{:?}", v.warnings);
-        let above = Verdict::judge(Status::Converged, 40.0, 7.5, counts(), 20, 20, vec![]);
-        assert!(!above.ok && above.fit == Fit::AboveNoise);
-        assert!(above.message.contains("7.5σ"), "{}", above.message);
-        let floor = Verdict::judge(Status::Stalled, 9.0, 0.5, counts(), 20, 20, vec![]);
-        assert_eq!(floor.status, Status::Converged);
-        let worse = Verdict::judge(Status::Stalled, 3.0, 4.0, counts(), 20, 20, vec![]);
-        assert_eq!(worse.status, Status::Stalled);
-        assert!(!worse.ok && worse.worse_than_start);
-        assert!(worse.message.contains("WORSE"), "{}", worse.message);
-        let budget = Verdict::judge(Status::BudgetExhausted, 9.0, 1.0, counts(), 5, 5, vec![]);
-        assert!(!budget.ok);
-        let lost = ModeCounts {
-            unpaired: 2,
-            ..counts()
-        };
-        assert!(!Verdict::judge(Status::Converged, 9.0, 1.0, lost, 5, 5, vec![]).ok);
-        let outlier = ModeCounts {
-            outliers: 1,
-            ..counts()
-        };
-        let v = Verdict::judge(Status::Converged, 9.0, 1.0, outlier, 5, 5, vec![]);
-        assert!(!v.ok && v.message.contains("1 outliers"), "{}", v.message);
-        let weak = ModeCounts {
-            weak: 1,
-            ..counts()
-        };
-        let v = Verdict::judge(Status::Converged, 9.0, 0.8, weak, 5, 5, vec![]);
-        assert!(
-            !v.ok && v.message.contains("1 weakly paired"),
-            "{}",
-            v.message
-        );
-        // NaN residuals (model unsolvable) are never within the noise.
-        let nan = Verdict::judge(Status::Converged, 9.0, f64::NAN, counts(), 5, 5, vec![]);
-        assert!(!nan.ok && nan.worse_than_start);
-    }
-
-    fn fit(rms: f64, lag1: f64) -> FrfFit {
-        FrfFit {
-            rms,
-            robust_cost: rms * rms,
-            mean_frac: 0.9,
-            lag1,
-        }
-    }
-
-    #[test]
-    fn with_frfs_the_frf_fit_decides_and_modal_losses_are_warnings() {
-        let lost = ModeCounts {
-            unpaired: 1,
-            outliers: 1,
-            ..counts()
-        };
-        // FRFs at the noise: ok although the EMA had a mode the model lacks.
-        let f = FrfJudgement::new(fit(9.0, 0.9), fit(1.03, 0.02));
-        let v = Verdict::judge(Status::Stalled, 9.0, 1.0, lost.clone(), 5, 5, vec![])
-            .with_frf(Status::Stalled, f);
-        assert!(v.ok && v.status == Status::Converged, "{}", v.message);
-        assert!(v.message.contains("1.03σ"), "{}", v.message);
-        assert!(
-            v.warnings.iter().any(|w| w.starts_with("modal reference")),
-            "{:?}",
-            v.warnings
-        );
-        // Above the noise and smooth: named a systematic misfit, not ok,
-        // even with the modal fit within its noise.
-        let f = FrfJudgement::new(fit(30.0, 0.9), fit(6.5, 0.94));
-        let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
-            .with_frf(Status::Converged, f);
-        assert!(!v.ok && f.systematic && v.fit == Fit::AboveNoise);
-        assert!(v.message.contains("systematic"), "{}", v.message);
-        // Above the noise and rough: not called systematic.
-        let f = FrfJudgement::new(fit(30.0, 0.9), fit(3.0, 0.1));
-        assert!(!f.systematic);
-        // Worse than the modal result.
-        let f = FrfJudgement::new(fit(1.5, 0.1), fit(1.8, 0.1));
-        let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
-            .with_frf(Status::Converged, f);
-        assert!(!v.ok && v.worse_than_start && v.message.contains("WORSE"));
-    }
-
-    /// The cause named for each kind of failure, in its order of precedence.
-    #[test]
-    fn the_cause_is_classified_on_small_cases() {
-        let ok = Verdict::judge(Status::Converged, 9.0, 0.5, counts(), 5, 5, vec![]);
-        assert_eq!(ok.cause, Cause::None);
-        // Implicated fixed parameters: not ok, named, whatever the fit.
-        let v = ok
-            .clone()
-            .with_implicated(&[("colj.k_x".into(), 0.25f64.ln_1p(), 80.0)]);
-        assert!(!v.ok && v.cause == Cause::ScreenedOut, "{v:?}");
-        assert!(v.message.contains("colj.k_x (+25 %"), "{}", v.message);
-        assert_eq!(v.implicated, ["colj.k_x"]);
-        // The budget comes first.
-        let b = Verdict::judge(Status::BudgetExhausted, 9.0, 5.0, counts(), 5, 5, vec![])
-            .with_implicated(&[("a".into(), 0.1, 30.0)]);
-        assert_eq!(b.cause, Cause::Budget);
-        // ... unless it was a refit of screened-out parameters that ran out,
-        // with the fit still above the noise: the screening is the cause.
-        let r = Verdict::judge(Status::BudgetExhausted, 9.0, 5.0, counts(), 5, 5, vec![])
-            .with_refitted(&["lb.k_y".into()]);
-        assert_eq!(r.cause, Cause::ScreenedOut);
-        let r = r.explained();
-        assert!(r.message.contains("lb.k_y refitted"), "{}", r.message);
-        assert!(r.message.contains("give more"), "{}", r.message);
-        // Within the noise the refit's own budget is what is left to fix.
-        let w = Verdict::judge(Status::BudgetExhausted, 9.0, 0.9, counts(), 5, 5, vec![])
-            .with_refitted(&["lb.k_y".into()]);
-        assert_eq!(w.cause, Cause::Budget);
-        // Above the noise: a further start that won names a local minimum;
-        // one that did not, model error.
-        let above = Verdict::judge(Status::Converged, 9.0, 5.0, counts(), 5, 5, vec![]);
-        let escaped = SearchEvidence {
-            escaped: Some(true),
-        };
-        let held = SearchEvidence {
-            escaped: Some(false),
-        };
-        assert_eq!(above.clone().classified(escaped).cause, Cause::LocalMinimum);
-        let model = above.clone().classified(held).explained();
-        assert_eq!(model.cause, Cause::ModelError);
-        assert!(
-            model.message.contains("cause: model error"),
-            "{}",
-            model.message
-        );
-        // No further search: not told apart, and the message says so.
-        let unsearched = above.classified(SearchEvidence::default()).explained();
-        assert_eq!(unsearched.cause, Cause::NotSearched);
-        assert!(
-            unsearched.message.contains("not told apart"),
-            "{}",
-            unsearched.message
-        );
-        // Within the noise but a mode lost.
-        let lost = ModeCounts {
-            unpaired: 1,
-            ..counts()
-        };
-        let v = Verdict::judge(Status::Converged, 9.0, 1.0, lost, 5, 5, vec![]);
-        assert_eq!(v.cause, Cause::UnreproducedModes);
-        // Worse than the start within the noise: the optimizer.
-        let w = Verdict::judge(Status::Converged, 0.5, 0.9, counts(), 5, 5, vec![]);
-        assert_eq!(w.cause, Cause::Optimizer);
-        // An ok verdict's message gets no cause.
-        assert_eq!(ok.clone().explained().message, ok.message);
-    }
-
-    #[test]
-    fn terminations_map_to_statuses() {
-        use crate::optimize::Termination as T;
-        assert_eq!(Status::of(&T::Converged), Status::Converged);
-        assert_eq!(Status::of(&T::BudgetExhausted), Status::BudgetExhausted);
-        assert_eq!(Status::of(&T::Stalled), Status::Stalled);
-        assert_eq!(
-            Status::of(&T::Failed {
-                message: "x".into()
-            }),
-            Status::Stalled
-        );
-    }
-}
+mod tests;

@@ -97,7 +97,8 @@ impl Kind for Identify {
     /// cost.json and identifiability.json state `schema_version`;
     /// changes.csv has typed columns (`change_rel`, `identified`); weak final
     /// pairs count as not reproduced, a refit that fits no better refutes the
-    /// implication (issue 26).
+    /// implication; dampers fitted from modes iterate to convergence and
+    /// their damping ratios are judged (cause `damping`) (issue 26).
     fn version(&self) -> u32 {
         16
     }
