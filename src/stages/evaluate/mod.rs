@@ -134,9 +134,11 @@ impl Kind for Evaluate {
     /// titled MAC axes), mode shapes on the geometry. 5: shapes and FRF
     /// channels pair by node and axis, a transducer of opposite sign
     /// flipping the sign (a test's −Z against a model's +Z). 6: metrics.json
-    /// states `schema_version` (issue 28).
+    /// states `schema_version` (issue 28). 7: every FRF channel drawn
+    /// (small multiples, `frf_channels_<position>.svg`), figure titles name
+    /// the candidate, paired shapes sign-aligned and views named by plane.
     fn version(&self) -> u32 {
-        6
+        7
     }
     fn summary(&self) -> &'static str {
         "compare candidate modes/FRFs/parameters with a reference: MAC, MACXP, NFD, NDD, FRAC, CSF, parameter errors, unpaired and ambiguous modes, the identification's verdict"
@@ -225,10 +227,17 @@ impl Kind for Evaluate {
                     "FRAC/CSF against a calibrated FRF (a model's or a measurement's in SI units)",
                 )));
             }
+            // The candidate's stage names the figures (`updated[run=pso]`).
+            let name = ctx
+                .sources
+                .get("candidate_frf")
+                .and_then(|s| s.first())
+                .map_or_else(|| "the candidate".to_string(), |s| s.stage.clone());
             summary.frf = Some(frf::compare_frfs(
                 &r,
                 &c,
                 initial.as_deref(),
+                &name,
                 &tables,
                 &plots,
             )?);

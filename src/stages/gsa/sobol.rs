@@ -230,17 +230,60 @@ fn second_order_csv(report: &sobol::SobolReport, d: usize) -> String {
     csv
 }
 
-/// `sobol.svg`: the ST heatmap, outputs by parameters.
+/// Parameters the ST heatmap shows; the others are one column.
+const HEATMAP_PARAMETERS: usize = 24;
+
+/// `sobol.svg`: the ST heatmap, outputs by parameters — the
+/// [`HEATMAP_PARAMETERS`] parameters with the largest ST (over the
+/// outputs), largest first, and the others as one column of their largest
+/// ST per output, so 78 parameters stay readable.
 fn heatmap_svg(stage: &str, names: &[String], parameters: &[String], st: &[Vec<f64>]) -> String {
+    let top = |j: usize| {
+        st.iter()
+            .filter_map(|row| row.get(j).copied())
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max)
+    };
+    let mut order: Vec<usize> = (0..parameters.len()).collect();
+    order.sort_by(|&a, &b| top(b).total_cmp(&top(a)));
+    let (shown, rest) = order.split_at(order.len().min(HEATMAP_PARAMETERS));
+    let mut columns: Vec<String> = shown.iter().map(|&j| parameters[j].clone()).collect();
+    if !rest.is_empty() {
+        columns.push(format!("other {} (max)", rest.len()));
+    }
+    let values: Vec<Vec<f64>> = st
+        .iter()
+        .map(|row| {
+            let at = |j: usize| row.get(j).copied().unwrap_or(f64::NAN);
+            let mut v: Vec<f64> = shown.iter().map(|&j| at(j)).collect();
+            if !rest.is_empty() {
+                v.push(
+                    rest.iter()
+                        .map(|&j| at(j))
+                        .filter(|x| x.is_finite())
+                        .fold(0.0, f64::max),
+                );
+            }
+            v
+        })
+        .collect();
+    let others = if rest.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; the {} parameters with the largest ST first, the other {} as one column of their largest ST",
+            shown.len(),
+            rest.len()
+        )
+    };
     crate::report::svg::heatmap(
         &format!("Total Sobol indices ST ({stage})"),
         ("model output", names),
-        ("parameter", parameters),
-        st,
+        ("parameter", &columns),
+        &values,
         (0.0, 1.0),
         &format!(
-            "Total Sobol indices ST (Jansen) of every model output (rows) to every parameter (columns), {}",
-            stage
+            "Total Sobol indices ST (Jansen) of every model output (rows) to the parameters (columns), {stage}{others}"
         ),
     )
 }
