@@ -81,7 +81,7 @@ const STYLE: &str = "body{font-family:Helvetica,Arial,sans-serif;max-width:1100p
 table{border-collapse:collapse;margin:1em 0;font-size:0.9em}th,td{border:1px solid #ccc;padding:4px 8px;text-align:right}\
 th{background:#f0f4f8}td:first-child,th:first-child{text-align:left}figure{margin:1.5em 0}figcaption{color:#555;font-size:0.9em}\
 svg{max-width:100%;height:auto}\
-figcaption a{color:#555}td.fail{background:#fdecea;color:#b71c1c;font-weight:bold}td.pass{color:#1b5e20}\
+figcaption a{color:#555}td.fail{background:#fdecea;color:#b71c1c;font-weight:bold}td.pass{color:#1b5e20}td.text{text-align:left}\
 .callout{margin:1em 0;padding:0.6em 1em;border-left:6px solid}.callout p{margin:0;font-weight:bold}.callout ul{margin:0.4em 0 0}\
 .callout.failure{border-color:#c62828;background:#fdecea;color:#b71c1c}.callout.failure p{font-size:1.15em}\
 .callout.warning{border-color:#f9a825;background:#fff8e1}.callout.pass{border-color:#2e7d32;background:#edf7ed}";
@@ -172,6 +172,8 @@ impl Document {
                                 " class=\"fail\""
                             } else if c.starts_with(PASS) {
                                 " class=\"pass\""
+                            } else if is_prose(c) {
+                                " class=\"text\""
                             } else {
                                 ""
                             };
@@ -275,6 +277,13 @@ fn html_list(s: &mut String, items: &[String]) {
         let _ = write!(s, "<li>{}</li>", text(i));
     }
     s.push_str("</ul>\n");
+}
+
+/// A cell of running text (a message, a warning), set flush left: longer
+/// than a number or a short label and mostly letters.
+fn is_prose(c: &str) -> bool {
+    let letters = c.chars().filter(|ch| ch.is_alphabetic()).count();
+    c.chars().count() > 30 && 2 * letters > c.chars().count()
 }
 
 /// A heading's anchor: lower-case ASCII letters and digits, the rest as
@@ -384,6 +393,10 @@ mod tests {
         assert!(html.contains("<td class=\"fail\">✗ failed</td>"), "{html}");
         assert!(html.contains("<td class=\"pass\">✓ ok</td>"), "{html}");
         assert!(html.contains("<td>a</td>"), "plain cells stay plain");
+        assert!(is_prose(
+            "position 2: reference mode without a model partner"
+        ));
+        assert!(!is_prose("[1.064e8, 1.066e8]") && !is_prose("guided"));
         assert_eq!(html.matches("<ul>").count(), 2, "an empty list is dropped");
         let md = d.to_markdown("figures");
         assert!(
