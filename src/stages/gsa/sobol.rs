@@ -360,3 +360,41 @@ fn validate(
     ];
     Ok((v, files))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{heatmap_svg, HEATMAP_PARAMETERS};
+
+    #[test]
+    fn the_heatmap_keeps_the_largest_indices_sorted_and_sums_up_the_rest() {
+        let parameters: Vec<String> = (0..78).map(|k| format!("p{k}")).collect();
+        let outputs: Vec<String> = (0..6).map(|k| format!("mode{k}.frequency")).collect();
+        // ST grows with the parameter's number: p77 matters most.
+        let st: Vec<Vec<f64>> = outputs
+            .iter()
+            .map(|_| (0..78).map(|k| f64::from(k) / 100.0).collect())
+            .collect();
+        let svg = heatmap_svg("gsa", &outputs, &parameters, &st);
+        let columns: Vec<&str> = svg
+            .split("transform=\"rotate(-60")
+            .skip(1)
+            .filter_map(|t| t.split('>').nth(1)?.split('<').next())
+            .collect();
+        assert_eq!(columns.len(), HEATMAP_PARAMETERS + 1, "{columns:?}");
+        assert_eq!(columns[0], "p77");
+        assert_eq!(
+            columns[HEATMAP_PARAMETERS - 1],
+            format!("p{}", 78 - HEATMAP_PARAMETERS)
+        );
+        assert_eq!(
+            columns[HEATMAP_PARAMETERS],
+            format!("other {} (max)", 78 - HEATMAP_PARAMETERS)
+        );
+        // The rest's column holds their largest ST (p53: 0.53).
+        assert!(
+            svg.contains(&format!("other {} (max): 0.53<", 78 - HEATMAP_PARAMETERS)),
+            "{svg}"
+        );
+        assert!(crate::report::lint::check(&svg).is_empty());
+    }
+}

@@ -175,7 +175,37 @@ pub fn parameter_errors(
 
 #[cfg(test)]
 mod tests {
-    use super::{history_rows, staircase};
+    use super::{history_rows, parameter_errors, staircase, TOP_BARS};
+    use crate::report::document::{Block, Document};
+
+    #[test]
+    fn a_large_parameter_chart_shows_the_largest_errors_sorted() {
+        let dir = std::env::temp_dir().join(format!("mf-bars-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let mut csv = String::from("parameter,truth,estimate,relative_error,log10_ratio\n");
+        for k in 0..78 {
+            // p77 has the largest error, p0 the smallest.
+            let rel = 0.001 * f64::from(k + 1);
+            csv.push_str(&format!("p{k},1,{},{rel},0\n", 1.0 + rel));
+        }
+        std::fs::write(dir.join("parameter_errors.csv"), csv).unwrap();
+        let mut doc = Document::new("t");
+        parameter_errors(&mut doc, &[("score".into(), dir.clone())]).unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+        let (_, svg) = doc.figures().next().expect("a figure");
+        let labels: Vec<&str> = svg
+            .split("class=\"category\"")
+            .skip(1)
+            .filter_map(|t| t.split('>').nth(1)?.split('<').next())
+            .collect();
+        assert_eq!(labels.len(), TOP_BARS, "{labels:?}");
+        assert_eq!(labels[0], "p77", "largest first");
+        assert_eq!(labels[TOP_BARS - 1], format!("p{}", 78 - TOP_BARS));
+        let rest = doc.blocks.iter().any(|b| {
+            matches!(b, Block::Paragraph(t) if t.starts_with(&format!("The other {} parameters", 78 - TOP_BARS)))
+        });
+        assert!(rest, "the rest summarized");
+    }
 
     #[test]
     fn curves_reach_the_last_evaluation_and_keep_rows_with_gaps() {
