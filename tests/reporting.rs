@@ -251,6 +251,7 @@ stages:
   score:
     kind: evaluate
     inputs: {reference: truth.modes, candidate: updated.modes, reference_frf: truth.frf, candidate_frf: updated.frf, initial_frf: nominal.frf, truth: truth.truth, estimate: fit.parameters, cost: fit.cost, geometry: truth.model}
+    params: {vertical: z}
   report:
     kind: report
     inputs:
@@ -350,6 +351,9 @@ fn report_leads_with_the_evidence_a_reviewer_asks_for() {
         .count();
     let grid = ws.read(&format!("{dir}/figures/score_plots_frf_channels_0.svg"));
     assert_eq!(grid.matches("· FRAC ").count(), channels, "{grid}");
+    // 7. Views named from the vertical axis.
+    let shapes = ws.read(&format!("{dir}/figures/score_plots_shapes_0.svg"));
+    assert!(shapes.contains(">top x–y (down z)<"), "{shapes}");
     let mut titles = Vec::new();
     let mut problems = Vec::new();
     for entry in std::fs::read_dir(ws.path().join(format!("{dir}/figures"))).unwrap() {

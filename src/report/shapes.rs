@@ -1,8 +1,9 @@
 //! Mode shapes drawn on the structure: each mode deformed (colour) over
-//! the undeformed geometry (grey) in orthographic views named by their
-//! plane and viewing axis — `x–y (along z)`, `x–z (along y)`, `y–z (along
-//! x)`; a model file states no vertical axis, so no view is called "top" —
-//! and animated between ±amplitude with SMIL
+//! the undeformed geometry (grey) in three orthographic views: with the
+//! model's vertical axis given (evaluate's `vertical`), top (looking down
+//! it), front and side (it drawn upward) — a y-up model's top looks down
+//! y —, else named by plane and viewing axis (`x–y (along z)`, …), and
+//! animated between ±amplitude with SMIL
 //! `<animate>` (browsers play it in the HTML report; a still renderer shows
 //! the +amplitude frame). Identified and reference modes of a pair stand
 //! side by side with their frequencies and MAC.
@@ -34,25 +35,51 @@ const VIEW: f64 = 130.0;
 /// Animation period.
 const PERIOD_S: f64 = 1.6;
 
-/// The three views: (name, horizontal axis, vertical axis).
-const VIEWS: [(&str, usize, usize); 3] = [
-    ("x–y (along z)", 0, 1),
-    ("x–z (along y)", 0, 2),
-    ("y–z (along x)", 1, 2),
-];
+/// A view: its name, and the model axes drawn horizontally and upward.
+type View = (String, usize, usize);
+
+const AXES: [&str; 3] = ["x", "y", "z"];
+
+/// The three views. With the model's `vertical` axis v and the others
+/// h₁ < h₂: top (h₁–h₂, looking down v), front (h₁ across, v up) and side
+/// (h₂ across, v up) — a y-up model's top looks down y. Without it, the
+/// planes x–y, x–z, y–z named by the axis they look along.
+fn all_views(vertical: Option<usize>) -> [View; 3] {
+    match vertical {
+        Some(v) if v < 3 => {
+            let [h1, h2] = match v {
+                0 => [1, 2],
+                1 => [0, 2],
+                _ => [0, 1],
+            };
+            let (a, b, up) = (AXES[h1], AXES[h2], AXES[v]);
+            [
+                (format!("top {a}–{b} (down {up})"), h1, h2),
+                (format!("front {a}–{up} ({up} up)"), h1, v),
+                (format!("side {b}–{up} ({up} up)"), h2, v),
+            ]
+        }
+        _ => [
+            ("x–y (along z)".into(), 0, 1),
+            ("x–z (along y)".into(), 0, 2),
+            ("y–z (along x)".into(), 1, 2),
+        ],
+    }
+}
 
 /// The views in which the structure is more than a point (all three when
 /// every one collapses, e.g. a single node).
-fn views(g: &Geometry) -> Vec<(&'static str, usize, usize)> {
+fn views(g: &Geometry, vertical: Option<usize>) -> Vec<View> {
     let (lo, hi, size) = extent(g);
     let flat = |k: usize| hi[k] - lo[k] <= 1e-3 * size;
-    let kept: Vec<_> = VIEWS
+    let all = all_views(vertical);
+    let kept: Vec<View> = all
         .iter()
-        .copied()
         .filter(|v| !(flat(v.1) && flat(v.2)))
+        .cloned()
         .collect();
     if kept.is_empty() {
-        VIEWS.to_vec()
+        all.to_vec()
     } else {
         kept
     }
@@ -160,7 +187,7 @@ fn view(
     lines: &[(u32, u32)],
     d: &Deflection,
     (x0, y0): (f64, f64),
-    v: (&str, usize, usize),
+    v: &View,
     colour: &str,
 ) {
     let (lo, hi, size) = extent(g);
@@ -257,11 +284,12 @@ pub fn figure(
     title: &str,
     caption: &str,
     geometry: &Geometry,
+    vertical: Option<usize>,
     rows: &[(Vec<Drawn<'_>>, String)],
 ) -> String {
     let colours = ["#0072B2", "#D55E00"];
     let gap = 10.0;
-    let views = views(geometry);
+    let views = views(geometry, vertical);
     let lines = trace_lines(geometry);
     let nv = views.len() as f64;
     let per_mode = nv * VIEW + (nv - 1.0) * 6.0;
@@ -307,7 +335,7 @@ pub fn figure(
                     &lines,
                     &d,
                     (x + i as f64 * (VIEW + 6.0), y + LABEL_SIZE + 6.0),
-                    *v,
+                    v,
                     colours[k % 2],
                 );
             }
@@ -362,6 +390,7 @@ mod tests {
             "Mode shapes",
             "caption",
             &g,
+            None,
             &[(
                 vec![Drawn {
                     model: &model,
@@ -420,6 +449,7 @@ mod tests {
             "Shapes",
             "c",
             &g,
+            None,
             &[(vec![drawn(&a), drawn(&b)], "MAC 1".into())],
         );
         // Both partners' deformed lines identical once aligned.
@@ -440,5 +470,17 @@ mod tests {
             "same motion after alignment"
         );
         assert!(y1(deformed[2]).contains(';'));
+    }
+
+    #[test]
+    fn views_follow_the_vertical_axis() {
+        let names = |v: Option<usize>| all_views(v).map(|x| x.0);
+        // A y-up model: top looks down y (x–z), front and side draw y up.
+        let y_up = all_views(Some(1));
+        assert_eq!(y_up[0], ("top x–z (down y)".to_string(), 0, 2));
+        assert_eq!(y_up[1], ("front x–y (y up)".to_string(), 0, 1));
+        assert_eq!(y_up[2], ("side z–y (y up)".to_string(), 2, 1));
+        assert_eq!(names(Some(2))[0], "top x–y (down z)");
+        assert_eq!(names(None)[0], "x–y (along z)");
     }
 }
