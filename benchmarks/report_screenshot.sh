@@ -7,7 +7,10 @@
 #   in pipelines/ that has a report stage) → screenshots/<name>.png
 #
 # SCREENSHOT_HEIGHT sets the page height in px (default 6000: most of a
-# report; Chromium cuts the page there).
+# report; Chromium cuts the page there). Each section (every <h2 id=…>) is
+# also shot on its own, 1280 × SECTION_HEIGHT px (default 2400) from its
+# heading: screenshots/<name>/<section>.png, so every part of a long report
+# can be looked at. Existing results are used when the report is cached.
 set -eu
 out_dir=${SCREENSHOT_DIR:-screenshots}
 height=${SCREENSHOT_HEIGHT:-6000}
@@ -30,9 +33,23 @@ for pipeline in "$@"; do
     # from needing a GPU or a sandbox (running as root in a container).
     chromium --headless --no-sandbox --disable-gpu --disable-quic --no-first-run \
         --disable-background-networking --disable-component-update --disable-sync \
-        --user-data-dir="$profile" --hide-scrollbars --window-size=1280,"$height" \
+        --user-data-dir="$profile/chromium" --hide-scrollbars --window-size=1280,"$height" \
         --screenshot="$out_dir/$name.png" "file://$page" 2>/dev/null
     test -s "$out_dir/$name.png" && echo "$name: screenshot of $page in $out_dir/$name.png"
+    mkdir -p "$out_dir/$name"
+    # A section is shot from a copy of the page that hides everything
+    # before its heading (CSS :has; headless Chromium does not scroll to
+    # a #fragment before its screenshot).
+    for section in $(grep -o '<h2 id="[^"]*"' "$page" | sed 's/<h2 id="//; s/"$//'); do
+        sed "s|</head>|<style>body > *:has(~ #$section){display:none}</style></head>|" \
+            "$page" > "$profile/section.html"
+        chromium --headless --no-sandbox --disable-gpu --disable-quic --no-first-run \
+            --disable-background-networking --disable-component-update --disable-sync \
+            --user-data-dir="$profile/chromium" --hide-scrollbars \
+            --window-size=1280,"${SECTION_HEIGHT:-2400}" \
+            --screenshot="$out_dir/$name/$section.png" "file://$profile/section.html" 2>/dev/null
+    done
+    echo "$name: $(ls "$out_dir/$name" | wc -l) section screenshot(s) in $out_dir/$name/"
     problems=$(grep -c . "$(dirname "$page")/figures/style.txt" || true)
     echo "$name: $problems style problem(s) in figures/style.txt"
 done

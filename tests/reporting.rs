@@ -92,10 +92,7 @@ fn failed_verdicts_are_prominent_in_report_and_compare() {
     let first_div = html
         .find("<div class=\"callout failure\">")
         .expect("failure box");
-    assert!(
-        first_div < html.find("<h2>").unwrap(),
-        "the box comes first"
-    );
+    assert!(first_div < html.find("<h2").unwrap(), "the box comes first");
     for (stage, c) in ["starved", "mismatch"].iter().zip(&failed) {
         assert!(
             first_block.contains(&format!("> - {stage}: {}", c.verdict.message)),
@@ -223,4 +220,164 @@ fn failed_verdicts_are_prominent_in_report_and_compare() {
         "{human}"
     );
     assert!(!human.contains("✗ good"), "{human}");
+}
+
+/// A CI-sized study with everything a reviewer asks for (issue 29): an
+/// initial model (`nominal`, the file values) and an update of it, both
+/// evaluated against the truth's modes and FRFs, and a stage summary
+/// with warnings (a command writes one, with a raw float).
+const EVIDENCE: &str = r#"name: evidence
+stages:
+  truth:
+    kind: synthesize
+    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 0.5}, values: {k1.k_x: 2.4e6, k12.k_x: 1.3e6, k23.k_x: 1.15e6, k3.k_x: 4.2e5}}
+  nominal:
+    kind: synthesize
+    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 0.5}}
+  fit:
+    kind: identify
+    inputs: {model: nominal.model, reference: truth.modes}
+    params: {strategy: black_box, optimizer: slsqp, budget: 3000, window: 0.3}
+  updated:
+    kind: synthesize
+    inputs: {values: fit.parameters}
+    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 0.5}}
+  notes:
+    kind: command
+    params: {cmd: "printf '{\"warnings\": [\"position 0: mode at 45.1 Hz missed (98x the noise)\", \"position 2: mode at 51.25 Hz missed (12x the noise)\", \"k = 1.5000000000000005e6 at its bound\"]}' > summary", outs: [summary]}
+  initial:
+    kind: evaluate
+    inputs: {reference: truth.modes, candidate: nominal.modes, reference_frf: truth.frf, candidate_frf: nominal.frf, truth: truth.truth, estimate: nominal.truth, geometry: truth.model}
+  score:
+    kind: evaluate
+    inputs: {reference: truth.modes, candidate: updated.modes, reference_frf: truth.frf, candidate_frf: updated.frf, initial_frf: nominal.frf, truth: truth.truth, estimate: fit.parameters, cost: fit.cost, geometry: truth.model}
+    params: {vertical: z}
+  report:
+    kind: report
+    inputs:
+      metrics: [score.metrics]
+      tables: [score.tables]
+      initial: initial.metrics
+      initial_tables: initial.tables
+      costs: [fit.cost]
+      histories: [fit.history]
+      parameters: [fit.parameters]
+      warnings: [notes.summary]
+      figures: [score.plots]
+"#;
+
+/// A markdown table row's cells after the first, by its first cell.
+fn row<'a>(md: &'a str, first: &str) -> Vec<&'a str> {
+    md.lines()
+        .find(|l| l.starts_with(&format!("| {first} |")))
+        .unwrap_or_else(|| panic!("no row {first:?} in\n{md}"))
+        .trim_matches('|')
+        .split(" | ")
+        .skip(1)
+        .map(str::trim)
+        .collect()
+}
+
+#[test]
+fn report_leads_with_the_evidence_a_reviewer_asks_for() {
+    let ws = setup();
+    ws.write("p.yaml", EVIDENCE);
+    let out = ws.cmd(&["run", "p.yaml", "--progress", "none"]);
+    let stdout = util::text(&out.stdout);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{stdout}{}",
+        util::text(&out.stderr)
+    );
+    // The command line ends with the count of the warnings the report
+    // lists: the command's 3 and the identification's own.
+    let fit_warnings = ws.cost("results/evidence/fit").verdict.warnings.len();
+    let total = 3 + fit_warnings;
+    assert!(
+        stdout.contains(&format!("report: the report lists {total} warning(s)")),
+        "{stdout}"
+    );
+    let dir = "results/evidence/report/report";
+    let md = ws.read(&format!("{dir}/report.md"));
+    let html = ws.read(&format!("{dir}/index.html"));
+
+    // 1. Initial vs updated, before the accuracy details: the update
+    // raises FRAC and MAC over the initial model's.
+    let evidence = md.find("## Initial vs updated model").expect("section");
+    assert!(evidence < md.find("## Accuracy").unwrap(), "{md}");
+    let num = |c: &str| c.parse::<f64>().unwrap_or_else(|_| panic!("{c:?}"));
+    for criterion in ["mean FRAC", "mean MAC"] {
+        let r = row(&md, criterion);
+        assert!(num(r[0]) < num(r[1]), "{criterion}: {r:?}");
+    }
+    let per_mode = row(&md, "0");
+    assert_eq!(per_mode.len(), 2 + 2 * 2, "{per_mode:?}");
+    assert!(md.contains("](figures/initial_vs_updated.svg)"), "{md}");
+
+    // 2. Warnings collapsed and counted: two differ only in numbers.
+    let stages = 1 + usize::from(fit_warnings > 0);
+    assert!(
+        md.contains(&format!("**⚠ {total} warning(s) from {stages} stage(s)")),
+        "{md}"
+    );
+    assert_eq!(row(&md, "notes")[0], "2×", "{md}");
+
+    // 3. The truth beside the identified parameters.
+    let header = md
+        .lines()
+        .find(|l| l.starts_with("| parameter | value | start |"))
+        .expect("parameter table");
+    assert!(
+        header.contains("| truth | error % | truth in interval |"),
+        "{header}"
+    );
+    assert!(row(&md, "k12.k_x")[5].starts_with("1.3e6"), "{md}");
+
+    // 8. No raw float anywhere in the page.
+    assert!(
+        !html.contains("1.5000000000000005e6"),
+        "raw float in the page"
+    );
+    assert!(md.contains("k = 1.5e6 at its bound"), "{md}");
+
+    // 4. Every FRF channel: one panel per row of frac.csv, and no two
+    // figures share a title.
+    let channels = ws
+        .read("results/evidence/score/tables/frac.csv")
+        .lines()
+        .skip(1)
+        .filter(|l| l.starts_with("0,"))
+        .count();
+    let grid = ws.read(&format!("{dir}/figures/score_plots_frf_channels_0.svg"));
+    assert_eq!(grid.matches("· FRAC ").count(), channels, "{grid}");
+    // 7. Views named from the vertical axis.
+    let shapes = ws.read(&format!("{dir}/figures/score_plots_shapes_0.svg"));
+    assert!(shapes.contains(">top x–y (down z)<"), "{shapes}");
+    let mut titles = Vec::new();
+    let mut problems = Vec::new();
+    for entry in std::fs::read_dir(ws.path().join(format!("{dir}/figures"))).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "svg") {
+            continue;
+        }
+        let svg = std::fs::read_to_string(&path).unwrap();
+        let title = svg
+            .split("font-weight=\"bold\">")
+            .nth(1)
+            .unwrap_or_default();
+        titles.push(title.split('<').next().unwrap_or_default().to_string());
+        // 9. At the page's width: readable fonts, no overlapping labels.
+        problems.extend(
+            modalflow::report::lint::check_rendered(&svg, modalflow::report::lint::PAGE_WIDTH)
+                .into_iter()
+                .map(|p| format!("{}: {p}", path.display())),
+        );
+    }
+    let n = titles.len();
+    titles.sort();
+    titles.dedup();
+    assert_eq!(titles.len(), n, "figure titles repeat: {titles:?}");
+    assert!(problems.is_empty(), "{problems:#?}");
+    util::assert_report_figures(&ws, "evidence");
 }

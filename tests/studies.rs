@@ -58,7 +58,7 @@ fn wear_monitoring_localizes_wear_by_mode() {
     assert!(util::assert_report_figures(&ws, "wear_monitoring") >= 3);
     let html = ws.read("results/wear_monitoring/report/report/index.html");
     assert!(
-        html.contains("<h2>model_anova.anova</h2>"),
+        html.contains("<h2 id=\"model-anova-anova\">model_anova.anova</h2>"),
         "report lacks the tables"
     );
 }

@@ -32,6 +32,7 @@ pub mod modes;
 pub mod parameters;
 pub mod significant;
 mod table;
+pub mod warnings;
 
 pub use kind::Artifact;
 pub use table::{read_json, read_rows, to_csv, to_json, SchemaVersion};

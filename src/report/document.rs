@@ -7,6 +7,7 @@
 //! Markdown, and a table cell that starts with [`FAIL`] (✗) is red and bold
 //! in HTML and bold in Markdown (one that starts with [`PASS`], ✓, green).
 
+use super::format::tidy;
 use super::svg::esc;
 use std::fmt::Write;
 
@@ -80,7 +81,7 @@ const STYLE: &str = "body{font-family:Helvetica,Arial,sans-serif;max-width:1100p
 table{border-collapse:collapse;margin:1em 0;font-size:0.9em}th,td{border:1px solid #ccc;padding:4px 8px;text-align:right}\
 th{background:#f0f4f8}td:first-child,th:first-child{text-align:left}figure{margin:1.5em 0}figcaption{color:#555;font-size:0.9em}\
 svg{max-width:100%;height:auto}\
-figcaption a{color:#555}td.fail{background:#fdecea;color:#b71c1c;font-weight:bold}td.pass{color:#1b5e20}\
+figcaption a{color:#555}td.fail{background:#fdecea;color:#b71c1c;font-weight:bold}td.pass{color:#1b5e20}td.text{text-align:left}\
 .callout{margin:1em 0;padding:0.6em 1em;border-left:6px solid}.callout p{margin:0;font-weight:bold}.callout ul{margin:0.4em 0 0}\
 .callout.failure{border-color:#c62828;background:#fdecea;color:#b71c1c}.callout.failure p{font-size:1.15em}\
 .callout.warning{border-color:#f9a825;background:#fff8e1}.callout.pass{border-color:#2e7d32;background:#edf7ed}";
@@ -141,10 +142,10 @@ impl Document {
             match b {
                 Block::Heading(l, t) => {
                     let l = (*l).clamp(2, 6);
-                    let _ = writeln!(s, "<h{l}>{}</h{l}>", esc(t));
+                    let _ = writeln!(s, "<h{l} id=\"{}\">{}</h{l}>", anchor(t), esc(t));
                 }
                 Block::Paragraph(t) => {
-                    let _ = writeln!(s, "<p>{}</p>", esc(t));
+                    let _ = writeln!(s, "<p>{}</p>", text(t));
                 }
                 Block::List(items) => html_list(&mut s, items),
                 Block::Callout { tone, title, lines } => {
@@ -153,7 +154,7 @@ impl Document {
                         "<div class=\"callout {}\"><p>{} {}</p>",
                         tone.class(),
                         tone.mark(),
-                        esc(title)
+                        text(title)
                     );
                     html_list(&mut s, lines);
                     s.push_str("</div>\n");
@@ -171,10 +172,12 @@ impl Document {
                                 " class=\"fail\""
                             } else if c.starts_with(PASS) {
                                 " class=\"pass\""
+                            } else if is_prose(c) {
+                                " class=\"text\""
                             } else {
                                 ""
                             };
-                            let _ = write!(s, "<td{class}>{}</td>", esc(c));
+                            let _ = write!(s, "<td{class}>{}</td>", text(c));
                         }
                         s.push_str("</tr>\n");
                     }
@@ -187,7 +190,7 @@ impl Document {
                         "<figure{}>{}<figcaption>{} (<a href=\"figures/{}\">SVG</a>, <a href=\"figures/{}.png\">PNG</a>)</figcaption></figure>",
                         if zoomable(file) { " class=\"zoomable\"" } else { "" },
                         strip_prolog(svg),
-                        esc(caption),
+                        text(caption),
                         esc(file),
                         esc(stem)
                     );
@@ -210,27 +213,27 @@ impl Document {
                     let _ = writeln!(s, "{} {t}\n", "#".repeat((*l).clamp(2, 6)));
                 }
                 Block::Paragraph(t) => {
-                    let _ = writeln!(s, "{t}\n");
+                    let _ = writeln!(s, "{}\n", tidy(t));
                 }
                 Block::List(items) => {
                     for i in items {
-                        let _ = writeln!(s, "- {i}");
+                        let _ = writeln!(s, "- {}", tidy(i));
                     }
                     s.push('\n');
                 }
                 Block::Callout { tone, title, lines } => {
-                    let _ = writeln!(s, "> **{} {title}**", tone.mark());
+                    let _ = writeln!(s, "> **{} {}**", tone.mark(), tidy(title));
                     if !lines.is_empty() {
                         s.push_str(">\n");
                     }
                     for l in lines {
-                        let _ = writeln!(s, "> - {l}");
+                        let _ = writeln!(s, "> - {}", tidy(l));
                     }
                     s.push('\n');
                 }
                 Block::Table { header, rows } => {
                     let cell = |c: &str| {
-                        let c = c.replace('|', "\\|");
+                        let c = tidy(c).replace('|', "\\|");
                         if c.starts_with(FAIL) {
                             format!("**{c}**")
                         } else {
@@ -257,7 +260,7 @@ impl Document {
                     s.push('\n');
                 }
                 Block::Figure { caption, file, .. } => {
-                    let _ = writeln!(s, "![{caption}]({figure_dir}/{file})\n");
+                    let _ = writeln!(s, "![{}]({figure_dir}/{file})\n", tidy(caption));
                 }
             }
         }
@@ -271,9 +274,36 @@ fn html_list(s: &mut String, items: &[String]) {
     }
     s.push_str("<ul>");
     for i in items {
-        let _ = write!(s, "<li>{}</li>", esc(i));
+        let _ = write!(s, "<li>{}</li>", text(i));
     }
     s.push_str("</ul>\n");
+}
+
+/// A cell of running text (a message, a warning), set flush left: longer
+/// than a number or a short label and mostly letters.
+fn is_prose(c: &str) -> bool {
+    let letters = c.chars().filter(|ch| ch.is_alphabetic()).count();
+    c.chars().count() > 30 && 2 * letters > c.chars().count()
+}
+
+/// A heading's anchor: lower-case ASCII letters and digits, the rest as
+/// `-` (`Initial vs updated model` → `initial-vs-updated-model`), so a
+/// section can be linked (`index.html#warnings`).
+pub fn anchor(t: &str) -> String {
+    let mut out = String::new();
+    for c in t.chars() {
+        if c.is_ascii_alphanumeric() {
+            out.push(c.to_ascii_lowercase());
+        } else if !out.ends_with('-') && !out.is_empty() {
+            out.push('-');
+        }
+    }
+    out.trim_end_matches('-').to_string()
+}
+
+/// Text for HTML: numbers tidied ([`tidy`]), then escaped.
+fn text(t: &str) -> String {
+    esc(&tidy(t))
 }
 
 /// Dense figures the HTML page lets the reader zoom: FRF overlays and
@@ -326,6 +356,12 @@ mod tests {
         assert!(md.contains("| pso\\|seed=1 | 0.98 |"));
         assert!(md.contains("![MAC matrix](figures/mac.svg)"));
         assert_eq!(d.figures().count(), 1);
+        assert!(html.contains("<h2 id=\"summary\">Summary</h2>"), "{html}");
+        assert_eq!(
+            anchor("Initial vs updated model"),
+            "initial-vs-updated-model"
+        );
+        assert_eq!(anchor("score[run=pso] (1)"), "score-run-pso-1");
     }
 
     #[test]
@@ -357,6 +393,10 @@ mod tests {
         assert!(html.contains("<td class=\"fail\">✗ failed</td>"), "{html}");
         assert!(html.contains("<td class=\"pass\">✓ ok</td>"), "{html}");
         assert!(html.contains("<td>a</td>"), "plain cells stay plain");
+        assert!(is_prose(
+            "position 2: reference mode without a model partner"
+        ));
+        assert!(!is_prose("[1.064e8, 1.066e8]") && !is_prose("guided"));
         assert_eq!(html.matches("<ul>").count(), 2, "an empty list is dropped");
         let md = d.to_markdown("figures");
         assert!(

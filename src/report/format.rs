@@ -63,6 +63,51 @@ pub fn cell(text: &str, is_p_value: bool) -> String {
     }
 }
 
+/// `text` with every float written to more than 6 significant digits
+/// (`1.5000000000000005e6`, `0.30000000000000004`) rewritten to 4
+/// (`1.5e6`, `0.3`); integers, short numbers and anything that is not one
+/// number (`0.1.0`) stay as they are. A net under messages built elsewhere.
+pub fn tidy(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut token = String::new();
+    let flush = |token: &mut String, out: &mut String| {
+        out.push_str(&tidy_token(token));
+        token.clear();
+    };
+    let mut prev: Option<char> = None;
+    for c in text.chars() {
+        let continues = c.is_ascii_digit()
+            || (!token.is_empty() && matches!(c, '.' | 'e' | 'E'))
+            || (matches!(c, '-' | '+') && matches!(prev, Some('e' | 'E')) && !token.is_empty());
+        if continues {
+            token.push(c);
+        } else {
+            flush(&mut token, &mut out);
+            out.push(c);
+        }
+        prev = Some(c);
+    }
+    flush(&mut token, &mut out);
+    out
+}
+
+fn tidy_token(token: &str) -> String {
+    // A sentence's full stop (or a stray exponent letter) is not part of it.
+    let body = token.trim_end_matches(['.', 'e', 'E']);
+    let tail = &token[body.len()..];
+    let mantissa = body.split(['e', 'E']).next().unwrap_or_default();
+    let digits = mantissa
+        .chars()
+        .filter(char::is_ascii_digit)
+        .skip_while(|c| *c == '0')
+        .count();
+    let float = mantissa.contains('.') || body.contains(['e', 'E']);
+    match body.parse::<f64>() {
+        Ok(v) if float && digits > 6 => format!("{}{tail}", sig(v, 4)),
+        _ => token.to_string(),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -96,5 +141,22 @@ mod tests {
         assert_eq!(tick(150.0, 50.0), "150");
         assert_eq!(tick(-180.0, 90.0), "-180");
         assert_eq!(tick(2.0e6, 5e5), "2e6");
+    }
+
+    #[test]
+    fn tidy_rewrites_long_floats_only() {
+        assert_eq!(
+            tidy("k1.k_x = 1.5000000000000005e6 at its bound."),
+            "k1.k_x = 1.5e6 at its bound."
+        );
+        assert_eq!(
+            tidy("ratio 0.30000000000000004, 20000 evaluations"),
+            "ratio 0.3, 20000 evaluations"
+        );
+        assert_eq!(
+            tidy("v0.1.0, mode 3 at 45.12 Hz"),
+            "v0.1.0, mode 3 at 45.12 Hz"
+        );
+        assert_eq!(tidy("x = 123.45678901."), "x = 123.5.");
     }
 }

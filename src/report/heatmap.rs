@@ -22,7 +22,9 @@ pub fn heatmap(
 ) -> String {
     let (row_title, rows) = rows;
     let (col_title, cols) = cols;
-    let n = rows.len().max(cols.len());
+    // The columns set the cell size; many rows only make the map taller
+    // (99 outputs × 25 parameters stay readable at 14 px).
+    let n = cols.len().max(rows.len() / 2);
     let cell: f64 = if n > 60 {
         9.0
     } else if n > 30 {

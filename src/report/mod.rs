@@ -8,6 +8,7 @@ pub mod axis;
 pub mod bars;
 pub mod document;
 pub mod format;
+pub mod grid;
 pub mod heatmap;
 pub mod lint;
 pub mod raster;

@@ -17,6 +17,7 @@ use super::style::{
 use std::fmt::Write;
 
 pub use super::bars::bars;
+pub use super::grid::small_multiples;
 pub use super::heatmap::heatmap;
 
 /// A data series of a [`Plot`].
@@ -113,12 +114,12 @@ impl Plot {
         stacked(&self.title, &self.caption, std::slice::from_ref(self))
     }
 
-    fn visible(&self, p: &(f64, f64)) -> bool {
+    pub(super) fn visible(&self, p: &(f64, f64)) -> bool {
         p.0.is_finite() && p.1.is_finite() && (!self.y_log || p.1 > 0.0)
     }
 
     /// The y axis: (lo, hi) in axis units (log10 on a log axis) and ticks.
-    fn y_axis(&self) -> (f64, f64, Ticks) {
+    pub(super) fn y_axis(&self) -> (f64, f64, Ticks) {
         if let Some((lo, hi, step)) = self.y_fixed {
             let n = ((hi - lo) / step).round() as i64;
             let at: Vec<f64> = (0..=n).map(|k| lo + k as f64 * step).collect();
@@ -140,7 +141,7 @@ impl Plot {
         }
     }
 
-    fn x_range(&self) -> (f64, f64) {
+    pub(super) fn x_range(&self) -> (f64, f64) {
         let (lo, hi) = axis::range(
             self.series
                 .iter()
@@ -152,7 +153,7 @@ impl Plot {
 }
 
 /// Left margin a panel's y tick labels and title need.
-fn left_margin(ticks: &Ticks) -> f64 {
+pub(super) fn left_margin(ticks: &Ticks) -> f64 {
     let widest = ticks
         .labels
         .iter()
@@ -213,6 +214,8 @@ pub fn stacked(title: &str, caption: &str, panels: &[Plot]) -> String {
             ph: p.height,
             x: (x0, x1),
             y: (yax.0, yax.1),
+            y_title_x: LABEL_SIZE,
+            clip: clip_id(title, caption, k),
         };
         panel(&mut s, p, &frame, &yax.2, last);
         y += p.height + gap;
@@ -223,13 +226,17 @@ pub fn stacked(title: &str, caption: &str, panels: &[Plot]) -> String {
 }
 
 /// Where a panel's data go.
-struct Frame {
-    l: f64,
-    t: f64,
-    pw: f64,
-    ph: f64,
-    x: (f64, f64),
-    y: (f64, f64),
+pub(super) struct Frame {
+    pub l: f64,
+    pub t: f64,
+    pub pw: f64,
+    pub ph: f64,
+    pub x: (f64, f64),
+    pub y: (f64, f64),
+    /// Where the y-axis title stands (its x), left of the tick labels.
+    pub y_title_x: f64,
+    /// The clip path's id, unique in a page that inlines many figures.
+    pub clip: String,
 }
 
 impl Frame {
@@ -241,7 +248,14 @@ impl Frame {
     }
 }
 
-fn panel(s: &mut String, p: &Plot, f: &Frame, y_ticks: &Ticks, with_x_title: bool) {
+/// A clip-path id from the figure's title and caption and the panel's
+/// number: figures inlined in one HTML page must not share ids.
+pub(super) fn clip_id(title: &str, caption: &str, k: usize) -> String {
+    let h = blake3::hash(format!("{title}\u{1f}{caption}").as_bytes());
+    format!("c{}-{k}", &h.to_hex()[..10])
+}
+
+pub(super) fn panel(s: &mut String, p: &Plot, f: &Frame, y_ticks: &Ticks, with_x_title: bool) {
     let (l, t, pw, ph) = (f.l, f.t, f.pw, f.ph);
     let _ = write!(
         s,
@@ -290,17 +304,17 @@ fn panel(s: &mut String, p: &Plot, f: &Frame, y_ticks: &Ticks, with_x_title: boo
             esc(label)
         );
     }
-    let cy = t + ph / 2.0;
+    let (cy, tx) = (t + ph / 2.0, f.y_title_x);
     let _ = write!(
         s,
-        r#"<text class="axis-title" x="{LABEL_SIZE}" y="{cy:.1}" font-size="{LABEL_SIZE}" text-anchor="middle" transform="rotate(-90 {LABEL_SIZE} {cy:.1})">{}</text>"#,
+        r#"<text class="axis-title" x="{tx:.1}" y="{cy:.1}" font-size="{LABEL_SIZE}" text-anchor="middle" transform="rotate(-90 {tx:.1} {cy:.1})">{}</text>"#,
         esc(&p.y_label)
     );
     s.push_str("</g>");
     let _ = write!(
         s,
-        r#"<clipPath id="c{:.0}"><rect x="{l:.1}" y="{t:.1}" width="{pw:.1}" height="{ph:.1}"/></clipPath><g class="data" clip-path="url(#c{:.0})">"#,
-        t, t
+        r#"<clipPath id="{0}"><rect x="{l:.1}" y="{t:.1}" width="{pw:.1}" height="{ph:.1}"/></clipPath><g class="data" clip-path="url(#{0})">"#,
+        f.clip
     );
     for (x, label) in &p.vlines {
         let px = f.sx(*x);
@@ -362,7 +376,7 @@ fn panel(s: &mut String, p: &Plot, f: &Frame, y_ticks: &Ticks, with_x_title: boo
     s.push_str("</g>");
 }
 
-fn legend_box(s: &mut String, series: &[&Series], x: f64, top: f64) {
+pub(super) fn legend_box(s: &mut String, series: &[&Series], x: f64, top: f64) {
     for (k, series) in series.iter().enumerate() {
         let y = top + 10.0 + 18.0 * k as f64;
         let sample = match series.marker {

@@ -96,8 +96,10 @@ impl Kind for Gsa {
     ///    rule, docs/screening.md); the
     ///    validation draws a coordinate for every parameter (common random
     ///    numbers), so its samples differ from version 7's.
+    /// 10: sobol.svg shows the 24 parameters with the largest ST, sorted,
+    ///    and the rest as one column (issue 29); the indices are unchanged.
     fn version(&self) -> u32 {
-        9
+        10
     }
 
     fn summary(&self) -> &'static str {

@@ -217,5 +217,41 @@ pub fn summary(report: &RunReport, dry: bool) -> String {
             String::new()
         }
     ));
+    if !dry {
+        out.push_str(&warning_count(report));
+    }
+    out
+}
+
+/// `3 warning(s): gsa 1, measured 2; the report lists 27 warning(s) of
+/// the stages it reads: results/…/index.html` — the stages' own warnings
+/// and what a report stage collected (its `warnings` counter), or nothing.
+fn warning_count(report: &RunReport) -> String {
+    let per_stage: Vec<(&str, usize)> = report
+        .stages
+        .iter()
+        .filter(|r| !r.warnings.is_empty())
+        .map(|r| (r.name.as_str(), r.warnings.len()))
+        .collect();
+    let total: usize = per_stage.iter().map(|(_, n)| n).sum();
+    let mut out = String::new();
+    if total > 0 {
+        out.push_str(&format!(
+            "{total} stage warning(s): {}\n",
+            per_stage
+                .iter()
+                .map(|(s, n)| format!("{s} {n}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    for r in &report.stages {
+        if let Some(&n) = r.counters.get("warnings").filter(|n| **n > 0) {
+            out.push_str(&format!(
+                "{}: the report lists {n} warning(s) of the stages it reads (its Warnings section)\n",
+                r.name
+            ));
+        }
+    }
     out
 }

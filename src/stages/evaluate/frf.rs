@@ -1,7 +1,9 @@
 //! FRF comparison of the evaluate kind: FRAC and CSF (eq. 2.66–2.67) of
 //! every channel the candidate shares with the reference, on their common
 //! frequency lines, with overlays (reference, optional initial model,
-//! candidate) per position. Writes `frac.csv` and `frf_<position>.svg`.
+//! candidate) per position. Writes `frac.csv`, `frf_<position>.svg` (the
+//! first channel's magnitude and phase) and `frf_channels_<position>.svg`
+//! (every channel's magnitude, small multiples).
 //!
 //! FRFs are compared in the reference's quantity: a candidate (or initial)
 //! set of another quantity is converted by (jω)ⁿ first
@@ -34,6 +36,7 @@ pub fn compare_frfs(
     reference: &[FrfSet],
     candidate: &[FrfSet],
     initial: Option<&[FrfSet]>,
+    candidate_name: &str,
     tables: &Path,
     plots: &Path,
 ) -> Result<FrfMetrics, StageError> {
@@ -118,6 +121,7 @@ pub fn compare_frfs(
             }
             overlay.add(
                 &format!("{}/{}", ch.response, ch.reference),
+                fr,
                 &f,
                 &a,
                 before.as_deref(),
@@ -126,10 +130,13 @@ pub fn compare_frfs(
             fracs.push(fr);
             csfs.push(cs);
         }
-        write(
-            &plots.join(format!("frf_{}.svg", r.position.index)),
-            overlay.to_svg(r, initial.is_some()),
-        )?;
+        if let Some([one, all]) = overlay.to_svgs(r, initial.is_some(), candidate_name) {
+            write(&plots.join(format!("frf_{}.svg", r.position.index)), one)?;
+            write(
+                &plots.join(format!("frf_channels_{}.svg", r.position.index)),
+                all,
+            )?;
+        }
         positions.push(PositionFrf {
             position: r.position.index,
             label: r.position.label.clone(),
@@ -155,18 +162,53 @@ pub fn compare_frfs(
     })
 }
 
-/// Magnitude and phase panels of up to two channels (style guide rule 5):
-/// per channel the reference dashed beneath, the initial model dotted and
-/// the candidate solid on top.
+/// Per position: magnitude and phase of the first channel (style guide
+/// rule 5) and every channel's magnitude as small multiples — the
+/// reference dashed beneath, the initial model dotted and the candidate
+/// solid on top. Titles name the candidate, so the overlays of several
+/// evaluate stages in one report differ.
 struct Overlay {
     magnitude: Plot,
     phase: Plot,
-    channels: usize,
+    first: String,
+    multiples: Vec<Plot>,
+    y_label: String,
+}
+
+/// The series of one channel: reference, initial model, candidate.
+fn channel_series(
+    f: &[f64],
+    reference: &[Complex64],
+    initial: Option<&[Complex64]>,
+    candidate: &[Complex64],
+    g: fn(&Complex64) -> f64,
+) -> Vec<Series> {
+    let curve = |h: &[Complex64]| -> Vec<(f64, f64)> {
+        let mut out: Vec<(f64, f64)> = Vec::with_capacity(h.len());
+        for (f, h) in f.iter().zip(h) {
+            let v = g(h);
+            // A phase wrap (a jump over 180°) breaks the line.
+            if out.last().is_some_and(|&(_, u)| (v - u).abs() > 180.0) {
+                out.push((*f, f64::NAN));
+            }
+            out.push((*f, v));
+        }
+        out
+    };
+    let mut out = vec![Series::reference("reference", curve(reference))];
+    if let Some(h0) = initial {
+        let mut s = Series::line("initial model", curve(h0), PALETTE[2]);
+        s.dash = Some("2 2".into());
+        out.push(s);
+    }
+    out.push(Series::line("candidate", curve(candidate), PALETTE[0]));
+    out
 }
 
 impl Overlay {
     fn new(q: crate::frf::FrfQuantity) -> Overlay {
-        let mut magnitude = Plot::new("", "frequency [Hz]", &format!("|H| [{}]", q.si_unit()));
+        let y_label = format!("|H| [{}]", q.si_unit());
+        let mut magnitude = Plot::new("", "frequency [Hz]", &y_label);
         magnitude.y_log = true;
         magnitude.height = 260.0;
         let mut phase = Plot::new("", "frequency [Hz]", "phase [°]");
@@ -175,79 +217,75 @@ impl Overlay {
         Overlay {
             magnitude,
             phase,
-            channels: 0,
+            first: String::new(),
+            multiples: Vec::new(),
+            y_label,
         }
     }
 
     fn add(
         &mut self,
         name: &str,
+        frac: f64,
         f: &[f64],
         reference: &[Complex64],
         initial: Option<&[Complex64]>,
         candidate: &[Complex64],
     ) {
-        if self.channels == 2 {
-            return;
-        }
-        let k = self.channels;
-        self.channels += 1;
-        let curve = |h: &[Complex64], g: fn(&Complex64) -> f64| -> Vec<(f64, f64)> {
-            let mut out: Vec<(f64, f64)> = Vec::with_capacity(h.len());
-            for (f, h) in f.iter().zip(h) {
-                let v = g(h);
-                // A phase wrap (a jump over 180°) breaks the line.
-                if out.last().is_some_and(|&(_, u)| (v - u).abs() > 180.0) {
-                    out.push((*f, f64::NAN));
-                }
-                out.push((*f, v));
-            }
-            out
-        };
         let mag = |h: &Complex64| h.norm();
         let deg = |h: &Complex64| h.arg().to_degrees();
-        let reference_colour = ["#222222", "#8c8c8c"][k];
-        for (plot, g) in [
-            (&mut self.magnitude, mag as fn(&Complex64) -> f64),
-            (&mut self.phase, deg),
-        ] {
-            let mut r = Series::reference(format!("{name} reference"), curve(reference, g));
-            r.color = reference_colour.into();
-            plot.series.push(r);
-            if let Some(h0) = initial {
-                let mut s = Series::line(
-                    format!("{name} initial model"),
-                    curve(h0, g),
-                    PALETTE[2 + k],
-                );
-                s.dash = Some("2 2".into());
-                plot.series.push(s);
-            }
-            plot.series.push(Series::line(
-                format!("{name} candidate"),
-                curve(candidate, g),
-                PALETTE[k],
-            ));
+        if self.multiples.is_empty() {
+            self.first = name.to_string();
+            self.magnitude.series = channel_series(f, reference, initial, candidate, mag);
+            self.phase.series = channel_series(f, reference, initial, candidate, deg);
         }
+        let title = format!("{name} · FRAC {}", crate::report::format::sig(frac, 3));
+        let mut p = Plot::new(&title, "frequency [Hz]", &self.y_label);
+        p.y_log = true;
+        p.width = 230.0;
+        p.height = 120.0;
+        p.series = channel_series(f, reference, initial, candidate, mag);
+        self.multiples.push(p);
     }
 
-    fn to_svg(&self, r: &FrfSet, with_initial: bool) -> String {
+    /// The first channel's magnitude and phase, and every channel's
+    /// magnitude (`None` without channels).
+    fn to_svgs(&self, r: &FrfSet, with_initial: bool, candidate: &str) -> Option<[String; 2]> {
+        if self.multiples.is_empty() {
+            return None;
+        }
         let at = if r.position.label.is_empty() {
             format!("position {}", r.position.index)
         } else {
             format!("position {} ({})", r.position.index, r.position.label)
         };
-        let caption = format!(
-            "FRF overlay, {at}: magnitude and phase of the reference (dashed){} and the candidate (solid) as {} in {}, the first {} channel(s)",
-            if with_initial { ", the initial model (dotted)" } else { "" },
+        let lines = format!(
+            "the reference (dashed){} and {candidate} (solid) as {} in {}",
+            if with_initial {
+                ", the initial model (dotted)"
+            } else {
+                ""
+            },
             r.quantity.name(),
             r.quantity.si_unit(),
-            self.channels
         );
-        stacked(
-            &format!("FRF overlay, {at}"),
-            &caption,
+        let one = stacked(
+            &format!("FRF of {candidate}, {at}, channel {}", self.first),
+            &format!(
+                "FRF, {at}, channel {} (response/reference): magnitude and phase of {lines}",
+                self.first
+            ),
             &[self.magnitude.clone(), self.phase.clone()],
-        )
+        );
+        let n = self.multiples.len();
+        let all = crate::report::svg::small_multiples(
+            &format!("All {n} FRF channels of {candidate}, {at}"),
+            &format!(
+                "Magnitude of every FRF channel (response/reference, with its FRAC), {at}: {lines}; one panel per channel"
+            ),
+            &self.multiples,
+            3,
+        );
+        Some([one, all])
     }
 }

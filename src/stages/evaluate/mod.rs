@@ -45,6 +45,20 @@ crate::params! {
         /// a pair whose margin (cost increase if it were forbidden) is below
         /// this is ambiguous
         pub ambiguity: f64 = Pairing::default().ambiguity; range Range::at_least(0.0),
+        /// the model's vertical axis (`x`, `y` or `z`): mode-shape views are
+        /// then named top, front and side, the vertical axis drawn upward;
+        /// without it, views are named by their plane
+        pub vertical: Option<String> = None,
+    }
+}
+
+/// The index (0–2) of the `vertical` param's axis, if given and valid.
+fn vertical_axis(p: &Params) -> Option<usize> {
+    match p.vertical.as_deref()? {
+        "x" => Some(0),
+        "y" => Some(1),
+        "z" => Some(2),
+        _ => None,
     }
 }
 
@@ -134,9 +148,11 @@ impl Kind for Evaluate {
     /// titled MAC axes), mode shapes on the geometry. 5: shapes and FRF
     /// channels pair by node and axis, a transducer of opposite sign
     /// flipping the sign (a test's −Z against a model's +Z). 6: metrics.json
-    /// states `schema_version` (issue 28).
+    /// states `schema_version` (issue 28). 7: every FRF channel drawn
+    /// (small multiples, `frf_channels_<position>.svg`), figure titles name
+    /// the candidate, paired shapes sign-aligned and views named by plane.
     fn version(&self) -> u32 {
-        6
+        7
     }
     fn summary(&self) -> &'static str {
         "compare candidate modes/FRFs/parameters with a reference: MAC, MACXP, NFD, NDD, FRAC, CSF, parameter errors, unpaired and ambiguous modes, the identification's verdict"
@@ -150,7 +166,7 @@ impl Kind for Evaluate {
         ("plots", Artifact::Figure),
     ];
     fn check(&self, p: &Params) -> Vec<ParamProblem> {
-        match pairing(p).check() {
+        let mut problems = match pairing(p).check() {
             Ok(()) => Vec::new(),
             // The message starts with the setting's name, which is the param's.
             Err(message) => vec![ParamProblem::new(
@@ -158,7 +174,15 @@ impl Kind for Evaluate {
                 message.clone(),
                 "see `modalflow kinds` for the evaluate params",
             )],
+        };
+        if let (Some(v), None) = (&p.vertical, vertical_axis(p)) {
+            problems.push(ParamProblem::new(
+                &["vertical"],
+                format!("`{v}` is not an axis"),
+                "write x, y or z (the model's vertical axis)",
+            ));
         }
+        problems
     }
     fn check_inputs(&self, _p: &Params, bound: &[&str]) -> Vec<ParamProblem> {
         let has = |n: &str| bound.contains(&n);
@@ -199,6 +223,7 @@ impl Kind for Evaluate {
                 &candidate,
                 &settings,
                 geometry.as_ref().map(|_| &at as &dyn Fn(u32) -> Option<_>),
+                vertical_axis(p),
                 &tables,
                 &plots,
             )?);
@@ -225,10 +250,17 @@ impl Kind for Evaluate {
                     "FRAC/CSF against a calibrated FRF (a model's or a measurement's in SI units)",
                 )));
             }
+            // The candidate's stage names the figures (`updated[run=pso]`).
+            let name = ctx
+                .sources
+                .get("candidate_frf")
+                .and_then(|s| s.first())
+                .map_or_else(|| "the candidate".to_string(), |s| s.stage.clone());
             summary.frf = Some(frf::compare_frfs(
                 &r,
                 &c,
                 initial.as_deref(),
+                &name,
                 &tables,
                 &plots,
             )?);

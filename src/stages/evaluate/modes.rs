@@ -38,6 +38,7 @@ pub fn compare_modes(
     candidate: &[ModalModel],
     settings: &Pairing,
     geometry: Option<&dyn Fn(u32) -> Option<Geometry>>,
+    vertical: Option<usize>,
     tables: &Path,
     plots: &Path,
 ) -> Result<ModeMetrics, StageError> {
@@ -94,7 +95,7 @@ pub fn compare_modes(
         no_damping += p.no_damping;
         if let Some(g) = geometry.filter(|_| !frequency_only) {
             if let Some(g) = g(r.position.index) {
-                shape_figure(r, c, &p.pairs, &g, plots)?;
+                shape_figure(r, c, &p.pairs, (&g, vertical), plots)?;
             }
         }
         for row in &p.rows {
@@ -231,7 +232,7 @@ fn shape_figure(
     r: &ModalModel,
     c: &ModalModel,
     pairs: &[Pair],
-    g: &Geometry,
+    (g, vertical): (&Geometry, Option<usize>),
     plots: &Path,
 ) -> Result<(), StageError> {
     let rows: Vec<(Vec<Drawn<'_>>, String)> = pairs
@@ -254,9 +255,10 @@ fn shape_figure(
     let svg = shapes::figure(
         &format!("Paired mode shapes, {at}"),
         &format!(
-            "Reference (blue) and candidate (orange) mode shapes of every pair, {at}, deformed over the undeformed structure (grey) in three views; animated in the HTML report"
+            "Reference (blue) and candidate (orange) mode shapes of every pair, {at}, deformed over the undeformed structure (grey), the candidate sign-aligned with its reference; animated in the HTML report"
         ),
         g,
+        vertical,
         &rows,
     );
     write(

@@ -230,17 +230,60 @@ fn second_order_csv(report: &sobol::SobolReport, d: usize) -> String {
     csv
 }
 
-/// `sobol.svg`: the ST heatmap, outputs by parameters.
+/// Parameters the ST heatmap shows; the others are one column.
+const HEATMAP_PARAMETERS: usize = 24;
+
+/// `sobol.svg`: the ST heatmap, outputs by parameters — the
+/// [`HEATMAP_PARAMETERS`] parameters with the largest ST (over the
+/// outputs), largest first, and the others as one column of their largest
+/// ST per output, so 78 parameters stay readable.
 fn heatmap_svg(stage: &str, names: &[String], parameters: &[String], st: &[Vec<f64>]) -> String {
+    let top = |j: usize| {
+        st.iter()
+            .filter_map(|row| row.get(j).copied())
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max)
+    };
+    let mut order: Vec<usize> = (0..parameters.len()).collect();
+    order.sort_by(|&a, &b| top(b).total_cmp(&top(a)));
+    let (shown, rest) = order.split_at(order.len().min(HEATMAP_PARAMETERS));
+    let mut columns: Vec<String> = shown.iter().map(|&j| parameters[j].clone()).collect();
+    if !rest.is_empty() {
+        columns.push(format!("other {} (max)", rest.len()));
+    }
+    let values: Vec<Vec<f64>> = st
+        .iter()
+        .map(|row| {
+            let at = |j: usize| row.get(j).copied().unwrap_or(f64::NAN);
+            let mut v: Vec<f64> = shown.iter().map(|&j| at(j)).collect();
+            if !rest.is_empty() {
+                v.push(
+                    rest.iter()
+                        .map(|&j| at(j))
+                        .filter(|x| x.is_finite())
+                        .fold(0.0, f64::max),
+                );
+            }
+            v
+        })
+        .collect();
+    let others = if rest.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; the {} parameters with the largest ST first, the other {} as one column of their largest ST",
+            shown.len(),
+            rest.len()
+        )
+    };
     crate::report::svg::heatmap(
         &format!("Total Sobol indices ST ({stage})"),
         ("model output", names),
-        ("parameter", parameters),
-        st,
+        ("parameter", &columns),
+        &values,
         (0.0, 1.0),
         &format!(
-            "Total Sobol indices ST (Jansen) of every model output (rows) to every parameter (columns), {}",
-            stage
+            "Total Sobol indices ST (Jansen) of every model output (rows) to the parameters (columns), {stage}{others}"
         ),
     )
 }
@@ -316,4 +359,42 @@ fn validate(
         ("validation_plot".into(), plot),
     ];
     Ok((v, files))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{heatmap_svg, HEATMAP_PARAMETERS};
+
+    #[test]
+    fn the_heatmap_keeps_the_largest_indices_sorted_and_sums_up_the_rest() {
+        let parameters: Vec<String> = (0..78).map(|k| format!("p{k}")).collect();
+        let outputs: Vec<String> = (0..6).map(|k| format!("mode{k}.frequency")).collect();
+        // ST grows with the parameter's number: p77 matters most.
+        let st: Vec<Vec<f64>> = outputs
+            .iter()
+            .map(|_| (0..78).map(|k| f64::from(k) / 100.0).collect())
+            .collect();
+        let svg = heatmap_svg("gsa", &outputs, &parameters, &st);
+        let columns: Vec<&str> = svg
+            .split("transform=\"rotate(-60")
+            .skip(1)
+            .filter_map(|t| t.split('>').nth(1)?.split('<').next())
+            .collect();
+        assert_eq!(columns.len(), HEATMAP_PARAMETERS + 1, "{columns:?}");
+        assert_eq!(columns[0], "p77");
+        assert_eq!(
+            columns[HEATMAP_PARAMETERS - 1],
+            format!("p{}", 78 - HEATMAP_PARAMETERS)
+        );
+        assert_eq!(
+            columns[HEATMAP_PARAMETERS],
+            format!("other {} (max)", 78 - HEATMAP_PARAMETERS)
+        );
+        // The rest's column holds their largest ST (p53: 0.53).
+        assert!(
+            svg.contains(&format!("other {} (max): 0.53<", 78 - HEATMAP_PARAMETERS)),
+            "{svg}"
+        );
+        assert!(crate::report::lint::check(&svg).is_empty());
+    }
 }

@@ -7,13 +7,50 @@
 //!
 //! A parameter the data do not determine is marked ✗: its value is one of
 //! many that fit equally well, not a measurement.
+//!
+//! When an evaluate stage had the truth (its `parameter_errors.csv` in the
+//! bound `tables`), the table shows the true value, the error and whether
+//! the 95 % interval holds the truth (✗ when not).
 
 use super::{pct, sig4};
 use crate::artifacts::identifiability::IdentifiabilityFile;
 use crate::artifacts::parameters::{read_identified, ParameterRow};
 use crate::report::document::{Document, Tone};
 use crate::stages::StageError;
+use std::collections::BTreeMap;
 use std::path::PathBuf;
+
+/// The true parameter values from evaluate tables (`parameter_errors.csv`:
+/// `parameter,truth,…`); a parameter whose truths disagree between stages
+/// is left out.
+pub fn truth(tables: &[(String, PathBuf)]) -> BTreeMap<String, f64> {
+    let mut out: BTreeMap<String, Option<f64>> = BTreeMap::new();
+    for (_, dir) in tables {
+        let Ok(text) = std::fs::read_to_string(dir.join("parameter_errors.csv")) else {
+            continue;
+        };
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap_or_default().split(',').collect();
+        let col = |n: &str| header.iter().position(|h| *h == n);
+        let (Some(c_name), Some(c_truth)) = (col("parameter"), col("truth")) else {
+            continue;
+        };
+        for line in lines {
+            let f: Vec<&str> = line.split(',').collect();
+            let (Some(name), Some(t)) = (
+                f.get(c_name),
+                f.get(c_truth).and_then(|v| v.parse::<f64>().ok()),
+            ) else {
+                continue;
+            };
+            let e = out.entry(name.to_string()).or_insert(Some(t));
+            if *e != Some(t) {
+                *e = None;
+            }
+        }
+    }
+    out.into_iter().filter_map(|(k, v)| Some((k, v?))).collect()
+}
 
 /// Stages in order of first appearance in either list.
 fn stages<'a>(a: &'a [(String, PathBuf)], b: &'a [(String, PathBuf)]) -> Vec<&'a str> {
@@ -30,8 +67,10 @@ pub fn identifiability(
     doc: &mut Document,
     analyses: &[(String, PathBuf)],
     parameters: &[(String, PathBuf)],
+    tables: &[(String, PathBuf)],
 ) -> Result<(), StageError> {
     let names = stages(analyses, parameters);
+    let truth = truth(tables);
     if names.is_empty() {
         return Ok(());
     }
@@ -61,7 +100,7 @@ pub fn identifiability(
             undetermined(doc, a);
         }
         match (&rows, &analysis) {
-            (Some(rows), _) => parameter_table(doc, rows, analysis.as_ref()),
+            (Some(rows), _) => parameter_table(doc, rows, analysis.as_ref(), &truth),
             (None, Some(a)) => analysis_table(doc, &a.analysis),
             (None, None) => {}
         }
@@ -114,7 +153,15 @@ fn identifiable_cell(identifiable: Option<bool>, structural: Option<bool>) -> St
     }
 }
 
-fn parameter_table(doc: &mut Document, rows: &[ParameterRow], a: Option<&IdentifiabilityFile>) {
+fn parameter_table(
+    doc: &mut Document,
+    rows: &[ParameterRow],
+    a: Option<&IdentifiabilityFile>,
+    truth: &BTreeMap<String, f64>,
+) {
+    let with_truth = rows
+        .iter()
+        .any(|r| r.identified && truth.contains_key(&r.parameter));
     let structural = |name: &str| {
         a.and_then(|a| {
             a.analysis
@@ -132,29 +179,32 @@ fn parameter_table(doc: &mut Document, rows: &[ParameterRow], a: Option<&Identif
                 (Some(lo), Some(hi)) => format!("[{}, {}]", sig4(Some(lo)), sig4(Some(hi))),
                 _ => "–".into(),
             };
-            vec![
+            let mut row = vec![
                 r.parameter.clone(),
                 sig4(Some(r.value)),
                 sig4(Some(r.initial)),
                 pct(r.std_error_rel),
                 interval,
                 identifiable_cell(r.identifiable, structural(&r.parameter)),
-            ]
+            ];
+            if with_truth {
+                row.extend(truth_cells(r, truth.get(&r.parameter).copied()));
+            }
+            row
         })
         .collect();
-    doc.table(
-        [
-            "parameter",
-            "value",
-            "start",
-            "std error %",
-            "95 % interval",
-            "identifiable",
-        ]
-        .map(String::from)
-        .to_vec(),
-        table,
-    );
+    let mut header = vec![
+        "parameter",
+        "value",
+        "start",
+        "std error %",
+        "95 % interval",
+        "identifiable",
+    ];
+    if with_truth {
+        header.extend(["truth", "error %", "truth in interval"]);
+    }
+    doc.table(header.into_iter().map(String::from).collect(), table);
     let held: Vec<&str> = rows
         .iter()
         .filter(|r| !r.identified)
@@ -173,6 +223,24 @@ fn parameter_table(doc: &mut Document, rows: &[ParameterRow], a: Option<&Identif
             }
         ));
     }
+}
+
+/// The truth, the error (value − truth)/truth and whether the interval
+/// holds the truth.
+fn truth_cells(r: &ParameterRow, truth: Option<f64>) -> [String; 3] {
+    let Some(t) = truth else {
+        return ["–".into(), "–".into(), "–".into()];
+    };
+    let covered = match (r.ci_low, r.ci_high) {
+        (Some(lo), Some(hi)) if (lo..=hi).contains(&t) => "✓ yes".to_string(),
+        (Some(_), Some(_)) => "✗ no".into(),
+        _ => "–".into(),
+    };
+    [
+        sig4(Some(t)),
+        crate::report::format::sig(100.0 * (r.value - t) / t, 3),
+        covered,
+    ]
 }
 
 /// Without a parameters.csv: the analysis' own per-parameter results.

@@ -13,10 +13,12 @@
 mod accuracy;
 mod charts;
 mod correlation;
+mod evidence;
 pub mod identification;
 mod screening;
 mod tables;
 mod verdicts;
+mod warnings;
 
 use super::{Artifact, InputSpec, Kind, StageContext, StageError, StageOutputs};
 use crate::artifacts::cost::Cost;
@@ -44,6 +46,27 @@ const INPUTS: &[InputSpec] = &[
         list: true,
         artifact: Artifact::Metrics,
         doc: "evaluate metrics (one row each in the accuracy table; unpaired and ambiguous modes listed)",
+    },
+    InputSpec {
+        name: "initial",
+        required: false,
+        list: false,
+        artifact: Artifact::Metrics,
+        doc: "the metrics of an evaluate of the initial model against the same reference: the first column of the initial-vs-updated comparison",
+    },
+    InputSpec {
+        name: "initial_tables",
+        required: false,
+        list: false,
+        artifact: Artifact::Tables,
+        doc: "that evaluate's tables (pairs.csv: the initial model's frequency and MAC per reference mode)",
+    },
+    InputSpec {
+        name: "warnings",
+        required: false,
+        list: true,
+        artifact: Artifact::Json,
+        doc: "stage summaries whose warnings the report lists (autoema metrics, gsa subproblems, import summaries); identify warnings come with `costs`",
     },
     InputSpec {
         name: "tables",
@@ -125,9 +148,13 @@ impl Kind for Report {
     /// correlation sections. 4: the run trace's path. 5: the style guide
     /// (captions from the figures, significant digits, p-values), accuracy
     /// per position, each figure as SVG and PNG, zoom of dense figures,
-    /// figures/style.txt.
+    /// figures/style.txt. 6: the initial-vs-updated comparison (`initial`,
+    /// `initial_tables`), every stage's warnings collapsed and counted
+    /// (`warnings`), the truth beside identified parameters, complete
+    /// convergence curves, large bar charts sorted with the top shown, long
+    /// floats in any text to significant digits.
     fn version(&self) -> u32 {
-        5
+        6
     }
     fn summary(&self) -> &'static str {
         "an HTML report (self-contained) and a Markdown twin from verdicts, metrics, costs, identifiability, histories and figures"
@@ -166,67 +193,125 @@ impl Kind for Report {
         };
         let metrics = read_all(&bound("metrics", false), "metrics", Metrics::read)?;
         let costs = read_all(&bound("costs", false), "costs", Cost::read)?;
+        let stage_warnings = collect_warnings(&costs, &bound("warnings", false))?;
+        let initial = match bound("initial", false).first() {
+            Some((stage, path)) => {
+                Some(Metrics::read(path).map_err(|m| StageError::InvalidInput {
+                    input: "initial".into(),
+                    message: format!("{stage}: {m}"),
+                })?)
+            }
+            None => None,
+        };
+        let initial_tables = bound("initial_tables", false).first().map(|b| b.1.clone());
+        let tables = bound("tables", false);
         verdicts::summary(&mut doc, &costs, &metrics);
+        warnings::summary(&mut doc, &stage_warnings);
+        evidence::initial_vs_updated(
+            &mut doc,
+            initial.as_ref().map(|m| (m, initial_tables.as_ref())),
+            &metrics,
+            &tables,
+        )?;
         accuracy::accuracy(&mut doc, &metrics);
         verdicts::costs(&mut doc, &costs);
+        warnings::section(&mut doc, &stage_warnings);
         identification::identifiability(
             &mut doc,
             &bound("identifiability", false),
             &bound("parameters", false),
+            &tables,
         )?;
         correlation::correlation(&mut doc, &bound("correlation", false))?;
-        charts::convergence(&mut doc, &bound("histories", false))?;
-        charts::parameter_errors(&mut doc, &bound("tables", false))?;
+        let totals = costs
+            .iter()
+            .map(|(s, c)| (s.clone(), c.evaluations))
+            .collect();
+        charts::convergence(&mut doc, &bound("histories", false), &totals)?;
+        charts::parameter_errors(&mut doc, &tables)?;
         screening::splits(&mut doc, &bound("splits", false))?;
         screening::validations(&mut doc, &bound("validations", false))?;
         tables::tables(&mut doc, &bound("csv", true))?;
         tables::figures(&mut doc, &bound("figures", true))?;
+        let warning_total: usize = stage_warnings.iter().map(|(_, w)| w.len()).sum();
         // Relative to `results/<name>/<stage>/report/`; the trace itself
         // changes every run, so only its place enters the cached report.
         doc.paragraph(
             "Run trace (stage, job id and array index, node, state, attempts, elapsed and CPU \
              time, MaxRSS of the last run): ../../trace.csv, or `modalflow show FILE STAGE`.",
         );
-        let dir = ctx.scratch.join("report");
-        let fig_dir = dir.join("figures");
-        std::fs::create_dir_all(&fig_dir)
-            .map_err(|e| StageError::io("cannot create report directory", e))?;
-        let write = |p: PathBuf, text: &str| {
-            std::fs::write(&p, text)
-                .map_err(|e| StageError::io(format!("cannot write {}", p.display()), e))
-        };
-        // Each figure standalone: the SVG and a PNG at 2× (style guide
-        // rule 9), and the style guide's structural checks as warnings.
-        let mut problems = Vec::new();
-        for (file, svg) in doc.figures() {
-            write(fig_dir.join(file), svg)?;
-            let stem = file.strip_suffix(".svg").unwrap_or(file);
-            let png = crate::report::raster::png(svg, 2.0).map_err(|m| {
-                StageError::Failed(format!("cannot render figure {file} as PNG: {m}"))
-            })?;
-            std::fs::write(fig_dir.join(format!("{stem}.png")), png)
-                .map_err(|e| StageError::io(format!("cannot write {stem}.png"), e))?;
-            problems.extend(
-                crate::report::lint::check(svg)
-                    .into_iter()
-                    .map(|p| format!("{file}: {p}")),
-            );
-        }
-        if !problems.is_empty() {
-            ctx.progress.set_message(format!(
-                "{} figure problem(s), see figures/style.txt",
-                problems.len()
-            ));
-        }
-        write(fig_dir.join("style.txt"), &(problems.join("\n") + "\n"))?;
-        write(dir.join("index.html"), &doc.to_html())?;
-        write(dir.join("report.md"), &doc.to_markdown("figures"))?;
+        let dir = write_report(&doc, ctx)?;
         Ok(StageOutputs {
             warnings: Vec::new(),
             files: vec![("report".into(), dir)],
-            counters: [("figures".to_string(), doc.figures().count() as u64)].into(),
+            counters: [
+                ("figures".to_string(), doc.figures().count() as u64),
+                ("warnings".to_string(), warning_total as u64),
+            ]
+            .into(),
         })
     }
+}
+
+/// The warnings of every stage the report reads: the identifications'
+/// verdict warnings (`costs`), then each bound stage summary's.
+fn collect_warnings(
+    costs: &[(String, Cost)],
+    summaries: &[(String, PathBuf)],
+) -> Result<Vec<(String, Vec<String>)>, StageError> {
+    let mut out: Vec<(String, Vec<String>)> = costs
+        .iter()
+        .map(|(s, c)| (s.clone(), c.verdict.warnings.clone()))
+        .collect();
+    for (stage, path) in summaries {
+        let w = crate::artifacts::warnings::read(path).map_err(|m| StageError::InvalidInput {
+            input: "warnings".into(),
+            message: format!("{stage}: {m}"),
+        })?;
+        out.push((stage.clone(), w));
+    }
+    Ok(out)
+}
+
+/// Write the page, its Markdown twin and each figure standalone (SVG and
+/// a PNG at 2×, style guide rule 9), with the figure lint's findings (the
+/// structure, and fonts and overlaps at the page width) in
+/// figures/style.txt; returns the report directory.
+fn write_report(doc: &Document, ctx: &StageContext) -> Result<PathBuf, StageError> {
+    use crate::report::lint;
+    let dir = ctx.scratch.join("report");
+    let fig_dir = dir.join("figures");
+    std::fs::create_dir_all(&fig_dir)
+        .map_err(|e| StageError::io("cannot create report directory", e))?;
+    let write = |p: PathBuf, bytes: &[u8]| {
+        std::fs::write(&p, bytes)
+            .map_err(|e| StageError::io(format!("cannot write {}", p.display()), e))
+    };
+    let mut problems = Vec::new();
+    for (file, svg) in doc.figures() {
+        write(fig_dir.join(file), svg.as_bytes())?;
+        let stem = file.strip_suffix(".svg").unwrap_or(file);
+        let png = crate::report::raster::png(svg, 2.0)
+            .map_err(|m| StageError::Failed(format!("cannot render figure {file} as PNG: {m}")))?;
+        write(fig_dir.join(format!("{stem}.png")), &png)?;
+        let found = lint::check(svg)
+            .into_iter()
+            .chain(lint::check_rendered(svg, lint::PAGE_WIDTH));
+        problems.extend(found.map(|p| format!("{file}: {p}")));
+    }
+    if !problems.is_empty() {
+        ctx.progress.set_message(format!(
+            "{} figure problem(s), see figures/style.txt",
+            problems.len()
+        ));
+    }
+    write(
+        fig_dir.join("style.txt"),
+        (problems.join("\n") + "\n").as_bytes(),
+    )?;
+    write(dir.join("index.html"), doc.to_html().as_bytes())?;
+    write(dir.join("report.md"), doc.to_markdown("figures").as_bytes())?;
+    Ok(dir)
 }
 
 /// Read every bound file of `input` through its schema's reader.

@@ -2,7 +2,7 @@
 //! how many failed (red, with each failed run's message) or that all passed,
 //! and the cost table — evaluations, seconds, the match, and the verdict
 //! split into ok (✓/✗), status, fit (with the end residual in σ units) and
-//! message — followed by every warning per stage.
+//! message.
 
 use super::{sig4, Metrics};
 use crate::artifacts::cost::Cost;
@@ -102,7 +102,8 @@ pub fn summary(doc: &mut Document, costs: &[(String, Cost)], metrics: &[(String,
     }
 }
 
-/// The cost table with the verdict, and the warnings per stage.
+/// The cost table with the verdict (the warnings are in their own section,
+/// [`super::warnings`]).
 pub fn costs(doc: &mut Document, costs: &[(String, Cost)]) {
     if costs.is_empty() {
         return;
@@ -149,17 +150,4 @@ pub fn costs(doc: &mut Document, costs: &[(String, Cost)]) {
         .to_vec(),
         rows,
     );
-    let warnings: Vec<String> = costs
-        .iter()
-        .flat_map(|(stage, c)| {
-            c.verdict
-                .warnings
-                .iter()
-                .map(move |w| format!("{stage}: {w}"))
-        })
-        .collect();
-    if !warnings.is_empty() {
-        doc.heading(3, "Warnings");
-        doc.list(warnings);
-    }
 }
