@@ -64,6 +64,25 @@ impl Root {
         &orders[self.representative.0].poles[self.representative.1]
     }
 
+    /// Whether a refined frequency (Hz) stays within the stable column's
+    /// frequency range (its members' minimum to maximum, at least ±0.2 %
+    /// about the representative). The refinement polishes a pole
+    /// within what the model orders leave open; a pole that walks out of its
+    /// column over the sweeps has absorbed something else (a dropped
+    /// neighbour, the band edge): measured tool holder H11, 1330.6 Hz column
+    /// (1317.7–1333.5 Hz) walked to 1231 Hz at ζ 8.2 %, 1933.8 Hz to 1909.8 Hz.
+    pub fn column_holds(&self, orders: &[PoleOrder], frequency_hz: f64) -> bool {
+        let f_rep = self.representative_pole(orders).frequency_hz;
+        let (lo, hi) = self.members.iter().fold(
+            (f_rep * (1.0 - 0.002), f_rep * (1.0 + 0.002)),
+            |(lo, hi), &(j, k)| {
+                let f = orders[j].poles[k].frequency_hz;
+                (lo.min(f), hi.max(f))
+            },
+        );
+        (lo..=hi).contains(&frequency_hz)
+    }
+
     /// How far the stable column's poles scatter around the root's pole:
     /// the robust standard deviation 1.4826 · median |x_m − x_r| / x_r of
     /// the members' frequencies and damping ratios about the reported
@@ -440,6 +459,40 @@ mod tests {
         // One member: no spread to speak of.
         root.members.truncate(1);
         assert_eq!(root.spread(&o), (0.0, 0.0));
+    }
+
+    #[test]
+    fn a_refined_pole_must_stay_in_its_column() {
+        // Members at 98, 99, 100, 101 Hz, representative 100 Hz: the column
+        // holds 98–101 Hz, ends included, and nothing outside.
+        let o: Vec<PoleOrder> = [98.0, 99.0, 100.0, 101.0]
+            .iter()
+            .enumerate()
+            .map(|(j, f)| PoleOrder {
+                order: j + 1,
+                poles: vec![pole(*f, 0.01, [1.0, 0.0])],
+            })
+            .collect();
+        let mut root = Root {
+            members: (0..o.len()).map(|j| (j, 0)).collect(),
+            representative: (2, 0),
+            multiplicity: 1,
+            n_orders: o.len(),
+            refined: None,
+        };
+        for (f, holds) in [(97.99, false), (98.0, true), (100.7, true), (101.01, false)] {
+            assert_eq!(root.column_holds(&o, f), holds, "{f}");
+        }
+        // One member: ±0.2 % about it (100 ± 0.2 Hz).
+        root.members = vec![(2, 0)];
+        for (f, holds) in [
+            (99.79, false),
+            (99.81, true),
+            (100.19, true),
+            (100.21, false),
+        ] {
+            assert_eq!(root.column_holds(&o, f), holds, "{f}");
+        }
     }
 
     #[test]

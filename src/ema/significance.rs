@@ -74,6 +74,10 @@ pub enum Reason {
     SamePeak { of_hz: f64 },
     /// Refined to a frequency outside the analysed band.
     OutsideBand { band_hz: (f64, f64) },
+    /// Lightly damped (ζ < 2 %) and kept for significance alone, on a stable
+    /// column shorter than 0.3 of the median column (`peak_median_orders`)
+    /// of the roots that hold a CMIF peak ([`super::selection`]).
+    ShortColumn { peak_median_orders: usize },
 }
 
 /// One decision about a root.
