@@ -171,6 +171,9 @@ impl PreparedModel {
             for p in model.sensors.iter().chain(&model.excitations) {
                 mark(&p.end, locate(model, st, &p.end));
             }
+            for m in &model.masses {
+                mark(&m.end, locate(model, st, &m.end));
+            }
         }
         let mut bodies = Vec::new();
         let mut blocks: Vec<(Block, f64)> = Vec::new();
@@ -208,6 +211,7 @@ impl PreparedModel {
         }
         let any_damping = blocks.iter().any(|b| b.1 > 0.0);
         drop(blocks);
+        point_masses(model, &bodies, n, &states[0], &mut tm);
         let M = Csc::from_triplets(n, tm);
         let K0 = Csc::from_triplets(n, tk);
         let D0 = any_damping.then(|| Csc::from_triplets(n, td));
@@ -459,6 +463,33 @@ fn body_block(
             (Block::Sparse(fe.M.clone(), fe.K.clone()), eta, None)
         }
     })
+}
+
+/// Lumped point masses into the mass triplets: M += m Σ_a P_aᵀ P_a over
+/// the translation rows P_a of the mass's point (rigid offset included,
+/// so a mass off a beam's axis also adds its m r² about the axis). A named
+/// point is body-fixed, so its rows are the same in every configuration.
+fn point_masses(
+    model: &Model,
+    bodies: &[PreparedBody],
+    n: usize,
+    state: &super::configuration::AxisState,
+    triplets: &mut Vec<(usize, usize, f64)>,
+) {
+    for m in &model.masses {
+        let P = point_rows(model, bodies, n, m.end.body, locate(model, state, &m.end));
+        for &a in &m.axes {
+            let row: Vec<(usize, f64)> = (0..n)
+                .filter(|&c| P[(a, c)] != 0.0)
+                .map(|c| (c, P[(a, c)]))
+                .collect();
+            for &(i, pi) in &row {
+                for &(j, pj) in &row {
+                    triplets.push((i, j, m.mass * pi * pj));
+                }
+            }
+        }
+    }
 }
 
 /// 6 × n rows of a point's (u, θ) in global DOFs.

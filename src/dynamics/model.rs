@@ -77,6 +77,15 @@ pub(crate) struct PointDof {
     pub dof: Dof,
 }
 
+/// A lumped mass at a body's point: kg, and the global translations
+/// (0 = x, 1 = y, 2 = z) it follows.
+#[derive(Debug, Clone)]
+pub(crate) struct PointMass {
+    pub end: End,
+    pub mass: f64,
+    pub axes: Vec<usize>,
+}
+
 /// A validated, assembled model (before reduction and configuration set-up).
 #[derive(Debug, Clone)]
 pub struct Model {
@@ -86,6 +95,7 @@ pub struct Model {
     pub(crate) axes: Vec<Axis>,
     pub(crate) sensors: Vec<PointDof>,
     pub(crate) excitations: Vec<PointDof>,
+    pub(crate) masses: Vec<PointMass>,
     /// Eigensolver settings of the model file.
     pub solver: model_file::SolverSpec,
 }
@@ -205,6 +215,7 @@ impl Model {
         let axes = resolve::axes(spec, &names, &joints)?;
         let sensors = resolve::point_dofs(&spec.sensors, "sensors", &names)?;
         let excitations = resolve::point_dofs(&spec.excitations, "excitations", &names)?;
+        let masses = resolve::point_masses(&spec.masses, &names)?;
         check_solver(&spec.solver, file)?;
         Ok(Model {
             solver: spec.solver,
@@ -214,6 +225,7 @@ impl Model {
             axes,
             sensors,
             excitations,
+            masses,
         })
     }
 }

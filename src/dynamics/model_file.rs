@@ -25,6 +25,9 @@ pub struct ModelFile {
     pub sensors: Vec<PointDofSpec>,
     #[serde(default)]
     pub excitations: Vec<PointDofSpec>,
+    /// Lumped point masses added to a body at one of its points.
+    #[serde(default)]
+    pub masses: Vec<PointMassSpec>,
     /// Eigensolver settings (default: chosen by size and fill).
     #[serde(default)]
     pub solver: SolverSpec,
@@ -356,6 +359,22 @@ pub struct PointDofSpec {
     pub point: String,
     pub node: u32,
     pub direction: i8,
+}
+
+/// A lumped point mass (an accelerometer, a force gauge, a clamp) fixed to
+/// a named point of a body: kg, moving with the point in the listed global
+/// translations (default all three), no rotary inertia and no DOF of its
+/// own (M += m Pᵀ P over the point's translation rows P).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PointMassSpec {
+    pub name: String,
+    pub body: String,
+    pub point: String,
+    /// kg, > 0.
+    pub mass: f64,
+    /// Global translations the mass follows (`[z]`: it adds inertia in z only).
+    pub directions: Option<Vec<Direction>>,
 }
 
 /// Parse a model file from text; `file` names it in error messages.
