@@ -450,6 +450,21 @@ impl Runner<'_> {
     }
 }
 
+/// Evaluations one stage of the continuation over `n` parameters needs at
+/// least: a linearization (n + 1), two steps and the outlier check.
+fn per_stage_minimum(n: usize) -> usize {
+    3 * (n + 1) + 2
+}
+
+/// The smallest budget [`continuation`] over `n` parameters runs with: the
+/// start and end evaluations, every later stage's minimum reserved and the
+/// first stage able to step. A caller
+/// sharing a budget between runs skips a run below it instead of failing.
+pub fn minimum_budget(o: &ModalObjective, n: usize, settings: &ContinuationParams) -> usize {
+    let stages = schedule(o, settings).len().max(1);
+    (stages - 1) * per_stage_minimum(n) + n + 5
+}
+
 /// Run the continuation over the parameters `free` (indices) from `x0`
 /// (all values), tied to `prior` (all values) by the prior, with at most
 /// `budget` evaluations; every evaluation is recorded in `recorder` as
@@ -485,7 +500,7 @@ pub fn continuation(
         recorder,
         progress,
     };
-    let per_stage_minimum = 3 * (n + 1) + 2;
+    let per_stage_minimum = per_stage_minimum(n);
     let mut x = x0.to_vec();
     let mut records = Vec::new();
     let mut outliers = Vec::new();
@@ -497,8 +512,9 @@ pub fn continuation(
     let mut termination = Termination::BudgetExhausted;
     for (k, (count, set)) in stages.iter().enumerate() {
         let later = stages.len() - 1 - k;
+        // The end's evaluation (below) is reserved too.
         let stage_budget = budget
-            .saturating_sub(used)
+            .saturating_sub(used + 1)
             .saturating_sub(later * per_stage_minimum);
         if stage_budget < n + 3 {
             break;
@@ -535,7 +551,7 @@ pub fn continuation(
     if records.is_empty() {
         return Err(IdentifyError::Invalid(format!(
             "budget {budget} cannot pay the continuation over {n} parameters; give at least {}",
-            stages.len() * per_stage_minimum + n + 2
+            minimum_budget(o, n, settings)
         )));
     }
     // The data's cost over all usable modes, unweighted (the stages' costs
@@ -572,7 +588,34 @@ pub fn termination_text(t: &Termination) -> String {
 
 #[cfg(test)]
 mod tests {
+    use super::{continuation, minimum_budget, ContinuationParams};
     use super::{mode_order as order, ModeOrder};
+    use crate::identify::black_box::tests::objective;
+    use crate::identify::history::Recorder;
+    use crate::identify::IdentifyError;
+
+    #[test]
+    fn the_minimum_budget_is_exactly_what_the_continuation_runs_with() {
+        let o = objective();
+        let settings = ContinuationParams::default();
+        let free = [0, 1, 2, 3];
+        let minimum = minimum_budget(&o, free.len(), &settings);
+        let run = |budget| {
+            continuation(
+                &o,
+                &free,
+                &o.nominal(),
+                &o.nominal(),
+                budget,
+                &settings,
+                &Recorder::default(),
+                &|_| {},
+            )
+        };
+        let r = run(minimum).expect("runs at its minimum");
+        assert!(r.evaluations <= minimum, "{} > {minimum}", r.evaluations);
+        assert!(matches!(run(minimum - 1), Err(IdentifyError::Invalid(_))));
+    }
 
     #[test]
     fn isolation_brings_the_isolated_top_mode_in_before_the_crowded_band() {

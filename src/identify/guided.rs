@@ -225,7 +225,18 @@ pub fn guided(
     } else {
         budget.saturating_sub(damping_cost)
     };
-    let minimum = damping_cost + 2 * runs_total + if settings.refine { 8 * (n + 1) } else { 0 };
+    let refinement_minimum = (8 * (n + 1)).max(super::continuation::minimum_budget(
+        o,
+        n,
+        &settings.continuation,
+    ));
+    let minimum = damping_cost
+        + 2 * runs_total
+        + if settings.refine {
+            refinement_minimum
+        } else {
+            0
+        };
     if budget < minimum {
         return Err(IdentifyError::Invalid(format!(
             "budget {budget} is too small for {} subproblems × {} repeats{}; give at least {minimum}",
@@ -373,7 +384,13 @@ fn refine(
     let noise_cost = 0.5 * NOISE_RMS * NOISE_RMS * residual_count as f64;
     let mut best: Option<(ContinuationResult, usize)> = None;
     let mut runs = Vec::new();
-    let minimum = 8 * (free.len() + 1);
+    // A run needs what the continuation needs (all its stages), and no less
+    // than 8 per parameter; a later start below that is skipped.
+    let minimum = (8 * (free.len() + 1)).max(super::continuation::minimum_budget(
+        o,
+        free.len(),
+        &settings.continuation,
+    ));
     for (k, (from, x0)) in candidates.iter().enumerate() {
         let left = budget.saturating_sub(used);
         let runs_left = candidates.len() - k;

@@ -97,10 +97,11 @@ impl Kind for Identify {
     /// cost.json and identifiability.json state `schema_version`;
     /// changes.csv has typed columns (`change_rel`, `identified`); weak final
     /// pairs count as not reproduced, a refit that fits no better refutes the
-    /// implication; dampers fitted from modes iterate to convergence and
-    /// their damping ratios are judged (cause `damping`) (issue 26).
+    /// implication (issue 26).
+    /// 17: dampers fitted from modes iterate to convergence and their
+    /// damping ratios are judged (cause `damping`) (issue 26).
     fn version(&self) -> u32 {
-        16
+        17
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
