@@ -18,7 +18,8 @@ use super::lanczos::LanczosOptions;
 use super::model::{BodyKind, End, Model, Parameter};
 use super::model_file::DampingModel;
 use super::model_file::{SolverMethod, SolverSpec};
-use super::rigid::{offset_map, rigid_mass};
+use super::points::{point_masses, point_rows};
+use super::rigid::rigid_mass;
 use super::shift::{sigma_from_hz, Shift};
 use super::shift_invert::WorkspacePool;
 use super::sparse::Csc;
@@ -30,11 +31,11 @@ use std::sync::Arc;
 
 /// One body in the global DOF vector.
 #[derive(Debug, Clone)]
-struct PreparedBody {
-    offset: usize,
-    n: usize,
+pub(super) struct PreparedBody {
+    pub(super) offset: usize,
+    pub(super) n: usize,
     /// Full → reduced map of an FE body (`None`: rigid, or FE without reduction).
-    T: Option<Mat<f64>>,
+    pub(super) T: Option<Mat<f64>>,
 }
 
 /// Rank-one joint terms of one damping/stiffness kind: sparse columns g_i
@@ -463,62 +464,6 @@ fn body_block(
             (Block::Sparse(fe.M.clone(), fe.K.clone()), eta, None)
         }
     })
-}
-
-/// Lumped point masses into the mass triplets: M += m Σ_a P_aᵀ P_a over
-/// the translation rows P_a of the mass's point (rigid offset included,
-/// so a mass off a beam's axis also adds its m r² about the axis). A named
-/// point is body-fixed, so its rows are the same in every configuration.
-fn point_masses(
-    model: &Model,
-    bodies: &[PreparedBody],
-    n: usize,
-    state: &super::configuration::AxisState,
-    triplets: &mut Vec<(usize, usize, f64)>,
-) {
-    for m in &model.masses {
-        let P = point_rows(model, bodies, n, m.end.body, locate(model, state, &m.end));
-        for &a in &m.axes {
-            let row: Vec<(usize, f64)> = (0..n)
-                .filter(|&c| P[(a, c)] != 0.0)
-                .map(|c| (c, P[(a, c)]))
-                .collect();
-            for &(i, pi) in &row {
-                for &(j, pj) in &row {
-                    triplets.push((i, j, m.mass * pi * pj));
-                }
-            }
-        }
-    }
-}
-
-/// 6 × n rows of a point's (u, θ) in global DOFs.
-fn point_rows(
-    model: &Model,
-    bodies: &[PreparedBody],
-    n: usize,
-    body: usize,
-    loc: Location,
-) -> Mat<f64> {
-    let pb = &bodies[body];
-    let mut P = Mat::<f64>::zeros(6, n);
-    let local: Mat<f64> = match (&model.bodies[body].kind, loc) {
-        (BodyKind::Rigid { dofs, .. }, Location::Rigid(r)) => {
-            let T = offset_map(r);
-            Mat::from_fn(6, dofs.len(), |i, j| T[i][dofs[j]])
-        }
-        (BodyKind::Fe { fe, .. }, Location::Node(node, off)) => {
-            let full = fe.point_rows(node, off);
-            match &pb.T {
-                Some(T) => full * T,
-                None => full,
-            }
-        }
-        // Locations are produced from the body's own kind.
-        _ => Mat::zeros(6, pb.n),
-    };
-    P.submatrix_mut(0, pb.offset, 6, pb.n).copy_from(&local);
-    P
 }
 
 fn configuration(

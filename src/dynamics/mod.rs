@@ -53,6 +53,7 @@ pub mod modal_damping;
 pub mod model;
 pub mod model_file;
 pub mod model_writer;
+mod points;
 pub mod reference;
 pub mod residual;
 pub(crate) mod resolve;

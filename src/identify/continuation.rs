@@ -587,44 +587,4 @@ pub fn termination_text(t: &Termination) -> String {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::{continuation, minimum_budget, ContinuationParams};
-    use super::{mode_order as order, ModeOrder};
-    use crate::identify::black_box::tests::objective;
-    use crate::identify::history::Recorder;
-    use crate::identify::IdentifyError;
-
-    #[test]
-    fn the_minimum_budget_is_exactly_what_the_continuation_runs_with() {
-        let o = objective();
-        let settings = ContinuationParams::default();
-        let free = [0, 1, 2, 3];
-        let minimum = minimum_budget(&o, free.len(), &settings);
-        let run = |budget| {
-            continuation(
-                &o,
-                &free,
-                &o.nominal(),
-                &o.nominal(),
-                budget,
-                &settings,
-                &Recorder::default(),
-                &|_| {},
-            )
-        };
-        let r = run(minimum).expect("runs at its minimum");
-        assert!(r.evaluations <= minimum, "{} > {minimum}", r.evaluations);
-        assert!(matches!(run(minimum - 1), Err(IdentifyError::Invalid(_))));
-    }
-
-    #[test]
-    fn isolation_brings_the_isolated_top_mode_in_before_the_crowded_band() {
-        // Gaps: 177 Hz 61 %, 25 Hz 42 %, 43 Hz 33 %, 64 Hz 4.5 %, 67 and
-        // 69 Hz both 2.9 % (a tie, broken by frequency).
-        let f = [25.0, 43.0, 64.0, 67.0, 69.0, 177.0];
-        assert_eq!(order(&f, ModeOrder::Isolation), vec![5, 0, 1, 2, 3, 4]);
-        assert_eq!(order(&f, ModeOrder::Frequency), vec![0, 1, 2, 3, 4, 5]);
-        // One mode: nothing to compare with, it simply comes first.
-        assert_eq!(order(&[80.0], ModeOrder::Isolation), vec![0]);
-    }
-}
+mod tests;
