@@ -248,10 +248,10 @@ stages:
   initial:
     kind: evaluate
     inputs: {reference: truth.modes, candidate: nominal.modes, reference_frf: truth.frf, candidate_frf: nominal.frf, truth: truth.truth, estimate: nominal.truth, geometry: truth.model}
+    params: {vertical: x}
   score:
     kind: evaluate
     inputs: {reference: truth.modes, candidate: updated.modes, reference_frf: truth.frf, candidate_frf: updated.frf, initial_frf: nominal.frf, truth: truth.truth, estimate: fit.parameters, cost: fit.cost, geometry: truth.model}
-    params: {vertical: z}
   report:
     kind: report
     inputs:
@@ -282,6 +282,10 @@ fn row<'a>(md: &'a str, first: &str) -> Vec<&'a str> {
 fn report_leads_with_the_evidence_a_reviewer_asks_for() {
     let ws = setup();
     ws.write("p.yaml", EVIDENCE);
+    // The model file states its vertical axis (evaluate's `vertical`
+    // param, where given, overrides it).
+    let model = ws.read("three_mass.yaml");
+    ws.write("three_mass.yaml", &format!("{model}\nvertical: z\n"));
     let out = ws.cmd(&["run", "p.yaml", "--progress", "none"]);
     let stdout = util::text(&out.stdout);
     assert_eq!(
@@ -353,9 +357,13 @@ fn report_leads_with_the_evidence_a_reviewer_asks_for() {
         .count();
     let grid = ws.read(&format!("{dir}/figures/score_plots_frf_channels_0.svg"));
     assert_eq!(grid.matches("· FRAC ").count(), channels, "{grid}");
-    // 7. Views named from the vertical axis.
+    // 7. Views named from the vertical axis: the model file's, unless the
+    // param says otherwise.
     let shapes = ws.read(&format!("{dir}/figures/score_plots_shapes_0.svg"));
     assert!(shapes.contains(">top x–y (down z)<"), "{shapes}");
+    let initial = ws.read("results/evidence/initial/plots/shapes_0.svg");
+    assert!(initial.contains(" (x up)<"), "{initial}");
+    assert!(!initial.contains("(down z)"), "{initial}");
     let mut titles = Vec::new();
     let mut problems = Vec::new();
     for entry in std::fs::read_dir(ws.path().join(format!("{dir}/figures"))).unwrap() {
