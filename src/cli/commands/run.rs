@@ -224,7 +224,7 @@ pub fn summary(report: &RunReport, dry: bool) -> String {
 }
 
 /// Where the run's warnings are: `5 stage warning(s): ema 3, measured 2
-/// (the `warning:` lines above; per stage in `--json`)` — every stage's own
+/// (`warning:` lines on stderr unless --progress none; …)` — every stage's own
 /// warnings, ran or cached alike (its run record's) — and for each report
 /// stage how many it lists and where: `report: 27 warning(s) of the stages
 /// upstream of it, collapsed and counted, in results/…/index.html#warnings`.
@@ -239,7 +239,8 @@ fn warning_count(report: &RunReport) -> String {
     let mut out = String::new();
     if total > 0 {
         out.push_str(&format!(
-            "{total} stage warning(s): {} (the `warning:` lines above; per stage in --json)\n",
+            "{total} stage warning(s): {} (`warning:` lines on stderr unless --progress none; \
+             each stage's `warnings` in --json)\n",
             per_stage
                 .iter()
                 .map(|(s, n)| format!("{s} {n}"))
