@@ -643,3 +643,31 @@ fn beam_section_parameters_are_checked_like_joint_references() {
         );
     }
 }
+
+/// `vertical:` is presentation only: the test bench (y-up) assembles bit
+/// for bit the same without it.
+#[test]
+fn the_vertical_key_leaves_the_assembly_unchanged() {
+    let path = format!(
+        "{}/pipelines/models/uniaxial_test_bench.yaml",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let text = std::fs::read_to_string(&path).unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("vertical:"))
+        .expect("the test bench states its vertical axis");
+    assert!(line.starts_with("vertical: y"), "{line}");
+    let without = text.replace(&format!("{line}\n"), "");
+    let build = |t: &str| PreparedModel::new(&Model::from_yaml(t, "m.yaml", &no_files).unwrap());
+    let (a, b) = (build(&text).unwrap(), build(&without).unwrap());
+    let v = values(&a);
+    for (x, y) in a
+        .matrices(1, &v)
+        .unwrap()
+        .iter()
+        .zip(&b.matrices(1, &v).unwrap())
+    {
+        assert!(x == y, "matrices differ");
+    }
+}

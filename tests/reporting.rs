@@ -248,10 +248,10 @@ stages:
   initial:
     kind: evaluate
     inputs: {reference: truth.modes, candidate: nominal.modes, reference_frf: truth.frf, candidate_frf: nominal.frf, truth: truth.truth, estimate: nominal.truth, geometry: truth.model}
+    params: {vertical: x}
   score:
     kind: evaluate
     inputs: {reference: truth.modes, candidate: updated.modes, reference_frf: truth.frf, candidate_frf: updated.frf, initial_frf: nominal.frf, truth: truth.truth, estimate: fit.parameters, cost: fit.cost, geometry: truth.model}
-    params: {vertical: z}
   report:
     kind: report
     inputs:
@@ -282,6 +282,10 @@ fn row<'a>(md: &'a str, first: &str) -> Vec<&'a str> {
 fn report_leads_with_the_evidence_a_reviewer_asks_for() {
     let ws = setup();
     ws.write("p.yaml", EVIDENCE);
+    // The model file states its vertical axis (evaluate's `vertical`
+    // param, where given, overrides it).
+    let model = ws.read("three_mass.yaml");
+    ws.write("three_mass.yaml", &format!("{model}\nvertical: z\n"));
     let out = ws.cmd(&["run", "p.yaml", "--progress", "none"]);
     let stdout = util::text(&out.stdout);
     assert_eq!(
@@ -295,7 +299,9 @@ fn report_leads_with_the_evidence_a_reviewer_asks_for() {
     let fit_warnings = ws.cost("results/evidence/fit").verdict.warnings.len();
     let total = 3 + fit_warnings;
     assert!(
-        stdout.contains(&format!("report: the report lists {total} warning(s)")),
+        stdout.contains(&format!(
+            "report: {total} warning(s) of the stages upstream"
+        )),
         "{stdout}"
     );
     let dir = "results/evidence/report/report";
@@ -351,9 +357,13 @@ fn report_leads_with_the_evidence_a_reviewer_asks_for() {
         .count();
     let grid = ws.read(&format!("{dir}/figures/score_plots_frf_channels_0.svg"));
     assert_eq!(grid.matches("· FRAC ").count(), channels, "{grid}");
-    // 7. Views named from the vertical axis.
+    // 7. Views named from the vertical axis: the model file's, unless the
+    // param says otherwise.
     let shapes = ws.read(&format!("{dir}/figures/score_plots_shapes_0.svg"));
     assert!(shapes.contains(">top x–y (down z)<"), "{shapes}");
+    let initial = ws.read("results/evidence/initial/plots/shapes_0.svg");
+    assert!(initial.contains(" (x up)<"), "{initial}");
+    assert!(!initial.contains("(down z)"), "{initial}");
     let mut titles = Vec::new();
     let mut problems = Vec::new();
     for entry in std::fs::read_dir(ws.path().join(format!("{dir}/figures"))).unwrap() {
@@ -380,4 +390,108 @@ fn report_leads_with_the_evidence_a_reviewer_asks_for() {
     assert_eq!(titles.len(), n, "figure titles repeat: {titles:?}");
     assert!(problems.is_empty(), "{problems:#?}");
     util::assert_report_figures(&ws, "evidence");
+}
+
+/// Issue 29: the report lists the warnings of every stage upstream of it —
+/// here a synthesize stage's (an impact test whose lines miss the grid's
+/// step) and AutoEMA's, neither bound to the report — and `run` ends with
+/// the same count whether the stages ran or were cached.
+const UPSTREAM: &str = r#"name: upstream
+stages:
+  truth:
+    kind: synthesize
+    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 0.25}}
+  hammer:
+    kind: synthesize
+    params: {model: three_mass.yaml, frequency: {min: 0, max: 400, step: 0.5}, impact_test: {averages: 2, response_noise: 0.002}}
+  ema:
+    kind: autoema
+    inputs: {frf: hammer.frf}
+    # a stability tolerance too tight for the data: modes the data show
+    # are missed, each a warning
+    params: {max_order: [6, 24], iterations: 20, initial: 8, bounds: {frequency_tol: [0.00001, 0.00002]}}
+  score:
+    kind: evaluate
+    inputs: {reference: truth.modes, candidate: ema.modes}
+    params: {window: 0.1, min_mac: 0.5}
+  report:
+    kind: report
+    inputs: {metrics: [score.metrics]}
+"#;
+
+#[test]
+fn the_report_and_the_run_count_every_upstream_stage_s_warnings() {
+    let ws = setup();
+    ws.write("p.yaml", UPSTREAM);
+    let human = |ws: &Workspace| {
+        let out = ws.cmd(&["run", "p.yaml", "--progress", "none"]);
+        assert_eq!(out.status.code(), Some(0), "{}", util::text(&out.stderr));
+        util::text(&out.stdout)
+    };
+    let ran = human(&ws);
+    let report = ws.run(&[], 0);
+    let warnings = |s: &str| -> Vec<String> {
+        assert_eq!(report.status_of(s), "cached");
+        serde_json::from_value(report.stage(s)["warnings"].clone()).unwrap_or_default()
+    };
+    let hammer = warnings("hammer");
+    assert!(
+        hammer
+            .iter()
+            .any(|w| w.starts_with("impact_test: the FRF lines")),
+        "{hammer:?}"
+    );
+    // AutoEMA's warnings (metrics.json) are its stage warnings, cached too.
+    let ema = warnings("ema");
+    let metrics: Value =
+        serde_json::from_str(&ws.read("results/upstream/ema/metrics.json")).unwrap();
+    let in_metrics: Vec<String> = serde_json::from_value(metrics["warnings"].clone()).unwrap();
+    assert!(!ema.is_empty(), "{metrics}");
+    assert_eq!(ema, in_metrics);
+
+    // The report names both stages and counts every upstream warning.
+    let upstream = ["truth", "hammer", "ema", "score"];
+    let total: usize = upstream.iter().map(|s| warnings(s).len()).sum();
+    let stages = upstream.iter().filter(|s| !warnings(s).is_empty()).count();
+    let md = ws.read("results/upstream/report/report/report.md");
+    assert!(
+        md.contains(&format!("**⚠ {total} warning(s) from {stages} stage(s)")),
+        "{md}"
+    );
+    assert!(
+        row(&md, "hammer")[1].starts_with("impact_test: the FRF lines"),
+        "{md}"
+    );
+    // AutoEMA's missed modes differ only in their numbers: one row.
+    assert_eq!(row(&md, "ema")[0], format!("{}×", ema.len()), "{md}");
+
+    // `run` ends with the same counts, ran or cached, and says where.
+    let cached = human(&ws);
+    for text in [&ran, &cached] {
+        let tail: Vec<&str> = text.lines().filter(|l| l.contains("warning(s)")).collect();
+        assert!(
+            tail[0].starts_with(&format!("{total} stage warning(s): ")),
+            "{text}"
+        );
+        assert!(tail[0].contains(&format!("ema {}", ema.len())), "{text}");
+        assert!(
+            tail[1].starts_with(&format!(
+                "report: {total} warning(s) of the stages upstream"
+            )),
+            "{text}"
+        );
+        assert!(
+            tail[1].ends_with("report/report/index.html#warnings"),
+            "{text}"
+        );
+    }
+    assert_eq!(
+        ran.lines()
+            .filter(|l| l.contains("warning(s)"))
+            .collect::<Vec<_>>(),
+        cached
+            .lines()
+            .filter(|l| l.contains("warning(s)"))
+            .collect::<Vec<_>>()
+    );
 }

@@ -31,6 +31,27 @@ pub struct ModelFile {
     /// Eigensolver settings (default: chosen by size and fill).
     #[serde(default)]
     pub solver: SolverSpec,
+    /// The model's vertical (upward) global axis, if stated: evaluate names
+    /// the mode-shape views top, front and side from it. Presentation only;
+    /// the assembly never reads it.
+    #[serde(default)]
+    pub vertical: Option<Axis>,
+}
+
+/// A global axis.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Axis {
+    X,
+    Y,
+    Z,
+}
+
+impl Axis {
+    /// 0, 1 or 2 for x, y or z.
+    pub fn index(self) -> usize {
+        self as usize
+    }
 }
 
 /// Which eigensolver path a model uses.
@@ -394,4 +415,24 @@ pub fn parse(text: &str, file: &str) -> Result<ModelFile, DynamicsError> {
         },
         message: e.to_string(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{parse, Axis};
+
+    const BARE: &str = "parameters: []\nbodies: [{name: b, rigid: {mass: 1, inertia: [[1, 0, 0], [0, 1, 0], [0, 0, 1]], cg: [0, 0, 0]}}]\n";
+
+    #[test]
+    fn vertical_is_optional_and_an_axis() {
+        assert_eq!(parse(BARE, "m.yaml").unwrap().vertical, None);
+        let y = parse(&format!("{BARE}vertical: y\n"), "m.yaml").unwrap();
+        assert_eq!(y.vertical.map(Axis::index), Some(1));
+        let bad = parse(&format!("{BARE}vertical: up\n"), "m.yaml").unwrap_err();
+        let message = bad.to_string();
+        assert!(
+            message.contains("m.yaml") && message.contains("line 3"),
+            "{message}"
+        );
+    }
 }

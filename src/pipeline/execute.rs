@@ -11,7 +11,7 @@ use super::provenance::{self, LastRun, StageProvenance};
 use super::results::{self, InputOrigin, Manifest};
 use super::scheduler::RunError;
 use super::store::{self, OutputRecord, RunRecord, Store, StoreError};
-use crate::stages::Progress;
+use crate::stages::{Progress, UpstreamWarnings};
 use serde_yaml_ng::Value;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
@@ -21,6 +21,8 @@ use std::path::PathBuf;
 pub struct Done {
     pub key: String,
     pub outputs: BTreeMap<String, OutputRecord>,
+    /// The stage's warnings (its run record's).
+    pub warnings: Vec<String>,
 }
 
 /// How one stage ended.
@@ -117,6 +119,11 @@ impl Engine<'_> {
             };
             files.insert(f.path.clone(), hash);
         }
+        let upstream_warnings = if node.kind.reads_upstream_warnings() {
+            self.upstream_warnings(i, done)
+        } else {
+            Vec::new()
+        };
         Ok(KeyMaterial {
             kind: node.kind.kind().to_string(),
             version: node.kind.version(),
@@ -124,7 +131,28 @@ impl Engine<'_> {
             seed: node.kind.uses_seed().then_some(node.seed),
             inputs,
             files,
+            upstream_warnings,
         })
+    }
+
+    /// The warnings of every stage node `i` depends on (directly or not)
+    /// that has any, in plan order.
+    fn upstream_warnings(
+        &self,
+        i: usize,
+        done: &dyn Fn(usize) -> Option<Done>,
+    ) -> Vec<UpstreamWarnings> {
+        self.plan
+            .ancestors(i)
+            .into_iter()
+            .filter_map(|u| {
+                let warnings = done(u)?.warnings;
+                (!warnings.is_empty()).then(|| UpstreamWarnings {
+                    stage: self.plan.nodes[u].name.clone(),
+                    warnings,
+                })
+            })
+            .collect()
     }
 
     /// `up to date`, or, when the stage's results folder holds another
@@ -306,6 +334,7 @@ impl Engine<'_> {
             done: Some(Done {
                 key,
                 outputs: record.outputs,
+                warnings: record.warnings,
             }),
             report,
             warnings,

@@ -6,6 +6,7 @@
 //! round-trip text, so `0.1` is always `0.1` and key order in the YAML does
 //! not matter. No absolute paths, mtimes or host names enter a key.
 
+use crate::stages::UpstreamWarnings;
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value as Json};
 use serde_yaml_ng::Value;
@@ -24,6 +25,10 @@ pub struct KeyMaterial {
     pub inputs: BTreeMap<String, Vec<String>>,
     /// Param-named file (normalized relative path) → content hash.
     pub files: BTreeMap<String, String>,
+    /// For kinds that read them, the warnings of every upstream stage with
+    /// any, in plan order (absent otherwise, so other keys are unchanged).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub upstream_warnings: Vec<UpstreamWarnings>,
 }
 
 impl KeyMaterial {
@@ -152,6 +157,7 @@ mod tests {
             seed: None,
             inputs: BTreeMap::new(),
             files: BTreeMap::new(),
+            upstream_warnings: Vec::new(),
         }
     }
 
@@ -169,6 +175,19 @@ mod tests {
         e.inputs.insert("frf".into(), vec!["abc".into()]);
         assert_ne!(a.key(), e.key());
         assert_eq!(a.key().len(), 64);
+        // No upstream warnings: not in the canonical text (older keys stay);
+        // a changed upstream warning changes the key.
+        let text = serde_json::to_string(&a).unwrap();
+        assert!(!text.contains("upstream_warnings"), "{text}");
+        let mut f = b.clone();
+        f.upstream_warnings.push(UpstreamWarnings {
+            stage: "ema".into(),
+            warnings: vec!["position 0: mode missed".into()],
+        });
+        assert_ne!(a.key(), f.key());
+        let mut g = f.clone();
+        g.upstream_warnings[0].warnings[0].push('!');
+        assert_ne!(f.key(), g.key());
     }
 
     #[test]

@@ -136,6 +136,9 @@ pub fn explain(
     } else {
         reasons.push(format!("upstream {} will run", upstream_running.join(", ")));
     }
+    if upstream_running.is_empty() && prev.upstream_warnings != now.upstream_warnings {
+        reasons.push("upstream warnings changed".into());
+    }
     if reasons.is_empty() {
         "no cache entry for an unchanged stage (removed by gc or another cache)".into()
     } else {

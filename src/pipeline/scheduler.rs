@@ -271,9 +271,12 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
                     }
                     state[i] = State::Running;
                     running += 1;
-                    let upstream: BTreeMap<usize, Done> = plan.upstream[i]
-                        .iter()
-                        .filter_map(|&u| match &state[u] {
+                    // Every ancestor (not only the inputs' stages): a
+                    // kind may read their warnings (`upstream_warnings`).
+                    let upstream: BTreeMap<usize, Done> = plan
+                        .ancestors(i)
+                        .into_iter()
+                        .filter_map(|u| match &state[u] {
                             State::Finished(Some(d)) => Some((u, d.clone())),
                             _ => None,
                         })
@@ -479,6 +482,7 @@ pub fn status(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
                             done[i] = Some(Done {
                                 key: key.clone(),
                                 outputs: rec.outputs,
+                                warnings: rec.warnings,
                             });
                         }
                         (true, _) => report.reason = "forced".into(),
@@ -583,5 +587,6 @@ fn placeholder(plan: &Plan, u: usize) -> Option<Done> {
     Some(Done {
         key: PENDING.into(),
         outputs,
+        warnings: Vec::new(),
     })
 }

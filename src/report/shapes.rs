@@ -1,6 +1,7 @@
 //! Mode shapes drawn on the structure: each mode deformed (colour) over
 //! the undeformed geometry (grey) in three orthographic views: with the
-//! model's vertical axis given (evaluate's `vertical`), top (looking down
+//! model's vertical axis given (evaluate's `vertical`, else the model
+//! file's `vertical:`), top (looking down
 //! it), front and side (it drawn upward) — a y-up model's top looks down
 //! y —, else named by plane and viewing axis (`x–y (along z)`, …), and
 //! animated between ±amplitude with SMIL

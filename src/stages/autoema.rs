@@ -226,8 +226,11 @@ impl Kind for AutoEma {
     /// 1231 Hz over the sweeps); a lightly damped root kept for significance
     /// alone on a short stable column is dropped (`short_column`: split and
     /// mixed poles of the UFSC shaker test) (issue 31).
+    /// 9: the positions' warnings (metrics.json `warnings`) are the stage's
+    /// warnings too — `warning:` lines, the run's count, reports — cached or
+    /// not; the outputs are unchanged (issue 29).
     fn version(&self) -> u32 {
-        8
+        9
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"
@@ -539,7 +542,7 @@ fn write_outputs(
     let iterations: usize = results.iter().map(|r| r.trace.len()).sum();
     let orders: usize = results.iter().map(|r| r.orders.len()).sum();
     Ok(StageOutputs {
-        warnings: Vec::new(),
+        warnings: m.warnings,
         files: vec![
             ("modes".into(), modes_dir),
             ("poles".into(), poles_path),

@@ -26,7 +26,7 @@ pub mod synthesize;
 pub use params::{Field, ParamProblem, ParamSet, Range};
 pub use stage::{
     expand_glob, Artifact, FileRef, InputSource, InputSpec, Kind, NoProgress, Output, Parsed,
-    Progress, Stage, StageContext, StageError, StageOutputs,
+    Progress, Stage, StageContext, StageError, StageOutputs, UpstreamWarnings,
 };
 
 /// Every stage kind, in the order `modalflow` lists them.

@@ -174,6 +174,19 @@ pub struct StageContext<'a> {
     /// How [`StageContext::evaluate_batch`] treats the run's batch: whole,
     /// one shard of a job array, or merged from the shards' partials.
     pub batch: &'a shard::Batch,
+    /// The warnings of every upstream stage (every stage this one depends
+    /// on, directly or not), in plan order, for kinds that ask for them
+    /// ([`Kind::reads_upstream_warnings`]); empty for the others.
+    pub upstream_warnings: &'a [UpstreamWarnings],
+}
+
+/// One upstream stage's warnings (its run record's), as a stage that
+/// reads them sees them; part of that stage's key, so a changed warning
+/// upstream reruns it even when the upstream outputs are unchanged.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct UpstreamWarnings {
+    pub stage: String,
+    pub warnings: Vec<String>,
 }
 
 impl StageContext<'_> {
@@ -310,6 +323,11 @@ pub trait Kind: Sync + Send + 'static {
     fn uses_seed(&self) -> bool {
         false
     }
+    /// Whether the stage reads the warnings of every upstream stage
+    /// ([`StageContext::upstream_warnings`], which then enter its key).
+    fn reads_upstream_warnings(&self) -> bool {
+        false
+    }
     /// Files the params name (hashed by content into the key).
     fn files(&self, _p: &Self::Params) -> Vec<FileRef> {
         Vec::new()
@@ -364,6 +382,7 @@ pub trait Stage: Sync + Send {
     fn outputs(&self, p: &Parsed) -> Vec<Output>;
     fn seed(&self, p: &Parsed) -> Option<u64>;
     fn uses_seed(&self) -> bool;
+    fn reads_upstream_warnings(&self) -> bool;
     fn files(&self, p: &Parsed) -> Vec<FileRef>;
     /// The files the params name, read from the params as written (for
     /// params that failed to parse): string values of the kind's file
@@ -412,6 +431,9 @@ impl<K: Kind> Stage for K {
     }
     fn uses_seed(&self) -> bool {
         Kind::uses_seed(self)
+    }
+    fn reads_upstream_warnings(&self) -> bool {
+        Kind::reads_upstream_warnings(self)
     }
     fn files(&self, p: &Parsed) -> Vec<FileRef> {
         typed::<K>(p).map_or_else(Vec::new, |p| Kind::files(self, p))

@@ -223,9 +223,11 @@ pub fn summary(report: &RunReport, dry: bool) -> String {
     out
 }
 
-/// `3 warning(s): gsa 1, measured 2; the report lists 27 warning(s) of
-/// the stages it reads: results/…/index.html` — the stages' own warnings
-/// and what a report stage collected (its `warnings` counter), or nothing.
+/// Where the run's warnings are: `5 stage warning(s): ema 3, measured 2
+/// (`warning:` lines on stderr unless --progress none; …)` — every stage's own
+/// warnings, ran or cached alike (its run record's) — and for each report
+/// stage how many it lists and where: `report: 27 warning(s) of the stages
+/// upstream of it, collapsed and counted, in results/…/index.html#warnings`.
 fn warning_count(report: &RunReport) -> String {
     let per_stage: Vec<(&str, usize)> = report
         .stages
@@ -237,7 +239,8 @@ fn warning_count(report: &RunReport) -> String {
     let mut out = String::new();
     if total > 0 {
         out.push_str(&format!(
-            "{total} stage warning(s): {}\n",
+            "{total} stage warning(s): {} (`warning:` lines on stderr unless --progress none; \
+             each stage's `warnings` in --json)\n",
             per_stage
                 .iter()
                 .map(|(s, n)| format!("{s} {n}"))
@@ -245,10 +248,19 @@ fn warning_count(report: &RunReport) -> String {
                 .join(", ")
         ));
     }
+    let results = report.trace.as_ref().and_then(|t| t.parent());
     for r in &report.stages {
         if let Some(&n) = r.counters.get("warnings").filter(|n| **n > 0) {
+            let place = results.map_or_else(
+                || "its Warnings section".to_string(),
+                |dir| {
+                    let page = dir.join(&r.name).join("report").join("index.html");
+                    format!("{}#warnings", page.display())
+                },
+            );
             out.push_str(&format!(
-                "{}: the report lists {n} warning(s) of the stages it reads (its Warnings section)\n",
+                "{}: {n} warning(s) of the stages upstream of it (with identify verdicts), \
+                 collapsed and counted, in {place}\n",
                 r.name
             ));
         }

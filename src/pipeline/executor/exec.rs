@@ -174,6 +174,7 @@ fn run_in(
         scratch,
         progress,
         batch: &batch,
+        upstream_warnings: &job.material.upstream_warnings,
     };
     let start = Instant::now();
     let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {

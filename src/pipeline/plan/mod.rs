@@ -52,6 +52,20 @@ pub struct Plan {
 }
 
 impl Plan {
+    /// Every node `i` depends on, directly or not, in plan order.
+    pub fn ancestors(&self, i: usize) -> Vec<usize> {
+        let mut seen = vec![false; self.nodes.len()];
+        let mut stack = vec![i];
+        while let Some(n) = stack.pop() {
+            for &u in &self.upstream[n] {
+                if !std::mem::replace(&mut seen[u], true) {
+                    stack.push(u);
+                }
+            }
+        }
+        (0..seen.len()).filter(|&u| seen[u]).collect()
+    }
+
     /// The pipeline file's absolute path (its identity in a cache).
     pub fn path(&self) -> PathBuf {
         match self.file.file_name() {

@@ -22,6 +22,15 @@ impl Source {
             Source::Fixed(g) => (!g.nodes.is_empty()).then(|| g.clone()),
         }
     }
+
+    /// The model file's vertical axis (`vertical:`, 0–2), if it states one;
+    /// a geometry.json states none.
+    pub fn vertical(&self) -> Option<usize> {
+        match self {
+            Source::Model(spec) => spec.vertical.map(|a| a.index()),
+            Source::Fixed(_) => None,
+        }
+    }
 }
 
 /// Read a model.json or geometry.json.

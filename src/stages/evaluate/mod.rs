@@ -47,7 +47,8 @@ crate::params! {
         pub ambiguity: f64 = Pairing::default().ambiguity; range Range::at_least(0.0),
         /// the model's vertical axis (`x`, `y` or `z`): mode-shape views are
         /// then named top, front and side, the vertical axis drawn upward;
-        /// without it, views are named by their plane
+        /// default: the geometry's model file's `vertical:`; with neither,
+        /// views are named by their plane
         pub vertical: Option<String> = None,
     }
 }
@@ -151,8 +152,10 @@ impl Kind for Evaluate {
     /// states `schema_version` (issue 28). 7: every FRF channel drawn
     /// (small multiples, `frf_channels_<position>.svg`), figure titles name
     /// the candidate, paired shapes sign-aligned and views named by plane.
+    /// 8: without the `vertical` param, the views are named from the
+    /// geometry's model file (its `vertical:` key).
     fn version(&self) -> u32 {
-        7
+        8
     }
     fn summary(&self) -> &'static str {
         "compare candidate modes/FRFs/parameters with a reference: MAC, MACXP, NFD, NDD, FRAC, CSF, parameter errors, unpaired and ambiguous modes, the identification's verdict"
@@ -223,7 +226,8 @@ impl Kind for Evaluate {
                 &candidate,
                 &settings,
                 geometry.as_ref().map(|_| &at as &dyn Fn(u32) -> Option<_>),
-                vertical_axis(p),
+                // The param overrides the model file's `vertical:`.
+                vertical_axis(p).or_else(|| geometry.as_ref().and_then(|g| g.vertical())),
                 &tables,
                 &plots,
             )?);

@@ -4,7 +4,8 @@
 //! `evaluate` metrics (accuracy, unpaired and ambiguous modes), costs,
 //! identifiability and uncertainty of the identified parameters, the mode
 //! correlation of each identification, convergence histories, parameter
-//! errors, GSA splits, any CSV table and any SVG figures.
+//! errors, GSA splits, any CSV table and any SVG figures; and the
+//! warnings of every stage upstream of it.
 //!
 //! JSON inputs are read through their writers' schemas
 //! ([`crate::artifacts`]: metrics, cost, identifiability, parameters,
@@ -66,7 +67,7 @@ const INPUTS: &[InputSpec] = &[
         required: false,
         list: true,
         artifact: Artifact::Json,
-        doc: "stage summaries whose warnings the report lists (autoema metrics, gsa subproblems, import summaries); identify warnings come with `costs`",
+        doc: "stage summaries whose warnings the report adds to every upstream stage's own (gsa subproblems: the estimators' notes too); identify verdict warnings come with `costs`",
     },
     InputSpec {
         name: "tables",
@@ -152,9 +153,13 @@ impl Kind for Report {
     /// `initial_tables`), every stage's warnings collapsed and counted
     /// (`warnings`), the truth beside identified parameters, complete
     /// convergence curves, large bar charts sorted with the top shown, long
-    /// floats in any text to significant digits.
+    /// floats in any text to significant digits. 7: the warnings of every
+    /// upstream stage (synthesize, autoema, …), bound or not.
     fn version(&self) -> u32 {
-        6
+        7
+    }
+    fn reads_upstream_warnings(&self) -> bool {
+        true
     }
     fn summary(&self) -> &'static str {
         "an HTML report (self-contained) and a Markdown twin from verdicts, metrics, costs, identifiability, histories and figures"
@@ -193,7 +198,8 @@ impl Kind for Report {
         };
         let metrics = read_all(&bound("metrics", false), "metrics", Metrics::read)?;
         let costs = read_all(&bound("costs", false), "costs", Cost::read)?;
-        let stage_warnings = collect_warnings(&costs, &bound("warnings", false))?;
+        let stage_warnings =
+            collect_warnings(ctx.upstream_warnings, &costs, &bound("warnings", false))?;
         let initial = match bound("initial", false).first() {
             Some((stage, path)) => {
                 Some(Metrics::read(path).map_err(|m| StageError::InvalidInput {
@@ -253,22 +259,28 @@ impl Kind for Report {
     }
 }
 
-/// The warnings of every stage the report reads: the identifications'
-/// verdict warnings (`costs`), then each bound stage summary's.
+/// The warnings of every stage the report reads: every upstream stage's
+/// own (run record) warnings in plan order, merged with the
+/// identifications' verdict warnings (`costs`) and each bound stage
+/// summary's (`warnings`), a warning in both counted once.
 fn collect_warnings(
+    upstream: &[crate::stages::UpstreamWarnings],
     costs: &[(String, Cost)],
     summaries: &[(String, PathBuf)],
 ) -> Result<Vec<(String, Vec<String>)>, StageError> {
-    let mut out: Vec<(String, Vec<String>)> = costs
+    let mut out: Vec<(String, Vec<String>)> = upstream
         .iter()
-        .map(|(s, c)| (s.clone(), c.verdict.warnings.clone()))
+        .map(|u| (u.stage.clone(), u.warnings.clone()))
         .collect();
+    for (s, c) in costs {
+        warnings::merge(&mut out, s, &c.verdict.warnings);
+    }
     for (stage, path) in summaries {
         let w = crate::artifacts::warnings::read(path).map_err(|m| StageError::InvalidInput {
             input: "warnings".into(),
             message: format!("{stage}: {m}"),
         })?;
-        out.push((stage.clone(), w));
+        warnings::merge(&mut out, stage, &w);
     }
     Ok(out)
 }

@@ -1,7 +1,8 @@
-//! Every warning of every stage the report sees — the identifications'
-//! verdict warnings (`costs`) and the summaries bound to `warnings`
-//! (AutoEMA's metrics.json, gsa's subproblems.json, import's import.json)
-//! — collapsed and counted: warnings of one stage that differ only in
+//! Every warning of every stage the report sees — every upstream stage's
+//! own warnings (the engine's, [`crate::stages::UpstreamWarnings`]), the
+//! identifications' verdict warnings (`costs`) and the summaries bound to
+//! `warnings` (gsa's subproblems.json with its estimators' notes, …) —
+//! collapsed and counted: warnings of one stage that differ only in
 //! their numbers (one per position or mode) become one row with a count
 //! and the first of them in full. A box near the top gives the totals.
 
@@ -35,6 +36,26 @@ fn form(text: &str) -> String {
         }
     }
     out
+}
+
+/// Add `warnings` to `stage`'s entry of `per_stage` (appended when it has
+/// none): a warning already there is not added again, so a stage's record
+/// warnings and the same warnings in its summary count once (each text as
+/// often as the list with more of it has it).
+pub fn merge(per_stage: &mut Vec<(String, Vec<String>)>, stage: &str, warnings: &[String]) {
+    let Some(i) = per_stage.iter().position(|(s, _)| s == stage) else {
+        per_stage.push((stage.to_string(), warnings.to_vec()));
+        return;
+    };
+    let mut unmatched = per_stage[i].1.clone();
+    for w in warnings {
+        match unmatched.iter().position(|u| u == w) {
+            Some(k) => {
+                unmatched.remove(k);
+            }
+            None => per_stage[i].1.push(w.clone()),
+        }
+    }
 }
 
 /// Collapse `(stage, warnings)` into rows, in the stages' order and each
@@ -90,8 +111,9 @@ pub fn section(doc: &mut Document, per_stage: &[(String, Vec<String>)]) {
     }
     doc.heading(2, "Warnings");
     doc.paragraph(
-        "Every warning of the stages this report reads; warnings of one stage that differ only \
-         in their numbers are one row, counted, with the first of them in full.",
+        "Every warning of the stages upstream of this report (each stage's own, the \
+         identifications' verdict warnings, the summaries bound to it); warnings of one stage \
+         that differ only in their numbers are one row, counted, with the first of them in full.",
     );
     doc.table(
         ["stage", "count", "warning (first of its kind)"]
@@ -130,5 +152,17 @@ mod tests {
         assert!(rows[0].example.starts_with("position 0: mode at 45.1 Hz"));
         assert_eq!((rows[2].stage.as_str(), rows[2].count), ("guided", 1));
         assert_eq!(form("k = 1.5e6, -3"), "k = #, -#");
+    }
+
+    #[test]
+    fn a_warning_in_record_and_summary_counts_once() {
+        let w = |s: &str| s.to_string();
+        let mut per_stage = vec![(w("gsa"), vec![w("a"), w("b"), w("b")])];
+        merge(&mut per_stage, "gsa", &[w("note"), w("b"), w("a")]);
+        assert_eq!(per_stage[0].1, ["a", "b", "b", "note"]);
+        merge(&mut per_stage, "gsa", &[w("b"), w("b"), w("b")]);
+        assert_eq!(per_stage[0].1, ["a", "b", "b", "note", "b"]);
+        merge(&mut per_stage, "guided", &[]);
+        assert_eq!(per_stage[1], (w("guided"), vec![]));
     }
 }
