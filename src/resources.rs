@@ -94,7 +94,7 @@ pub fn human(bytes: f64) -> String {
 
 /// An estimate above a limit: what it needs and how to bring it down.
 /// Plain text, so this module depends on nothing above it; stages turn it
-/// into a located param problem (`stages::limits`).
+/// into a located param problem (`stages::params::limits`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Excess {
     pub message: String,

@@ -223,7 +223,7 @@ impl Kind for Gsa {
         let Some(ModelParam::File(path)) = &p.model else {
             return Ok(Vec::new());
         };
-        super::model_files::model_file_dependencies(dir, path).map_err(|message| {
+        super::params::model_files::model_file_dependencies(dir, path).map_err(|message| {
             ParamProblem::new(
                 &["model"],
                 message,

@@ -15,8 +15,6 @@ pub mod export;
 pub mod gsa;
 pub mod identify;
 pub mod import;
-pub mod limits;
-pub mod model_files;
 pub mod params;
 pub mod report;
 pub mod shard;

@@ -338,7 +338,7 @@ pub fn sobol_memory(p: &Params, d: usize, positions: usize) -> Option<ParamProbl
     } else {
         p.outputs.len() as f64
     };
-    crate::stages::limits::memory_problem(
+    crate::stages::params::limits::memory_problem(
         &["samples"],
         "samples × (parameters + 2) evaluations × outputs (modes, bands)",
         8.0 * evaluations * outputs,

@@ -151,13 +151,14 @@ impl Kind for Identify {
         let Some(path) = &p.model else {
             return Ok(Vec::new());
         };
-        let (model, files) = super::model_files::checked_model_file(dir, path).map_err(|m| {
-            problem(
-                &["model"],
-                m,
-                "paths are relative to the pipeline file; see pipelines/models/",
-            )
-        })?;
+        let (model, files) =
+            super::params::model_files::checked_model_file(dir, path).map_err(|m| {
+                problem(
+                    &["model"],
+                    m,
+                    "paths are relative to the pipeline file; see pipelines/models/",
+                )
+            })?;
         let minimum = minimum_budget(model.parameters.len());
         if p.budget < minimum {
             return Err(problem(

@@ -15,6 +15,8 @@
 //! top level is per key. The kind's own cross-field checks
 //! ([`super::Kind::check`]) run on the typed value.
 
+pub mod limits;
+pub mod model_files;
 mod range;
 
 pub use range::{check_range, Numbers, Range};

@@ -13,7 +13,7 @@ use crate::artifacts;
 mod params;
 mod values;
 
-use super::model_files::{external_files, load_model, model_memory};
+use super::params::model_files::{external_files, load_model, model_memory};
 use super::{
     Artifact, FileRef, InputSpec, Kind, ParamProblem, StageContext, StageError, StageOutputs,
 };
@@ -49,7 +49,7 @@ fn frf_memory(p: &Params, spec: &model_file::ModelFile) -> Option<ParamProblem> 
     let excitations = count(p.excitations.as_ref().map(Vec::len), spec.excitations.len());
     let all_positions = spec.axes.iter().map(|a| a.positions.len().max(1)).product();
     let positions = count(p.positions.as_ref().map(Vec::len), all_positions);
-    crate::stages::limits::memory_problem(
+    crate::stages::params::limits::memory_problem(
         &["frequency", "step"],
         &format!(
             "{lines} lines × {sensors} sensors × {excitations} excitations × {positions} positions"

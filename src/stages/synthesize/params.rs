@@ -267,8 +267,8 @@ pub fn impact_resources(
     let samples = averages * n * channels + modes * n * r;
     let what = format!("block_size × oversampling × {modes} modes, per excitation");
     let memory =
-        crate::stages::limits::memory_problem(&["impact_test", "block_size"], &what, bytes);
-    let work = crate::stages::limits::work_problem(
+        crate::stages::params::limits::memory_problem(&["impact_test", "block_size"], &what, bytes);
+    let work = crate::stages::params::limits::work_problem(
         &["impact_test", "averages"],
         &format!("averages × block_size × {channels} channels, per excitation"),
         samples,
