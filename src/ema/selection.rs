@@ -24,7 +24,9 @@ use super::polymax::{Pole, PoleOrder};
 use super::projection::{FitOutcome, Projector};
 use super::refine::{nested_statistic, refine_sweep};
 use super::roots::{multiplicity_over_all_orders, roots_from_clusters, Root};
-use super::significance::{chi2_isf, holds_peak, Acceptance, Reason, Rejection, Validation};
+use super::significance::{
+    chi2_isf, holds_peak, Acceptance, Reason, Rejection, Validated, Validation,
+};
 use super::stabilization::{stabilize, PoleFlags, StabilizationParams};
 use super::{EmaError, FrfData};
 use num_complex::Complex64;
@@ -143,6 +145,22 @@ impl<'d> Screening<'d> {
             params,
         }
     }
+
+    /// Validate `roots` of the poles `orders` against this data's noise and
+    /// peak evidence ([`Validation`]).
+    pub fn validate(&mut self, orders: &[PoleOrder], roots: Vec<Root>) -> Validated {
+        Validation {
+            projector: &mut self.projector,
+            orders,
+            noise: &self.noise,
+            n_out: self.data.n_out(),
+            n_ref: self.data.n_ref(),
+            n_lines: self.data.n_lines(),
+            alpha: self.params.alpha,
+            evidence: &self.evidence,
+        }
+        .run(roots)
+    }
 }
 
 /// The modes chosen for one hyperparameter point.
@@ -217,17 +235,7 @@ pub fn select_modes(
         },
     );
     let roots = roots_from_clusters(orders, &clusters, &candidates, data.n_ref());
-    let validated = Validation {
-        projector: &mut screening.projector,
-        orders,
-        noise: &screening.noise,
-        n_out: data.n_out(),
-        n_ref: data.n_ref(),
-        n_lines: data.n_lines(),
-        alpha: screening.params.alpha,
-        evidence: &screening.evidence,
-    }
-    .run(roots);
+    let validated = screening.validate(orders, roots);
     let mean_frac = validated.fit.mean_frac();
     let n_modes: usize = validated.roots.iter().map(|r| r.multiplicity).sum();
     Selection {
@@ -332,17 +340,7 @@ pub fn refine_selection(
         inside
     });
     let validated = loop {
-        let validated = Validation {
-            projector: &mut screening.projector,
-            orders,
-            noise: &screening.noise,
-            n_out: data.n_out(),
-            n_ref: data.n_ref(),
-            n_lines: data.n_lines(),
-            alpha: screening.params.alpha,
-            evidence: &screening.evidence,
-        }
-        .run(roots);
+        let validated = screening.validate(orders, roots);
         let short = short_columns(orders, &validated.roots, &validated.accepted);
         if short.is_empty() {
             break validated;

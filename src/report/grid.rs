@@ -5,7 +5,7 @@
 //! of a study is shown at a readable size instead of the first few.
 
 use super::style::{text_width, LABEL_SIZE, TICK_SIZE, TITLE_SIZE};
-use super::svg::{clip_id, esc, header, left_margin, legend_box, panel, Frame, Plot};
+use super::svg::{clip_id, esc, header, legend_box, panel, Frame, Plot, Shared};
 use std::fmt::Write;
 
 /// The panels in a grid of `columns` (at least 1); each panel's `title`
@@ -13,33 +13,19 @@ use std::fmt::Write;
 pub fn small_multiples(title: &str, caption: &str, panels: &[Plot], columns: usize) -> String {
     let columns = columns.clamp(1, panels.len().max(1));
     let rows = panels.len().div_ceil(columns).max(1);
-    let y_axes: Vec<_> = panels.iter().map(Plot::y_axis).collect();
-    let (mut x0, mut x1) = (f64::INFINITY, f64::NEG_INFINITY);
-    for p in panels {
-        let (a, b) = p.x_range();
-        (x0, x1) = (x0.min(a), x1.max(b));
-    }
-    if !x0.is_finite() {
-        (x0, x1) = (0.0, 1.0);
-    }
-    let l = y_axes
-        .iter()
-        .map(|a| left_margin(&a.2))
-        .fold(40.0, f64::max);
+    let Shared {
+        y_axes,
+        x: (x0, x1),
+        left: l,
+        legend,
+        legend_width: legend_w,
+    } = Shared::of(panels);
     let pw = panels.iter().map(|p| p.width).fold(120.0, f64::max);
     let ph = panels.iter().map(|p| p.height).fold(80.0, f64::max);
     let cell_w = l + pw + 14.0;
     let head = TICK_SIZE + 8.0;
     let bottom = 2.0 * TICK_SIZE + LABEL_SIZE + 12.0;
     let cell_h = head + ph + bottom;
-    let legend: Vec<_> = panels
-        .first()
-        .map_or(Vec::new(), |p| p.series.iter().collect());
-    let legend_w = legend
-        .iter()
-        .map(|s| text_width(&s.name, TICK_SIZE))
-        .fold(0.0, f64::max)
-        + if legend.is_empty() { 0.0 } else { 48.0 };
     let top = 36.0;
     let w = (columns as f64 * cell_w + 10.0 + legend_w).max(text_width(title, TITLE_SIZE) + 24.0);
     let h = top + rows as f64 * cell_h + 4.0;

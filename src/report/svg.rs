@@ -162,32 +162,62 @@ pub(super) fn left_margin(ticks: &Ticks) -> f64 {
     widest + 8.0 + LABEL_SIZE + 14.0
 }
 
+/// What panels drawn together share: their y axes, the union of their x
+/// ranges ((0, 1) when none is finite), the left margin the widest y tick
+/// labels need, and one legend (the first panel's series) with its width.
+pub(super) struct Shared<'a> {
+    pub y_axes: Vec<(f64, f64, Ticks)>,
+    pub x: (f64, f64),
+    pub left: f64,
+    pub legend: Vec<&'a Series>,
+    pub legend_width: f64,
+}
+
+impl<'a> Shared<'a> {
+    pub fn of(panels: &'a [Plot]) -> Shared<'a> {
+        let y_axes: Vec<(f64, f64, Ticks)> = panels.iter().map(Plot::y_axis).collect();
+        let (mut x0, mut x1) = (f64::INFINITY, f64::NEG_INFINITY);
+        for p in panels {
+            let (a, b) = p.x_range();
+            (x0, x1) = (x0.min(a), x1.max(b));
+        }
+        if !x0.is_finite() {
+            (x0, x1) = (0.0, 1.0);
+        }
+        let left = y_axes
+            .iter()
+            .map(|a| left_margin(&a.2))
+            .fold(40.0, f64::max);
+        let legend: Vec<&Series> = panels
+            .first()
+            .map_or(Vec::new(), |p| p.series.iter().collect());
+        let legend_width = legend
+            .iter()
+            .map(|s| text_width(&s.name, TICK_SIZE))
+            .fold(0.0, f64::max)
+            + if legend.is_empty() { 0.0 } else { 48.0 };
+        Shared {
+            y_axes,
+            x: (x0, x1),
+            left,
+            legend,
+            legend_width,
+        }
+    }
+}
+
 /// Panels stacked on one x axis (the x range is the union of theirs; only
 /// the last shows the x title), one legend (the first panel's series) right
 /// of the frames, `title` on top and `caption` in `<desc>`.
 pub fn stacked(title: &str, caption: &str, panels: &[Plot]) -> String {
-    let y_axes: Vec<(f64, f64, Ticks)> = panels.iter().map(Plot::y_axis).collect();
-    let (mut x0, mut x1) = (f64::INFINITY, f64::NEG_INFINITY);
-    for p in panels {
-        let (a, b) = p.x_range();
-        (x0, x1) = (x0.min(a), x1.max(b));
-    }
-    if !x0.is_finite() {
-        (x0, x1) = (0.0, 1.0);
-    }
-    let l = y_axes
-        .iter()
-        .map(|a| left_margin(&a.2))
-        .fold(40.0, f64::max);
+    let Shared {
+        y_axes,
+        x: (x0, x1),
+        left: l,
+        legend,
+        legend_width: legend_w,
+    } = Shared::of(panels);
     let pw = panels.iter().map(|p| p.width).fold(200.0, f64::max);
-    let legend: Vec<&Series> = panels
-        .first()
-        .map_or(Vec::new(), |p| p.series.iter().collect());
-    let legend_w = legend
-        .iter()
-        .map(|s| text_width(&s.name, TICK_SIZE))
-        .fold(0.0, f64::max)
-        + if legend.is_empty() { 0.0 } else { 48.0 };
     let top = if title.is_empty() { 12.0 } else { 36.0 };
     let gap = 14.0;
     let bottom = 2.0 * TICK_SIZE + LABEL_SIZE + 16.0;
