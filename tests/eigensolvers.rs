@@ -2,7 +2,8 @@
 //! on the test bench; a long cantilever with equal bending stiffness in two
 //! directions (every bending frequency a double eigenvalue) matches
 //! Euler–Bernoulli on both paths and finds both copies; residual
-//! identities; bit-identical results across thread counts.
+//! identities; bit-identical results across thread counts; 100 modes keep
+//! every repeated eigenspace (subspace MAC).
 #![allow(non_snake_case)]
 
 use modalflow::dynamics::model_file::{SolverMethod, SolverSpec};
@@ -221,4 +222,72 @@ fn modes_below_a_frequency_grow_the_count_until_one_lies_above() {
             "the test bench has more than one chunk of modes below 500 Hz"
         );
     }
+}
+
+/// Subspace MAC of the eigenspace of modes `r` of `a` and `b` (M-orthonormal
+/// shapes): the smallest squared cosine of the principal angles between the
+/// two spans, λ_min(CᵀC) with C = Φ_aᵀ M Φ_b over those columns — 1 when they
+/// span the same space, whatever basis each solver chose inside a repeated
+/// eigenvalue's eigenspace. Spaces of one or two modes.
+fn subspace_mac(M: &faer::Mat<f64>, a: &ModalSolution, b: &ModalSolution, r: &[usize]) -> f64 {
+    let cols =
+        |s: &ModalSolution| faer::Mat::from_fn(s.Phi.nrows(), r.len(), |i, j| s.Phi[(i, r[j])]);
+    let (A, B) = (cols(a), cols(b));
+    let C = A.transpose() * M * &B;
+    let G = C.transpose() * &C;
+    match r.len() {
+        1 => G[(0, 0)],
+        2 => {
+            let (p, q, o) = (G[(0, 0)], G[(1, 1)], G[(0, 1)]);
+            0.5 * (p + q) - (0.25 * (p - q).powi(2) + o * o).sqrt()
+        }
+        n => panic!("an eigenspace of {n} modes"),
+    }
+}
+
+/// 100 modes of the square cantilever (the Lanczos with locking above 40):
+/// every eigenvalue within 1e-6 of the dense solver's (the clamp springs'
+/// conditioning bound, as above: the paths differ by ~4e-8), and every eigenspace
+/// (the bending pairs: both copies of each double eigenvalue; the axial and
+/// torsion modes alone) the same to a subspace MAC ≥ 0.999999 (issue 32).
+#[test]
+fn a_hundred_modes_keep_every_repeated_eigenspace() {
+    let modes = 100;
+    let (dense, sparse) = (cantilever("dense", 4), cantilever("sparse", 4));
+    let v = dense.true_values();
+    let (pd, ps) = (
+        PreparedModel::new(&dense).unwrap(),
+        PreparedModel::new(&sparse).unwrap(),
+    );
+    let (d, s) = (
+        pd.evaluate(0, &v, modes).unwrap(),
+        ps.evaluate(0, &v, modes).unwrap(),
+    );
+    assert_eq!(s.eigenvalues.len(), modes);
+    for (r, (a, b)) in d.eigenvalues.iter().zip(&s.eigenvalues).enumerate() {
+        assert!((b / a - 1.0).abs() < 1e-6, "mode {r}: {a} vs {b}");
+    }
+    // Eigenspaces: runs of eigenvalues equal to 1e-7 (a double one's two
+    // copies agree to ~1e-10 here); the last mode only when its space is
+    // complete (its partner is not cut off by the count).
+    let [M, ..] = pd.matrices(0, &v).unwrap();
+    let l = &d.eigenvalues;
+    let mut r = 0;
+    let mut pairs = 0;
+    while r < modes {
+        let mut space = vec![r];
+        while space.len() < 2 && r + space.len() < modes && (l[r + space.len()] / l[r] - 1.0) < 1e-7
+        {
+            space.push(r + space.len());
+        }
+        r += space.len();
+        if r == modes && space.len() == 1 && modes < l.len() {
+            break;
+        }
+        pairs += usize::from(space.len() == 2);
+        let m = subspace_mac(&M, &d, &s, &space);
+        assert!(m >= 0.999999, "modes {space:?}: subspace MAC {m}");
+    }
+    // 35 bending pairs; the rest axial and torsion modes.
+    assert_eq!(pairs, 35, "double eigenvalues among {modes} modes");
 }
