@@ -259,8 +259,7 @@ fn warning_count(report: &RunReport) -> String {
                 },
             );
             out.push_str(&format!(
-                "{}: {n} warning(s) of the stages upstream of it (with identify verdicts), \
-                 collapsed and counted, in {place}\n",
+                "{}: {n} warning(s) of the stages upstream of it, collapsed and counted, in {place}\n",
                 r.name
             ));
         }

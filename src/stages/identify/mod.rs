@@ -99,7 +99,8 @@ impl Kind for Identify {
     /// pairs count as not reproduced, a refit that fits no better refutes the
     /// implication (issue 26).
     /// 17: dampers fitted from modes iterate to convergence and their
-    /// damping ratios are judged (cause `damping`) (issue 26).
+    /// damping ratios are judged (cause `damping`) (issue 26); the verdict's
+    /// warnings are stage warnings (issue 29).
     fn version(&self) -> u32 {
         17
     }
@@ -336,7 +337,9 @@ impl Kind for Identify {
         updated_model::write(ctx, p.model.as_deref(), &parameters, &model_dir)?;
         files.push(("updated_model".to_string(), model_dir));
         Ok(StageOutputs {
-            warnings: Vec::new(),
+            // The verdict's warnings are the stage's too: `warning:` lines,
+            // the run's count and every report below, cached or not.
+            warnings: u.verdict.warnings.clone(),
             files,
             counters: [("evaluations".to_string(), u.evaluations as u64)].into(),
         })
