@@ -225,15 +225,10 @@ pub fn guided(
     } else {
         budget.saturating_sub(damping_cost)
     };
-    let refinement_minimum = (8 * (n + 1)).max(super::continuation::minimum_budget(
-        o,
-        n,
-        &settings.continuation,
-    ));
     let minimum = damping_cost
         + 2 * runs_total
         + if settings.refine {
-            refinement_minimum
+            run_minimum(o, n, settings)
         } else {
             0
         };
@@ -338,6 +333,16 @@ struct Refined {
     runs: Vec<RefinementRun>,
 }
 
+/// The budget one refinement run over `n` parameters needs: what the
+/// continuation needs (all its stages), and no less than 8 per parameter.
+fn run_minimum(o: &ModalObjective, n: usize, settings: &GuidedParams) -> usize {
+    (8 * (n + 1)).max(super::continuation::minimum_budget(
+        o,
+        n,
+        &settings.continuation,
+    ))
+}
+
 /// Step 2: continuation runs from the better of `start` and `x1`, then, while
 /// the best fit is above the noise, from the other and from Sobol points.
 #[allow(clippy::too_many_arguments)]
@@ -384,13 +389,8 @@ fn refine(
     let noise_cost = 0.5 * NOISE_RMS * NOISE_RMS * residual_count as f64;
     let mut best: Option<(ContinuationResult, usize)> = None;
     let mut runs = Vec::new();
-    // A run needs what the continuation needs (all its stages), and no less
-    // than 8 per parameter; a later start below that is skipped.
-    let minimum = (8 * (free.len() + 1)).max(super::continuation::minimum_budget(
-        o,
-        free.len(),
-        &settings.continuation,
-    ));
+    // A later start below a run's minimum is skipped.
+    let minimum = run_minimum(o, free.len(), settings);
     for (k, (from, x0)) in candidates.iter().enumerate() {
         let left = budget.saturating_sub(used);
         let runs_left = candidates.len() - k;
