@@ -428,27 +428,37 @@ mod tests {
             .collect()
     }
 
-    #[test]
-    fn spread_is_the_robust_deviation_about_the_reported_pole() {
-        // Members at 100 + {−2, −1, 0, 1, 2, 40} Hz: the median absolute
-        // deviation about 100 Hz is 1.5 Hz (the stray 140 Hz pole does not
-        // count), so the spread is 1.4826 · 1.5 / 100.
-        let offsets = [-2.0, -1.0, 0.0, 1.0, 2.0, 40.0];
-        let o: Vec<PoleOrder> = offsets
-            .iter()
+    /// A stable column: one pole per order from `poles`, and the root of
+    /// all of them, represented by the third.
+    fn column(poles: impl Iterator<Item = Pole>) -> (Vec<PoleOrder>, Root) {
+        let o: Vec<PoleOrder> = poles
             .enumerate()
-            .map(|(j, d)| PoleOrder {
+            .map(|(j, p)| PoleOrder {
                 order: j + 1,
-                poles: vec![pole(100.0 + d, 0.02 * (1.0 + d / 100.0), [1.0, 0.0])],
+                poles: vec![p],
             })
             .collect();
-        let mut root = Root {
+        let root = Root {
             members: (0..o.len()).map(|j| (j, 0)).collect(),
             representative: (2, 0),
             multiplicity: 1,
             n_orders: o.len(),
             refined: None,
         };
+        (o, root)
+    }
+
+    #[test]
+    fn spread_is_the_robust_deviation_about_the_reported_pole() {
+        // Members at 100 + {−2, −1, 0, 1, 2, 40} Hz: the median absolute
+        // deviation about 100 Hz is 1.5 Hz (the stray 140 Hz pole does not
+        // count), so the spread is 1.4826 · 1.5 / 100.
+        let offsets = [-2.0, -1.0, 0.0, 1.0, 2.0, 40.0];
+        let (o, mut root) = column(
+            offsets
+                .iter()
+                .map(|d| pole(100.0 + d, 0.02 * (1.0 + d / 100.0), [1.0, 0.0])),
+        );
         let (f, z) = root.spread(&o);
         assert!((f - 1.4826 * 1.5 / 100.0).abs() < 1e-12, "{f}");
         assert!((z - 1.4826 * 0.015).abs() < 1e-9, "{z}");
@@ -465,21 +475,11 @@ mod tests {
     fn a_refined_pole_must_stay_in_its_column() {
         // Members at 98, 99, 100, 101 Hz, representative 100 Hz: the column
         // holds 98–101 Hz, ends included, and nothing outside.
-        let o: Vec<PoleOrder> = [98.0, 99.0, 100.0, 101.0]
-            .iter()
-            .enumerate()
-            .map(|(j, f)| PoleOrder {
-                order: j + 1,
-                poles: vec![pole(*f, 0.01, [1.0, 0.0])],
-            })
-            .collect();
-        let mut root = Root {
-            members: (0..o.len()).map(|j| (j, 0)).collect(),
-            representative: (2, 0),
-            multiplicity: 1,
-            n_orders: o.len(),
-            refined: None,
-        };
+        let (o, mut root) = column(
+            [98.0, 99.0, 100.0, 101.0]
+                .iter()
+                .map(|&f| pole(f, 0.01, [1.0, 0.0])),
+        );
         for (f, holds) in [(97.99, false), (98.0, true), (100.7, true), (101.01, false)] {
             assert_eq!(root.column_holds(&o, f), holds, "{f}");
         }
