@@ -131,6 +131,48 @@ stages:
 }
 
 #[test]
+fn an_output_constant_over_every_sample_is_a_stage_warning() {
+    let ws = Workspace::new();
+    // y1 = a + b varies, y2 = 3 does not: its Sobol indices are undefined
+    // (0/0), set to 0, and the user is told — on the command line and in
+    // the run's warnings, not only inside subproblems.json.
+    ws.write(
+        "sim.sh",
+        "awk -F'[:,}]' '{ printf \"{\\\"y1\\\": %.17g, \\\"y2\\\": 3}\\n\", $2 + $4 }'\n",
+    );
+    ws.write(
+        "p.yaml",
+        r#"name: k
+stages:
+  sim:
+    kind: gsa
+    params:
+      model:
+        command: sh sim.sh
+        parameters:
+          a: {lower: 0, upper: 1}
+          b: {lower: 0, upper: 1}
+        outputs: [y1, y2]
+        timeout: 60
+        batch: 300
+      deps: [sim.sh]
+      samples: 64
+      bootstrap: 10
+      seed: 1
+"#,
+    );
+    let report = ws.run(&[], 0);
+    let warnings = report.stage("sim")["warnings"].to_string();
+    assert!(
+        warnings.contains("output `y2`: the output is constant (3)"),
+        "{warnings}"
+    );
+    assert!(!warnings.contains("`y1`"), "{warnings}");
+    let sub: Value = serde_json::from_str(&ws.read("results/k/sim/subproblems.json")).unwrap();
+    assert!(sub["warnings"].to_string().contains("output `y2`"), "{sub}");
+}
+
+#[test]
 fn failing_command_samples_fail_the_stage_with_the_sample_index() {
     let ws = Workspace::new();
     ws.write(

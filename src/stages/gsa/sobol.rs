@@ -33,11 +33,13 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
     .map_err(|e| StageError::Failed(e.to_string()))?;
     let (selection, applied) = adequacy::select(ctx, model.as_ref(), &report, &mut screening, s)?;
     let adequacy = adequacy::intervals(&report, &screening, &weights, applied, s)?;
-    // Stage warnings: what the user must know about the split (the
-    // estimators' own notes stay in subproblems.json).
-    let mut warnings = adequacy::warnings(&adequacy, selection.as_ref());
+    // Stage warnings: the estimators' own notes (an output constant over
+    // every sample has no indices to rank by), then what the user must know
+    // about the split; all of them also in subproblems.json.
+    let mut warnings = report.warnings.clone();
+    warnings.extend(adequacy::warnings(&adequacy, selection.as_ref()));
     let extra = adequacy::json(&adequacy, selection.as_ref(), applied, &screening);
-    let stage_notes: Vec<&String> = report.warnings.iter().chain(&warnings).collect();
+    let stage_notes: Vec<&String> = warnings.iter().collect();
     let json = subproblems_json(
         s,
         &report,
