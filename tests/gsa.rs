@@ -170,6 +170,25 @@ stages:
     assert!(!warnings.contains("`y1`"), "{warnings}");
     let sub: Value = serde_json::from_str(&ws.read("results/k/sim/subproblems.json")).unwrap();
     assert!(sub["warnings"].to_string().contains("output `y2`"), "{sub}");
+    // The warnings stay with the results: in the manifest and in `show`,
+    // from the results folder and, once it is gone, from the cache.
+    let manifest: Value = serde_json::from_str(&ws.read("results/k/sim/manifest.json")).unwrap();
+    assert!(
+        manifest["warnings"][0]
+            .as_str()
+            .unwrap()
+            .contains("output `y2`"),
+        "{manifest}"
+    );
+    for _ in 0..2 {
+        let out = ws.cmd(&["show", "p.yaml", "sim"]);
+        let text = String::from_utf8_lossy(&out.stdout).to_string();
+        assert!(
+            text.contains("warning  output `y2`: the output is constant"),
+            "{text}"
+        );
+        std::fs::remove_dir_all(ws.path().join("results")).unwrap_or_default();
+    }
 }
 
 #[test]

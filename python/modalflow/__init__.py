@@ -41,13 +41,14 @@ __version__ = "0.1.0"
 class Stage(dict):
     """One stage's outputs by output name (`modes`, `frf`, `metrics`, ...),
     each read by `read_path`; `kind`, `manifest` (its manifest.json) and
-    `path` say where they came from."""
+    `path` say where they came from, `warnings` what the run warned about."""
 
     def __init__(self, path):
         self.path = Path(path)
         self.manifest = read_json(self.path / "manifest.json")
         self.kind = self.manifest.get("kind", "")
         self.name = self.manifest.get("stage", self.path.name)
+        self.warnings = list(self.manifest.get("warnings", []))
         super().__init__()
         for output, record in self.manifest.get("outputs", {}).items():
             self[output] = read_path(self.path / record["file"])

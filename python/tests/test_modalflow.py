@@ -117,6 +117,7 @@ def test_quickstart_loads_every_artifact(quickstart):
                                "score[measurement=hammer]", "report", "export"}
     truth = quickstart["truth"]
     assert truth.kind == "synthesize"
+    assert truth.warnings == []  # the manifest's warnings: the quickstart has none
     modes = truth["modes"]
     assert modes.mass_normalized and len(modes.modes) == 3
     assert modes.modes["frequency_hz"].dtype == np.float64

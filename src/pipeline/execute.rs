@@ -452,15 +452,7 @@ impl Engine<'_> {
                 (b.name.clone(), list)
             })
             .collect();
-        let manifest = Manifest::new(
-            &node.name,
-            material,
-            key,
-            origins,
-            record.outputs.clone(),
-            record.seconds,
-            record.counters.clone(),
-        );
+        let manifest = Manifest::new(&node.name, material, key, origins, record);
         results::materialize(&self.store, &self.results.join(&node.name), &manifest)
     }
 }

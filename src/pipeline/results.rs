@@ -3,6 +3,7 @@
 //! materialized from the cache, so deleting them costs no recomputation.
 
 use super::key::KeyMaterial;
+use super::record::RunRecord;
 use super::store::{err, hash_path, process_nonce, ArtifactKind, OutputRecord, Store, StoreError};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -26,6 +27,10 @@ pub struct Manifest {
     /// Wall time of the run that produced the outputs.
     pub seconds: f64,
     pub counters: BTreeMap<String, u64>,
+    /// The run's warnings (its run record's), what `run` printed as
+    /// `warning:` lines; absent when there were none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
     pub kind_version: u32,
     pub modalflow_version: String,
 }
@@ -37,14 +42,13 @@ pub struct InputOrigin {
 }
 
 impl Manifest {
+    /// The manifest of `record`, the run of `stage` under `key`.
     pub fn new(
         stage: &str,
         material: &KeyMaterial,
         key: &str,
         origins: BTreeMap<String, Vec<InputOrigin>>,
-        outputs: BTreeMap<String, OutputRecord>,
-        seconds: f64,
-        counters: BTreeMap<String, u64>,
+        record: &RunRecord,
     ) -> Manifest {
         Manifest {
             stage: stage.to_string(),
@@ -54,9 +58,10 @@ impl Manifest {
             params: material.params.clone(),
             seed: material.seed,
             files: material.files.clone(),
-            outputs,
-            seconds,
-            counters,
+            outputs: record.outputs.clone(),
+            seconds: record.seconds,
+            counters: record.counters.clone(),
+            warnings: record.warnings.clone(),
             kind_version: material.version,
             modalflow_version: env!("CARGO_PKG_VERSION").to_string(),
         }

@@ -79,6 +79,9 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
     for (c, v) in &manifest.counters {
         out.push_str(&format!("counter  {c} = {v}\n"));
     }
+    for w in &manifest.warnings {
+        out.push_str(&format!("warning  {w}\n"));
+    }
     out.push_str(&trace_lines(
         &locations.results.join(&plan.name),
         &node.name,
@@ -97,9 +100,7 @@ fn from_cache(loc: &Resolved, pipeline: &str, stage: &str) -> Option<Manifest> {
         &p.material,
         &p.key,
         Default::default(),
-        rec.outputs,
-        rec.seconds,
-        rec.counters,
+        &rec,
     ))
 }
 
