@@ -259,13 +259,48 @@ pub(super) fn identifiability_at(
     frf: Option<&FrfReference>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<(Identifiability, Option<Consider>, usize), IdentifyError> {
-    let usable = o.usable();
-    let full = o.bounds()?;
     let cols: Vec<usize> = identified
         .iter()
         .copied()
         .chain(fixed.iter().map(|f| f.0))
         .collect();
+    let (mut columns, r0) = log_jacobian(o, x, &cols, frf, progress)?;
+    let fixed_columns = columns.split_off(identified.len());
+    let inflation = frf_inflation(&r0, frf);
+    let name = |i: &usize| o.parameters()[*i].name.clone();
+    let names: Vec<String> = identified.iter().map(name).collect();
+    let analysis = analyze(&columns, &r0, &names, max_std_error);
+    let considered = (!fixed.is_empty()).then(|| {
+        let fixed_names: Vec<String> = fixed.iter().map(|f| name(&f.0)).collect();
+        let spreads: Vec<f64> = fixed.iter().map(|f| f.1).collect();
+        consider(
+            &columns,
+            &fixed_columns,
+            &r0,
+            &fixed_names,
+            &spreads,
+            analysis.residual_variance.unwrap_or(1.0),
+            inflation,
+        )
+    });
+    let considered = considered.map(|c| cut_at_bounds(o, x, fixed, c));
+    Ok((analysis, considered, 2 * cols.len() + 1))
+}
+
+/// The residuals at `x` and their central-difference Jacobian columns
+/// ∂r/∂ln p for the parameters `cols` (indices), the residuals being the
+/// usable modes' weighted ones, their damping ratios' and, when given,
+/// `frf`'s; one batch of 2·cols + 1 evaluations. An error when the model
+/// cannot be solved at `x`.
+fn log_jacobian(
+    o: &ModalObjective,
+    x: &[f64],
+    cols: &[usize],
+    frf: Option<&FrfReference>,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(Vec<Vec<f64>>, Vec<f64>), IdentifyError> {
+    let usable = o.usable();
+    let full = o.bounds()?;
     let u = full.to_unit(x);
     // Residuals with the Jacobian's coordinates `cols` taken from `s`.
     let residuals = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
@@ -278,7 +313,7 @@ pub(super) fn identifiability_at(
                 }
                 let phys = full.to_physical(&unit);
                 let mut p = x.to_vec();
-                for &i in &cols {
+                for &i in cols {
                     p[i] = phys[i];
                 }
                 let e = o.evaluate(&p, &usable)?;
@@ -300,16 +335,23 @@ pub(super) fn identifiability_at(
         .ok_or_else(|| IdentifyError::Model("the model cannot be solved at the result".into()))?;
     let columns_u = jacobian::central(&residuals, &sub_u, &r0, 1e-4);
     // ∂r/∂ln p = ∂r/∂u · du/d ln p.
-    let mut columns: Vec<Vec<f64>> = columns_u
+    let columns: Vec<Vec<f64>> = columns_u
         .into_iter()
-        .zip(&cols)
+        .zip(cols)
         .map(|(col, &i)| {
             let (l, h) = (full.lower()[i], full.upper()[i]);
             let du_dlnp = full.scale()[i].du_dln_x(x[i], l, h);
             col.into_iter().map(|v| v * du_dlnp).collect()
         })
         .collect();
-    let fixed_columns = columns.split_off(identified.len());
+    Ok((columns, r0))
+}
+
+/// The variance inflation of the FRF part of the residuals `r0` (the last
+/// `frf.count()`): re and im per line are correlated along frequency, so
+/// their lag-2 autocorrelation gives the AR(1) factor
+/// ([`ar1_inflation`]); 1 without FRFs.
+fn frf_inflation(r0: &[f64], frf: Option<&FrfReference>) -> f64 {
     // FRF residuals (re, im per line) correlated along frequency: lag 2.
     let frf_part = &r0[r0.len() - frf.map_or(0, |f| f.count()).min(r0.len())..];
     let lagged: f64 = frf_part
@@ -318,39 +360,30 @@ pub(super) fn identifiability_at(
         .map(|(a, b)| a * b)
         .sum();
     let energy: f64 = frf_part.iter().map(|v| v * v).sum();
-    let inflation = if energy > 0.0 {
+    if energy > 0.0 {
         ar1_inflation(lagged / energy)
     } else {
         1.0
-    };
-    let name = |i: &usize| o.parameters()[*i].name.clone();
-    let names: Vec<String> = identified.iter().map(name).collect();
-    let analysis = analyze(&columns, &r0, &names, max_std_error);
-    let considered = (!fixed.is_empty()).then(|| {
-        let fixed_names: Vec<String> = fixed.iter().map(|f| name(&f.0)).collect();
-        let spreads: Vec<f64> = fixed.iter().map(|f| f.1).collect();
-        consider(
-            &columns,
-            &fixed_columns,
-            &r0,
-            &fixed_names,
-            &spreads,
-            analysis.residual_variance.unwrap_or(1.0),
-            inflation,
-        )
-    });
+    }
+}
+
+/// `c` with each fixed parameter's linearized change cut at its bounds
+/// (`fixed`: index and spread, in `c`'s order; `x`: all values).
+fn cut_at_bounds(
+    o: &ModalObjective,
+    x: &[f64],
+    fixed: &[(usize, f64)],
+    mut c: Consider,
+) -> Consider {
     // A linearized change is cut at the parameter's bounds (a column the
     // data barely see can ask for any value).
-    let considered = considered.map(|mut c| {
-        for (f, &(i, _)) in c.fixed.iter_mut().zip(fixed) {
-            let p = &o.parameters()[i];
-            if x[i] > 0.0 && p.lower > 0.0 {
-                f.change = f.change.clamp((p.lower / x[i]).ln(), (p.upper / x[i]).ln());
-            }
+    for (f, &(i, _)) in c.fixed.iter_mut().zip(fixed) {
+        let p = &o.parameters()[i];
+        if x[i] > 0.0 && p.lower > 0.0 {
+            f.change = f.change.clamp((p.lower / x[i]).ln(), (p.upper / x[i]).ln());
         }
-        c
-    });
-    Ok((analysis, considered, 2 * cols.len() + 1))
+    }
+    c
 }
 
 /// The parameters `identified` leaves fixed, with the spread each is

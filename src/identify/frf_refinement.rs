@@ -132,38 +132,17 @@ pub fn frf_refinement(
         .select(free)
         .map_err(|e| IdentifyError::Invalid(e.to_string()))?;
     let centre = bounds.to_unit(&free.iter().map(|&i| prior[i]).collect::<Vec<_>>());
-    let point = |values: &[f64]| {
-        let mut p = x0.to_vec();
-        for (j, &i) in free.iter().enumerate() {
-            p[i] = values[j];
-        }
-        p
+    let problem = FrfProblem {
+        model,
+        frf,
+        free,
+        x0,
+        progress,
     };
-    let fit = |x: &[f64]| {
-        frf.fit(model, x)
-            .ok_or_else(|| IdentifyError::Model("the model's FRFs cannot be computed".into()))
-    };
-    let start = fit(x0)?;
+    let start = problem.fit(x0)?;
     progress(1);
     let residuals = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
-        let v: Vec<_> = points
-            .par_iter()
-            .map(|p| {
-                let mut r = frf.residuals(model, &point(p))?;
-                if settings.regularization > 0.0 {
-                    r.extend(
-                        bounds
-                            .to_unit(p)
-                            .iter()
-                            .zip(&centre)
-                            .map(|(a, b)| (a - b) / settings.regularization),
-                    );
-                }
-                Some(r)
-            })
-            .collect();
-        progress(points.len() as u64);
-        v
+        problem.residuals(&bounds, &centre, settings.regularization, points)
     };
     let params = LmParams {
         max_step: settings.max_step,
@@ -176,26 +155,7 @@ pub fn frf_refinement(
     } else {
         settings.samples
     };
-    let mut starts: Vec<Vec<f64>> = vec![free.iter().map(|&i| x0[i]).collect()];
-    if samples > 0 {
-        let scramble = (seed ^ (seed >> 32)) as u32 ^ 0x5eed;
-        let points: Vec<Vec<f64>> = (0..samples)
-            .map(|k| bounds_all.sobol_point(x0, explore, k as u32, scramble))
-            .collect();
-        let costs: Vec<f64> = points
-            .par_iter()
-            .map(|x| frf.fit(model, x).map_or(f64::INFINITY, |f| f.robust_cost))
-            .collect();
-        progress(samples as u64);
-        let mut order: Vec<usize> = (0..samples).collect();
-        order.sort_by(|&a, &b| costs[a].total_cmp(&costs[b]).then(a.cmp(&b)));
-        starts.extend(
-            order
-                .iter()
-                .take(settings.starts)
-                .map(|&k| free.iter().map(|&i| points[k][i]).collect()),
-        );
-    }
+    let starts = problem.starts(bounds_all, explore, samples, settings.starts, seed);
     let race = race(
         &bounds,
         &residuals,
@@ -207,9 +167,9 @@ pub fn frf_refinement(
     // The starts always hold x0; a budget too small for a run leaves it
     // there with the termination "budget exhausted".
     let best = &race.runs[0];
-    let x = point(&best.x);
+    let x = problem.point(&best.x);
     let (termination, iterations) = (best.termination.clone(), race.iterations);
-    let end = fit(&x)?;
+    let end = problem.fit(&x)?;
     progress(1);
     Ok(FrfRefinement {
         x,
@@ -223,6 +183,105 @@ pub fn frf_refinement(
         },
         status: termination,
     })
+}
+
+/// The least-squares problem of the refinement: the FRF residuals of
+/// `model` against `frf` over the parameters `free` (indices), the others
+/// at `x0` (all values).
+struct FrfProblem<'a> {
+    model: &'a PreparedModel,
+    frf: &'a FrfReference,
+    free: &'a [usize],
+    x0: &'a [f64],
+    progress: &'a (dyn Fn(u64) + Sync),
+}
+
+impl FrfProblem<'_> {
+    /// All parameter values: `x0` with the free ones set to `values`.
+    fn point(&self, values: &[f64]) -> Vec<f64> {
+        let mut p = self.x0.to_vec();
+        for (j, &i) in self.free.iter().enumerate() {
+            p[i] = values[j];
+        }
+        p
+    }
+
+    /// The FRF fit at `x` (all values); an error when the model's FRFs
+    /// cannot be computed there.
+    fn fit(&self, x: &[f64]) -> Result<FrfFit, IdentifyError> {
+        self.frf
+            .fit(self.model, x)
+            .ok_or_else(|| IdentifyError::Model("the model's FRFs cannot be computed".into()))
+    }
+
+    /// For a batch of free-parameter `points`: the FRF residuals and, with
+    /// a `regularization` > 0, the prior's (u − u₀)/σ_u about `centre` in
+    /// the unit box of `bounds`.
+    fn residuals(
+        &self,
+        bounds: &Bounds,
+        centre: &[f64],
+        regularization: f64,
+        points: &[Vec<f64>],
+    ) -> Vec<Option<Vec<f64>>> {
+        let v: Vec<_> = points
+            .par_iter()
+            .map(|p| {
+                let mut r = self.frf.residuals(self.model, &self.point(p))?;
+                if regularization > 0.0 {
+                    r.extend(
+                        bounds
+                            .to_unit(p)
+                            .iter()
+                            .zip(centre)
+                            .map(|(a, b)| (a - b) / regularization),
+                    );
+                }
+                Some(r)
+            })
+            .collect();
+        (self.progress)(points.len() as u64);
+        v
+    }
+
+    /// The starts of the race (free coordinates): `x0`, then the `count`
+    /// best of `samples` scrambled-Sobol points over the box of `explore`
+    /// (by robust FRF cost, ties by order), the others at `x0`.
+    fn starts(
+        &self,
+        bounds_all: &Bounds,
+        explore: &[usize],
+        samples: usize,
+        count: usize,
+        seed: u64,
+    ) -> Vec<Vec<f64>> {
+        let (free, x0) = (self.free, self.x0);
+        let mut starts: Vec<Vec<f64>> = vec![free.iter().map(|&i| x0[i]).collect()];
+        if samples > 0 {
+            let scramble = (seed ^ (seed >> 32)) as u32 ^ 0x5eed;
+            let points: Vec<Vec<f64>> = (0..samples)
+                .map(|k| bounds_all.sobol_point(x0, explore, k as u32, scramble))
+                .collect();
+            let costs: Vec<f64> = points
+                .par_iter()
+                .map(|x| {
+                    self.frf
+                        .fit(self.model, x)
+                        .map_or(f64::INFINITY, |f| f.robust_cost)
+                })
+                .collect();
+            (self.progress)(samples as u64);
+            let mut order: Vec<usize> = (0..samples).collect();
+            order.sort_by(|&a, &b| costs[a].total_cmp(&costs[b]).then(a.cmp(&b)));
+            starts.extend(
+                order
+                    .iter()
+                    .take(count)
+                    .map(|&k| free.iter().map(|&i| points[k][i]).collect()),
+            );
+        }
+        starts
+    }
 }
 
 /// One start of the race.

@@ -29,13 +29,16 @@
 //! step 2's improvements of ½‖r‖² over all usable modes with the mean MAC
 //! reached (evaluations counted from the start of step 1).
 
-use super::continuation::{continuation, ContinuationParams, ContinuationResult};
+use super::continuation::ContinuationParams;
 use super::correspondence::{Correspondence, NamedMode};
 use super::history::{HistoryRow, Recorder};
-use super::subproblem::{decompose, solve, SolveSettings, Starts, SubproblemRun, SubproblemSpec};
-use super::verdict::{Status, NOISE_RMS};
+use super::subproblem::{
+    decompose, solve, Decomposition, SolveSettings, Starts, SubproblemRun, SubproblemSpec,
+};
+use super::verdict::Status;
 use super::{identify_damping, IdentifyError, ModalObjective};
 use crate::optimize::slsqp::SlsqpParams;
+use refinement::{run_minimum, Refined, Refinement};
 use serde::{Deserialize, Serialize};
 
 /// Settings of the guided strategy (YAML `guided:` of an identify stage).
@@ -184,70 +187,14 @@ pub fn guided(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<GuidedResult, IdentifyError> {
     settings.check().map_err(IdentifyError::Invalid)?;
-    let params = o.parameters();
-    let d = decompose(
-        o,
-        c,
-        screening.modes,
-        screening.specs,
-        screening.significant,
-    )?;
-    if d.subproblems.is_empty() {
-        let why: Vec<String> = d
-            .skipped
-            .iter()
-            .take(3)
-            .map(|(o, w)| format!("{o}: {w}"))
-            .collect();
-        return Err(IdentifyError::Invalid(format!(
-            "no subproblem has a significant stiffness parameter and a usable reference mode ({}); check the gsa threshold, `exclude_modes` and `positions`",
-            why.join("; ")
-        )));
-    }
-    // The refinement moves every significant stiffness parameter, not only
-    // those of subproblems with a reference mode: the other modes may still
-    // determine them (the identifiability analysis says whether), and one
-    // left at a wrong start value biases its partners.
-    let mut stiffness = d.stiffness();
-    if let Some(sig) = screening.significant {
-        stiffness.extend(params.iter().enumerate().filter_map(|(i, p)| {
-            (p.kind == crate::dynamics::ParameterKind::Stiffness && sig.contains(&p.name))
-                .then_some(i)
-        }));
-        stiffness.sort_unstable();
-        stiffness.dedup();
-    }
-    let damping_cost = super::damping::evaluations(d.damping.len());
-    let n = stiffness.len();
-    let runs_total = d.subproblems.len() * settings.repeats;
-    let share = if settings.refine {
-        (budget as f64 * settings.subproblem_share) as usize
-    } else {
-        budget.saturating_sub(damping_cost)
-    };
-    let minimum = damping_cost
-        + 2 * runs_total
-        + if settings.refine {
-            run_minimum(o, n, settings)
-        } else {
-            0
-        };
-    if budget < minimum {
-        return Err(IdentifyError::Invalid(format!(
-            "budget {budget} is too small for {} subproblems × {} repeats{}; give at least {minimum}",
-            d.subproblems.len(),
-            settings.repeats,
-            if settings.refine { " and the refinement" } else { "" },
-        )));
-    }
+    let d = screened_subproblems(o, c, screening)?;
+    let stiffness = refined_stiffness(o, &d, screening.significant);
+    let shares = Shares::of(o, &d, stiffness.len(), settings, budget)?;
     // Step 1: the subproblems.
     let solve_settings = SolveSettings {
         slsqp: slsqp_params,
         repeats: settings.repeats,
-        budget: settings
-            .subproblem_budget
-            .min(share / runs_total.max(1))
-            .max(2),
+        budget: shares.per_run,
         delta: settings.smoothing,
         starts: settings.others,
         seed,
@@ -259,46 +206,32 @@ pub fn guided(
         }
     }
     let step1: usize = runs.iter().map(|r| r.evaluations).sum();
-    let mut x1 = start.to_vec();
-    let mut chosen = Vec::new();
-    for &i in &stiffness {
-        let p = &params[i];
-        let best = runs
-            .iter()
-            .filter_map(|r| {
-                let j = r.parameters.iter().position(|n| *n == p.name)?;
-                Some((r, j, r.spread[j]))
-            })
-            .min_by(|a, b| a.2.total_cmp(&b.2));
-        let taken = best.is_some_and(|(_, _, s)| s <= settings.spread_limit);
-        if let (true, Some((r, j, _))) = (taken, best) {
-            x1[i] = r.mean[j];
-        }
-        chosen.push(Choice {
-            parameter: p.name.clone(),
-            subproblem: best.map(|(r, _, _)| r.name.clone()),
-            spread: best.map(|b| b.2),
-            taken,
-            value: x1[i],
-        });
-    }
+    let (x1, chosen) = choose_values(o, &stiffness, &runs, start, settings.spread_limit);
     // Step 2: the refinement.
     let recorder = Recorder::starting_at(step1);
-    let mut x = x1.clone();
-    let mut refinement = Vec::new();
-    let mut status = Status::Converged;
-    let mut step2 = 0;
-    if settings.refine {
-        let left = budget.saturating_sub(step1 + damping_cost);
-        let r = refine(
-            o, &stiffness, start, &x1, settings, left, seed, &recorder, progress,
-        )?;
-        step2 = r.evaluations;
-        x = r.x;
-        status = r.status;
-        refinement = r.runs;
-    }
+    let refined = if settings.refine {
+        let left = budget.saturating_sub(step1 + shares.damping);
+        let refinement = Refinement {
+            o,
+            free: &stiffness,
+            start,
+            settings,
+            seed,
+            recorder: &recorder,
+            progress,
+        };
+        refinement.refine(&x1, left)?
+    } else {
+        Refined {
+            x: x1,
+            status: Status::Converged,
+            evaluations: 0,
+            runs: Vec::new(),
+        }
+    };
+    let (step2, status, refinement) = (refined.evaluations, refined.status, refined.runs);
     // Step 3: the damping.
+    let mut x = refined.x;
     let (mut eq, mut rms, mut step3) = (0, 0.0, 0);
     if !d.damping.is_empty() {
         let fit = identify_damping(o, &x, &d.damping)?;
@@ -325,142 +258,148 @@ pub fn guided(
     })
 }
 
-/// What the refinement runs found.
-struct Refined {
-    x: Vec<f64>,
-    status: Status,
-    evaluations: usize,
-    runs: Vec<RefinementRun>,
-}
-
-/// The budget one refinement run over `n` parameters needs: what the
-/// continuation needs (all its stages), and no less than 8 per parameter.
-fn run_minimum(o: &ModalObjective, n: usize, settings: &GuidedParams) -> usize {
-    (8 * (n + 1)).max(super::continuation::minimum_budget(
-        o,
-        n,
-        &settings.continuation,
-    ))
-}
-
-/// Step 2: continuation runs from the better of `start` and `x1`, then, while
-/// the best fit is above the noise, from the other and from Sobol points.
-#[allow(clippy::too_many_arguments)]
-fn refine(
+/// The subproblems of `screening` ([`decompose`]); an error naming the
+/// first reasons when none is left to solve.
+fn screened_subproblems(
     o: &ModalObjective,
-    free: &[usize],
-    start: &[f64],
-    x1: &[f64],
-    settings: &GuidedParams,
-    budget: usize,
-    seed: u64,
-    recorder: &Recorder,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<Refined, IdentifyError> {
-    let usable = o.usable();
-    let cost = |x: &[f64]| {
-        o.evaluate(x, &usable)
-            .map_or(f64::INFINITY, |e| e.robust_usable)
-    };
-    let mut used = 0;
-    let mut candidates: Vec<(String, Vec<f64>)> = vec![("start".into(), start.to_vec())];
-    if x1 != start {
-        let (c0, c1) = (cost(start), cost(x1));
-        used += 2;
-        progress(2);
-        let sub = ("subproblems".to_string(), x1.to_vec());
-        if c1 < c0 {
-            candidates.insert(0, sub);
-        } else {
-            candidates.push(sub);
-        }
-    }
-    let bounds = o.bounds()?;
-    for k in 1..=settings.restarts {
-        let point = bounds.sobol_point(start, free, k as u32, seed as u32 ^ (seed >> 32) as u32);
-        candidates.push((format!("sobol {k}"), point));
-    }
-    candidates.truncate(settings.restarts + 1);
-    let residual_count = o
-        .evaluate(start, &usable)
-        .map_or(1, |e| e.residuals.len().max(1));
-    used += 1;
-    progress(1);
-    let noise_cost = 0.5 * NOISE_RMS * NOISE_RMS * residual_count as f64;
-    let mut best: Option<(ContinuationResult, usize)> = None;
-    let mut runs = Vec::new();
-    // A later start below a run's minimum is skipped.
-    let minimum = run_minimum(o, free.len(), settings);
-    for (k, (from, x0)) in candidates.iter().enumerate() {
-        let left = budget.saturating_sub(used);
-        let runs_left = candidates.len() - k;
-        // The first run may use most of it; later ones share what is left.
-        let share = if k == 0 && runs_left > 1 {
-            left * 3 / 5
-        } else {
-            left / runs_left
-        };
-        if share < minimum {
-            break;
-        }
-        let r = continuation(
-            o,
-            free,
-            x0,
-            start,
-            share.max(minimum),
-            &settings.continuation,
-            recorder,
-            progress,
-        )?;
-        used += r.evaluations;
-        runs.push(RefinementRun {
-            from: from.clone(),
-            stages: r.stages.clone(),
-            outliers: r.outliers.clone(),
-            evaluations: r.evaluations,
-            termination: super::continuation::termination_text(&r.termination),
-            start: r.start_cost,
-            end: r.end_cost,
-        });
-        let better = best.as_ref().is_none_or(|(b, _)| r.end_cost < b.end_cost);
-        if better {
-            best = Some((r, runs.len() - 1));
-        }
-        if best.as_ref().is_some_and(|(b, _)| b.end_cost <= noise_cost) {
-            break;
-        }
-    }
-    let Some((r, index)) = best else {
+    c: &Correspondence,
+    screening: Screening,
+) -> Result<Decomposition, IdentifyError> {
+    let d = decompose(
+        o,
+        c,
+        screening.modes,
+        screening.specs,
+        screening.significant,
+    )?;
+    if d.subproblems.is_empty() {
+        let why: Vec<String> = d
+            .skipped
+            .iter()
+            .take(3)
+            .map(|(o, w)| format!("{o}: {w}"))
+            .collect();
         return Err(IdentifyError::Invalid(format!(
-            "budget {budget} cannot pay one refinement over {} parameters; give at least {minimum} more",
-            free.len()
+            "no subproblem has a significant stiffness parameter and a usable reference mode ({}); check the gsa threshold, `exclude_modes` and `positions`",
+            why.join("; ")
         )));
-    };
-    let kept = runs.remove(index);
-    runs.insert(0, kept);
-    // Never worse than where it started: when every run ends above the
-    // start's cost, the start stands (and the verdict says it stalled).
-    let start_cost = cost(start);
-    used += 1;
-    progress(1);
-    let improved = r.end_cost.partial_cmp(&start_cost) != Some(std::cmp::Ordering::Greater)
-        && r.end_cost.is_finite();
-    if !improved {
-        return Ok(Refined {
-            x: start.to_vec(),
-            status: Status::Stalled,
-            evaluations: used,
-            runs,
+    }
+    Ok(d)
+}
+
+/// The stiffness parameters the strategy identifies (indices, ascending):
+/// those of the subproblems and every other one the screening lists as
+/// `significant`.
+fn refined_stiffness(
+    o: &ModalObjective,
+    d: &Decomposition,
+    significant: Option<&[String]>,
+) -> Vec<usize> {
+    // The refinement moves every significant stiffness parameter, not only
+    // those of subproblems with a reference mode: the other modes may still
+    // determine them (the identifiability analysis says whether), and one
+    // left at a wrong start value biases its partners.
+    let mut stiffness = d.stiffness();
+    if let Some(sig) = significant {
+        stiffness.extend(o.parameters().iter().enumerate().filter_map(|(i, p)| {
+            (p.kind == crate::dynamics::ParameterKind::Stiffness && sig.contains(&p.name))
+                .then_some(i)
+        }));
+        stiffness.sort_unstable();
+        stiffness.dedup();
+    }
+    stiffness
+}
+
+/// How the budget is shared between the steps (module docs).
+struct Shares {
+    /// Evaluations of the damping fit.
+    damping: usize,
+    /// Evaluations of one SLSQP run of a subproblem.
+    per_run: usize,
+}
+
+impl Shares {
+    /// The shares of `budget` for the subproblems of `d` and a refinement
+    /// over `n` parameters; an error when the budget is below what they need.
+    fn of(
+        o: &ModalObjective,
+        d: &Decomposition,
+        n: usize,
+        settings: &GuidedParams,
+        budget: usize,
+    ) -> Result<Shares, IdentifyError> {
+        let damping_cost = super::damping::evaluations(d.damping.len());
+        let runs_total = d.subproblems.len() * settings.repeats;
+        let share = if settings.refine {
+            (budget as f64 * settings.subproblem_share) as usize
+        } else {
+            budget.saturating_sub(damping_cost)
+        };
+        let minimum = damping_cost
+            + 2 * runs_total
+            + if settings.refine {
+                run_minimum(o, n, settings)
+            } else {
+                0
+            };
+        if budget < minimum {
+            return Err(IdentifyError::Invalid(format!(
+                "budget {budget} is too small for {} subproblems × {} repeats{}; give at least {minimum}",
+                d.subproblems.len(),
+                settings.repeats,
+                if settings.refine { " and the refinement" } else { "" },
+            )));
+        }
+        Ok(Shares {
+            damping: damping_cost,
+            per_run: settings
+                .subproblem_budget
+                .min(share / runs_total.max(1))
+                .max(2),
+        })
+    }
+}
+
+/// Step 1's values: each `stiffness` parameter takes its mean from the
+/// subproblem run in which it varied least, when that spread is at most
+/// `spread_limit`, else keeps its `start` value. Returns all values and
+/// where each came from.
+fn choose_values(
+    o: &ModalObjective,
+    stiffness: &[usize],
+    runs: &[SubproblemRun],
+    start: &[f64],
+    spread_limit: f64,
+) -> (Vec<f64>, Vec<Choice>) {
+    let params = o.parameters();
+    let mut x1 = start.to_vec();
+    let mut chosen = Vec::new();
+    for &i in stiffness {
+        let p = &params[i];
+        let best = runs
+            .iter()
+            .filter_map(|r| {
+                let j = r.parameters.iter().position(|n| *n == p.name)?;
+                Some((r, j, r.spread[j]))
+            })
+            .min_by(|a, b| a.2.total_cmp(&b.2));
+        let taken = best.is_some_and(|(_, _, s)| s <= spread_limit);
+        if let (true, Some((r, j, _))) = (taken, best) {
+            x1[i] = r.mean[j];
+        }
+        chosen.push(Choice {
+            parameter: p.name.clone(),
+            subproblem: best.map(|(r, _, _)| r.name.clone()),
+            spread: best.map(|b| b.2),
+            taken,
+            value: x1[i],
         });
     }
-    Ok(Refined {
-        x: r.x,
-        status: Status::of(&r.termination),
-        evaluations: used,
-        runs,
-    })
+    (x1, chosen)
 }
+
+mod refinement;
 
 #[cfg(test)]
 mod tests;

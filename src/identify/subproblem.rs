@@ -30,7 +30,7 @@
 
 use super::correspondence::{Correspondence, NamedMode};
 use super::{IdentifyError, ModalObjective};
-use crate::dynamics::ParameterKind;
+use crate::dynamics::{Parameter, ParameterKind};
 use crate::optimize::slsqp::{self, SlsqpParams};
 use crate::optimize::Problem;
 use crate::parameter::Scale;
@@ -156,15 +156,7 @@ pub fn decompose(
     significant: Option<&[String]>,
 ) -> Result<Decomposition, IdentifyError> {
     let params = o.parameters();
-    if let Some(name) = significant
-        .into_iter()
-        .flatten()
-        .find(|n| !params.iter().any(|p| p.name == **n))
-    {
-        return Err(IdentifyError::Invalid(format!(
-            "the screening lists `{name}` as significant, which the model does not have; run the gsa stage on this model file"
-        )));
-    }
+    check_significant(params, significant)?;
     let mut d = Decomposition::default();
     for s in specs {
         let (slot, mode, quantity) = match parse_output(o, c, named, &s.output)? {
@@ -178,24 +170,7 @@ pub fn decompose(
                 continue;
             }
         };
-        let mut unknown = None;
-        let indices: Vec<(usize, ParameterKind)> = s
-            .parameters
-            .iter()
-            .filter_map(|name| match params.iter().position(|p| p.name == *name) {
-                Some(i) => Some((i, params[i].kind)),
-                None => {
-                    unknown = Some(name.clone());
-                    None
-                }
-            })
-            .collect();
-        if let Some(name) = unknown {
-            return Err(IdentifyError::Invalid(format!(
-                "subproblem `{}` names parameter `{name}`, which the model does not have; run the gsa stage on this model file",
-                s.output
-            )));
-        }
+        let indices = spec_parameters(params, s)?;
         if quantity == "damping" {
             d.damping.extend(
                 indices
@@ -220,14 +195,69 @@ pub fn decompose(
             ));
             continue;
         }
+        d.add_mode_output(&s.output, slot, mode, stiffness);
+    }
+    d.damping.sort_unstable();
+    d.damping.dedup();
+    Ok(d)
+}
+
+/// An error when `significant` names a parameter the model does not have.
+fn check_significant(
+    params: &[Parameter],
+    significant: Option<&[String]>,
+) -> Result<(), IdentifyError> {
+    if let Some(name) = significant
+        .into_iter()
+        .flatten()
+        .find(|n| !params.iter().any(|p| p.name == **n))
+    {
+        return Err(IdentifyError::Invalid(format!(
+            "the screening lists `{name}` as significant, which the model does not have; run the gsa stage on this model file"
+        )));
+    }
+    Ok(())
+}
+
+/// The parameters spec `s` names (index and kind, in its order); an error
+/// when it names one the model does not have.
+fn spec_parameters(
+    params: &[Parameter],
+    s: &SubproblemSpec,
+) -> Result<Vec<(usize, ParameterKind)>, IdentifyError> {
+    let mut unknown = None;
+    let indices: Vec<(usize, ParameterKind)> = s
+        .parameters
+        .iter()
+        .filter_map(|name| match params.iter().position(|p| p.name == *name) {
+            Some(i) => Some((i, params[i].kind)),
+            None => {
+                unknown = Some(name.clone());
+                None
+            }
+        })
+        .collect();
+    if let Some(name) = unknown {
+        return Err(IdentifyError::Invalid(format!(
+            "subproblem `{}` names parameter `{name}`, which the model does not have; run the gsa stage on this model file",
+            s.output
+        )));
+    }
+    Ok(indices)
+}
+
+impl Decomposition {
+    /// Add GSA output `output` of reference mode `mode` in slot `slot`, with
+    /// its significant `stiffness` parameters: merged into the subproblem of
+    /// the same mode when there is one, else a new subproblem.
+    fn add_mode_output(&mut self, output: &str, slot: usize, mode: usize, stiffness: Vec<usize>) {
         // `p{i}.mode{r}`: the output name without its quantity (parsed above).
-        let name = s
-            .output
+        let name = output
             .rsplit_once('.')
-            .map_or(s.output.clone(), |(mode, _)| mode.to_string());
-        match d.subproblems.iter_mut().find(|m| m.name == name) {
+            .map_or(output.to_string(), |(mode, _)| mode.to_string());
+        match self.subproblems.iter_mut().find(|m| m.name == name) {
             Some(m) => {
-                m.outputs.push(s.output.clone());
+                m.outputs.push(output.to_string());
                 m.parameters.extend(stiffness);
                 m.parameters.sort_unstable();
                 m.parameters.dedup();
@@ -236,9 +266,9 @@ pub fn decompose(
                 let mut parameters = stiffness;
                 parameters.sort_unstable();
                 parameters.dedup();
-                d.subproblems.push(ModeSubproblem {
+                self.subproblems.push(ModeSubproblem {
                     name,
-                    outputs: vec![s.output.clone()],
+                    outputs: vec![output.to_string()],
                     slot,
                     mode,
                     parameters,
@@ -246,9 +276,6 @@ pub fn decompose(
             }
         }
     }
-    d.damping.sort_unstable();
-    d.damping.dedup();
-    Ok(d)
 }
 
 /// What one subproblem found over its repeats.

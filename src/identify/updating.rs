@@ -4,20 +4,23 @@
 //! (final pairing, identifiability and uncertainty, verdict). Every model
 //! evaluation of the assessment is counted with the strategy's.
 
-use super::assessment::{assess, bound_warnings, identifiability_at};
+use super::assessment::identifiability_at;
 use super::consider::Consider;
 use super::correspondence::Correspondence;
-use super::follow_up::{escape, escape_evidence, refit, Outcome, ESCAPED};
+use super::follow_up::{escape_evidence, Outcome};
 use super::frf_objective::FrfReference;
 use super::frf_refinement::{frf_refinement, FrfRefinement, FrfRefinementParams};
 use super::guided::{guided, GuidedParams, GuidedResult, Screening};
 use super::history::HistoryRow;
 use super::identifiability::Identifiability;
 use super::objective::{Match, ModalObjective};
-use super::verdict::{Fit, FrfJudgement, Status, Verdict};
+use super::verdict::{Status, Verdict};
 use super::{black_box, IdentifyError};
 use crate::optimize::slsqp::SlsqpParams;
 use crate::optimize::{OptimizeResult, Optimizer};
+use judging::{FollowUps, Standing};
+
+mod judging;
 
 /// The strategy and its settings.
 #[derive(Clone, Copy)]
@@ -97,129 +100,27 @@ pub fn update(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Update, IdentifyError> {
     let start = o.nominal();
-    Correspondence::exclude_duplicates(o);
-    let correspondence = Correspondence::new(o, &start, plan.visibility)?;
-    progress(1);
-    for &(position, number) in plan.exclude {
-        let (slot, k) = correspondence
-            .nominal_mode(position, number, &[])
-            .map_err(|why| {
-                IdentifyError::Invalid(format!("exclude_modes: p{position}.mode{number}: {why}"))
-            })?;
-        if let Some(r) = correspondence.slots[slot].nominal[k].reference {
-            o.exclude(
-                slot,
-                r,
-                format!("named in exclude_modes (p{position}.mode{number})"),
-            );
-        }
-    }
-    correspondence.exclude_unobservable(o);
-    for p in 0..o.positions() {
-        if o.usable()[p].iter().all(|u| !u) {
-            return Err(IdentifyError::Invalid(format!(
-                "no usable reference mode is left at position {} (all excluded: {}); lower `observability` or shorten `exclude_modes`",
-                o.position(p).index,
-                o.exclusion(p, 0).unwrap_or("excluded")
-            )));
-        }
-    }
+    let correspondence = pair_at_start(o, &start, plan, progress)?;
     let o = &*o;
-    // The assessment's evaluations come out of the same budget: the final
-    // pairing (3), J (1) and a Jacobian over at most every parameter (2n + 1).
-    let reserve = 2 * o.parameters().len() + 5;
-    let budget = plan
-        .budget
-        .checked_sub(reserve + 1)
-        .filter(|&b| b > 0)
-        .ok_or_else(|| {
-            IdentifyError::Invalid(format!(
-                "budget {} cannot pay the assessment of the result ({} evaluations) and a strategy; give more",
-                plan.budget,
-                reserve + 1
-            ))
-        })?;
-    let frf_budget = match plan.frf {
-        Some((_, s)) if s.enabled => (budget as f64 * s.share) as usize,
-        _ => 0,
-    };
-    let budget = budget - frf_budget;
-    let (mut x, history, mut evaluations, identified, status, guided_result, optimizer) =
-        match plan.strategy {
-            Strategy::Guided {
-                screening,
-                settings,
-                slsqp,
-            } => {
-                let r = guided(
-                    o,
-                    &correspondence,
-                    screening,
-                    settings,
-                    slsqp,
-                    &start,
-                    budget,
-                    plan.seed,
-                    progress,
-                )?;
-                let mut identified = r.stiffness.clone();
-                identified.extend(&r.damping);
-                identified.sort_unstable();
-                (
-                    r.x.clone(),
-                    r.history.clone(),
-                    r.evaluations,
-                    identified,
-                    r.status,
-                    Some(r),
-                    None,
-                )
-            }
-            Strategy::BlackBox { optimizer } => {
-                let r = black_box(o, optimizer, &start, budget, plan.seed, progress)?;
-                let status = Status::of(&r.result.termination);
-                let all = (0..o.parameters().len()).collect();
-                (
-                    r.result.x_best.clone(),
-                    r.history,
-                    r.result.evaluations,
-                    all,
-                    status,
-                    None,
-                    Some(r.result),
-                )
-            }
-        };
+    let budgets = Budgets::split(o, plan)?;
+    let searched = run_strategy(o, &correspondence, plan, &start, budgets.strategy, progress)?;
+    let mut evaluations = searched.evaluations;
+    let mut x = searched.x.clone();
     let mut frf_result = None;
-    if let Some((reference, settings)) = plan.frf.filter(|_| frf_budget > 0) {
-        // What the modes left undetermined is searched on the FRFs first.
-        let (modal, _, cost) =
-            identifiability_at(o, &x, &identified, &[], plan.max_std_error, None, progress)?;
+    if let Some((r, cost)) = refine_on_frfs(o, plan, &start, &searched, &budgets, progress)? {
         evaluations += cost;
-        let explore: Vec<usize> = identified
-            .iter()
-            .zip(&modal.parameters)
-            .filter(|(_, p)| !p.identifiable)
-            .map(|(&i, _)| i)
-            .collect();
-        let r = frf_refinement(
-            o.prepared(),
-            &o.bounds()?,
-            reference,
-            &identified,
-            &explore,
-            &x,
-            &start,
-            (frf_budget + budget).saturating_sub(evaluations),
-            settings,
-            plan.seed,
-            progress,
-        )?;
-        evaluations += r.summary.evaluations;
         x = r.x.clone();
         frf_result = Some(r);
     }
-    let mut outcome = Outcome {
+    let Searched {
+        history,
+        identified,
+        status,
+        guided: guided_result,
+        optimizer,
+        ..
+    } = searched;
+    let outcome = Outcome {
         x,
         identified,
         status,
@@ -228,75 +129,31 @@ pub fn update(
         searched: false,
         refitted: Vec::new(),
     };
-    let mut judged = judge(o, &start, &outcome, guided_result.as_ref(), plan, progress)?;
-    let mut assessment_evaluations = judged.evaluations;
-    // Refitted parameters whose refit fitted materially better (cost below
-    // ESCAPED of before): only these make the screening the verdict's cause
-    // (a refit that gains little says the misfit lies elsewhere).
-    let mut material: Vec<String> = Vec::new();
-    // A refit that did not fit better refutes the implication: the verdict
-    // is judged without it, and the escape search may run instead.
-    let mut refuted = false;
-    // The follow-ups ([`super::follow_up`]), each judged again; a refit that
-    // does not fit better is not taken.
-    for _ in 0..2 {
-        let left = plan
-            .budget
-            .saturating_sub(evaluations + assessment_evaluations + reserve);
-        let mut implicated = judged.implicated(o);
-        implicated.truncate(REFIT_AT_ONCE);
-        let refitting = !implicated.is_empty() && plan.refit_implicated && !refuted;
-        let step = if refitting {
-            refit(o, plan, &start, &outcome, &implicated, left, progress)?
-        } else if judged.verdict.fit == Fit::AboveNoise && !outcome.searched {
-            escape(o, plan, &start, &outcome, left, progress)?
-        } else {
-            None
-        };
-        let Some((next, cost)) = step else { break };
-        evaluations += cost;
-        let mut next_judged = judge(o, &start, &next, guided_result.as_ref(), plan, progress)?;
-        assessment_evaluations += next_judged.evaluations;
-        // NaN (unsolvable) is never better.
-        let better = fit_rms(&next_judged.verdict)
-            .partial_cmp(&fit_rms(&judged.verdict))
-            .is_some_and(|o| o.is_lt());
-        if refitting && !better {
-            let (now, then) = (fit_rms(&judged.verdict), fit_rms(&next_judged.verdict));
-            let names = judged.verdict.implicated.join(", ");
-            // The implication is refuted: within the noise it was
-            // statistical, not practical (thousands of FRF lines make a tiny
-            // structure significant); above it, the misfit is not theirs and
-            // the escape search may tell a local minimum from model error.
-            let within = judged.verdict.fit == Fit::WithinNoise;
-            judged.verdict = judged.untested.clone();
-            judged.verdict.warnings.push(format!(
-                "the score test implicated {names}, but identifying them too did not fit better ({then:.2}σ against {now:.2}σ): {}",
-                if within {
-                    "the fit is within the noise, not counted against the verdict"
-                } else {
-                    "not taken, and the misfit is judged as not theirs"
-                }
-            ));
-            refuted = true;
-            if within {
-                break;
-            }
-            continue;
-        }
-        if refitting {
-            let (now, then) = (fit_rms(&judged.verdict), fit_rms(&next_judged.verdict));
-            if (then / now).powi(2) < ESCAPED {
-                material.clone_from(&next.refitted);
-            } else {
-                next_judged.verdict.warnings.push(format!(
-                    "refitting with the implicated parameters identified too fitted only slightly better ({then:.2}σ against {now:.2}σ): weak evidence that the screening is the cause"
-                ));
-            }
-        }
-        outcome = next;
-        judged = next_judged;
-    }
+    let follow = FollowUps {
+        o,
+        plan,
+        start: &start,
+        guided: guided_result.as_ref(),
+        reserve: budgets.reserve,
+        progress,
+    };
+    let judged = follow.judge(&outcome)?;
+    let standing = follow.run(Standing {
+        assessment_evaluations: judged.evaluations,
+        outcome,
+        judged,
+        evaluations,
+        material: Vec::new(),
+        refuted: false,
+    })?;
+    let Standing {
+        outcome,
+        judged,
+        evaluations,
+        mut assessment_evaluations,
+        material,
+        ..
+    } = standing;
     let mut verdict = judged.verdict.clone();
     verdict.refitted = material;
     let verdict = verdict.classified(outcome.evidence).explained();
@@ -323,104 +180,194 @@ pub fn update(
     })
 }
 
-/// Most implicated parameters one refit adds (largest statistics first).
-const REFIT_AT_ONCE: usize = 3;
-
-/// The residual RMS (σ units) a verdict is about: the FRFs' when given.
-fn fit_rms(v: &Verdict) -> f64 {
-    v.frf.map_or(v.end_rms, |f| f.end.rms)
-}
-
-/// The assessment and verdict of an [`Outcome`].
-struct Judged {
-    verdict: Verdict,
-    /// The verdict before the score test's implicated parameters counted.
-    untested: Verdict,
-    identifiability: Identifiability,
-    consider: Option<Consider>,
-    pairs: Vec<Vec<FinalPair>>,
-    evaluations: usize,
-}
-
-impl Judged {
-    /// Indices of the implicated fixed parameters, largest statistic first.
-    fn implicated(&self, o: &ModalObjective) -> Vec<usize> {
-        let Some(c) = &self.consider else {
-            return Vec::new();
-        };
-        c.implicated()
-            .iter()
-            .filter_map(|f| o.parameters().iter().position(|p| p.name == f.parameter))
-            .collect()
-    }
-}
-
-/// Assess `outcome` and judge it: against the reference modes, then (with
-/// FRFs) against the FRFs, then the score test's implicated parameters.
-fn judge(
-    o: &ModalObjective,
+/// The start of an update: the reference paired with the model at `start`
+/// (duplicates, the modes `exclude_modes` names and the unobservable ones
+/// excluded from `o`); an error when a position is left without a usable
+/// reference mode.
+fn pair_at_start(
+    o: &mut ModalObjective,
     start: &[f64],
-    outcome: &Outcome,
-    guided: Option<&GuidedResult>,
     plan: &Plan,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<Judged, IdentifyError> {
-    let ((identifiability, consider, cost), pairs, mut counts, close_pairs, damping) =
-        assess(o, start, &outcome.x, &outcome.identified, plan, progress)?;
-    let mut warnings = bound_warnings(o, &outcome.x, &outcome.identified);
-    warnings.extend(close_pairs);
-    if let Some(run) = guided.and_then(|g| g.refinement.first()) {
-        counts.2.outliers = run.outliers.len();
-        warnings.extend(run.outliers.iter().map(|f| {
-            format!(
-                "reference mode {} at position {} ({:.2} Hz) down-weighted as an outlier: residual {:.1}σ RMS against a median of {:.1}σ",
-                f.mode, f.position, f.frequency_hz, f.rms, f.median
-            )
-        }));
+) -> Result<Correspondence, IdentifyError> {
+    Correspondence::exclude_duplicates(o);
+    let correspondence = Correspondence::new(o, start, plan.visibility)?;
+    progress(1);
+    for &(position, number) in plan.exclude {
+        let (slot, k) = correspondence
+            .nominal_mode(position, number, &[])
+            .map_err(|why| {
+                IdentifyError::Invalid(format!("exclude_modes: p{position}.mode{number}: {why}"))
+            })?;
+        if let Some(r) = correspondence.slots[slot].nominal[k].reference {
+            o.exclude(
+                slot,
+                r,
+                format!("named in exclude_modes (p{position}.mode{number})"),
+            );
+        }
     }
-    if !outcome.refitted.is_empty() {
-        warnings.push(format!(
-            "the score test implicated {} (held fixed by the screening); identified too and refitted",
-            outcome.refitted.join(", ")
-        ));
+    correspondence.exclude_unobservable(o);
+    for p in 0..o.positions() {
+        if o.usable()[p].iter().all(|u| !u) {
+            return Err(IdentifyError::Invalid(format!(
+                "no usable reference mode is left at position {} (all excluded: {}); lower `observability` or shorten `exclude_modes`",
+                o.position(p).index,
+                o.exclusion(p, 0).unwrap_or("excluded")
+            )));
+        }
     }
-    let identifiable = identifiability
-        .parameters
-        .iter()
-        .filter(|p| p.identifiable)
-        .count();
-    let verdict = Verdict::judge(
-        outcome.status,
-        counts.0,
-        counts.1,
-        counts.2,
-        outcome.identified.len(),
-        identifiable,
-        warnings,
-    );
-    // With FRFs they are the reference the verdict is about (damping
-    // included); from modes alone the identified damping is judged apart.
-    let verdict = match (&outcome.frf, damping) {
-        (Some(r), _) => verdict.with_frf(
-            Status::of(&r.status),
-            FrfJudgement::new(r.summary.start, r.summary.end),
-        ),
-        (None, Some(d)) => verdict.with_damping(d),
-        (None, None) => verdict,
-    };
-    let implicated: Vec<(String, f64, f64)> = consider.as_ref().map_or(Vec::new(), |c| {
-        c.implicated()
-            .iter()
-            .map(|f| (f.parameter.clone(), f.change, f.statistic))
-            .collect()
-    });
-    Ok(Judged {
-        untested: verdict.clone(),
-        verdict: verdict.with_implicated(&implicated),
-        identifiability,
-        consider,
-        pairs,
-        // Final pairing (3) and the Jacobian batch.
-        evaluations: 3 + cost,
+    Ok(correspondence)
+}
+
+/// How an update's budget is shared out.
+struct Budgets {
+    /// Kept for the assessment of the result.
+    reserve: usize,
+    /// The strategy's.
+    strategy: usize,
+    /// The FRF refinement's (0: it does not run).
+    frf: usize,
+}
+
+impl Budgets {
+    /// Split `plan.budget`: the assessment's reserve first, then the FRF
+    /// refinement's share of the rest, the strategy the remainder; an error
+    /// when the budget cannot pay the assessment and a strategy.
+    fn split(o: &ModalObjective, plan: &Plan) -> Result<Budgets, IdentifyError> {
+        // The assessment's evaluations come out of the same budget: the final
+        // pairing (3), J (1) and a Jacobian over at most every parameter (2n + 1).
+        let reserve = 2 * o.parameters().len() + 5;
+        let budget = plan
+            .budget
+            .checked_sub(reserve + 1)
+            .filter(|&b| b > 0)
+            .ok_or_else(|| {
+                IdentifyError::Invalid(format!(
+                    "budget {} cannot pay the assessment of the result ({} evaluations) and a strategy; give more",
+                    plan.budget,
+                    reserve + 1
+                ))
+            })?;
+        let frf_budget = match plan.frf {
+            Some((_, s)) if s.enabled => (budget as f64 * s.share) as usize,
+            _ => 0,
+        };
+        Ok(Budgets {
+            reserve,
+            strategy: budget - frf_budget,
+            frf: frf_budget,
+        })
+    }
+}
+
+/// What the strategy found.
+struct Searched {
+    x: Vec<f64>,
+    history: Vec<HistoryRow>,
+    evaluations: usize,
+    /// The parameters it identified (indices, ascending).
+    identified: Vec<usize>,
+    status: Status,
+    guided: Option<GuidedResult>,
+    optimizer: Option<OptimizeResult>,
+}
+
+/// The search: `plan`'s strategy from `start` with at most `budget`
+/// evaluations.
+fn run_strategy(
+    o: &ModalObjective,
+    correspondence: &Correspondence,
+    plan: &Plan,
+    start: &[f64],
+    budget: usize,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Searched, IdentifyError> {
+    Ok(match plan.strategy {
+        Strategy::Guided {
+            screening,
+            settings,
+            slsqp,
+        } => {
+            let r = guided(
+                o,
+                correspondence,
+                screening,
+                settings,
+                slsqp,
+                start,
+                budget,
+                plan.seed,
+                progress,
+            )?;
+            let mut identified = r.stiffness.clone();
+            identified.extend(&r.damping);
+            identified.sort_unstable();
+            Searched {
+                x: r.x.clone(),
+                history: r.history.clone(),
+                evaluations: r.evaluations,
+                identified,
+                status: r.status,
+                guided: Some(r),
+                optimizer: None,
+            }
+        }
+        Strategy::BlackBox { optimizer } => {
+            let r = black_box(o, optimizer, start, budget, plan.seed, progress)?;
+            let status = Status::of(&r.result.termination);
+            let all = (0..o.parameters().len()).collect();
+            Searched {
+                x: r.result.x_best.clone(),
+                history: r.history,
+                evaluations: r.result.evaluations,
+                identified: all,
+                status,
+                guided: None,
+                optimizer: Some(r.result),
+            }
+        }
     })
+}
+
+/// The refinement on the measured FRFs when `plan` has them and a share of
+/// the budget: the result and the evaluations it cost (its identifiability
+/// analysis included); `None` when it does not run.
+fn refine_on_frfs(
+    o: &ModalObjective,
+    plan: &Plan,
+    start: &[f64],
+    searched: &Searched,
+    budgets: &Budgets,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Option<(FrfRefinement, usize)>, IdentifyError> {
+    let Some((reference, settings)) = plan.frf.filter(|_| budgets.frf > 0) else {
+        return Ok(None);
+    };
+    let (x, identified) = (&searched.x, &searched.identified);
+    // What the modes left undetermined is searched on the FRFs first.
+    let (modal, _, cost) =
+        identifiability_at(o, x, identified, &[], plan.max_std_error, None, progress)?;
+    let evaluations = searched.evaluations + cost;
+    let explore: Vec<usize> = identified
+        .iter()
+        .zip(&modal.parameters)
+        .filter(|(_, p)| !p.identifiable)
+        .map(|(&i, _)| i)
+        .collect();
+    let r = frf_refinement(
+        o.prepared(),
+        &o.bounds()?,
+        reference,
+        identified,
+        &explore,
+        x,
+        start,
+        (budgets.frf + budgets.strategy).saturating_sub(evaluations),
+        settings,
+        plan.seed,
+        progress,
+    )?;
+    let used = cost + r.summary.evaluations;
+    Ok(Some((r, used)))
 }

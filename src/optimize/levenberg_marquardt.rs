@@ -33,7 +33,7 @@
 //! the caller's batch evaluation.
 
 use super::error::OptimizeError;
-use super::jacobian::forward as jacobian;
+use super::jacobian::{forward as jacobian, Batch};
 use super::problem::{Bounds, HistoryPoint, Termination};
 use crate::dense::solve_spd;
 use serde::{Deserialize, Serialize};
@@ -136,24 +136,16 @@ pub fn minimize(
     budget: usize,
     params: &LmParams,
 ) -> Result<LmResult, OptimizeError> {
-    params.check().map_err(|message| OptimizeError::Settings {
-        optimizer: "levenberg_marquardt".into(),
-        message,
-    })?;
+    check_inputs(bounds, x0, budget, params)?;
     let n = bounds.dim();
-    if x0.len() != n || x0.iter().any(|v| !v.is_finite()) {
-        return Err(OptimizeError::StartPoint {
-            message: format!("need {n} finite values, got {x0:?}"),
-        });
-    }
-    if budget < n + 2 {
-        return Err(OptimizeError::Budget {
-            message: format!("a budget of {budget} cannot pay one Jacobian of {n} parameters and a step; give at least {}", n + 2),
-        });
-    }
     let eval = |u: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
         let x: Vec<Vec<f64>> = u.iter().map(|u| bounds.to_physical(u)).collect();
         residuals(&x)
+    };
+    let search = StepSearch {
+        eval: &eval,
+        budget,
+        params,
     };
     let mut u = bounds.to_unit(x0);
     let mut r = eval(std::slice::from_ref(&u)).pop().flatten();
@@ -183,60 +175,16 @@ pub fn minimize(
         // Jacobian, column-major: one forward-difference batch.
         let columns = jacobian(&eval, &u, res, params.step);
         evaluations += n;
-        let mut jtj = vec![0.0; n * n];
-        let mut g = vec![0.0; n];
-        for a in 0..n {
-            g[a] = columns[a].iter().zip(res).map(|(x, y)| x * y).sum();
-            for b in 0..=a {
-                let v: f64 = columns[a].iter().zip(&columns[b]).map(|(x, y)| x * y).sum();
-                jtj[a * n + b] = v;
-                jtj[b * n + a] = v;
-            }
-        }
-        let largest = (0..n).map(|i| jtj[i * n + i]).fold(0.0f64, f64::max);
+        let normal = NormalEquations::new(&columns, res);
+        let largest = normal.largest_diagonal();
         if largest == 0.0 {
             break Termination::Converged;
         }
-        // MINPACK's gtol: r is orthogonal to every column that can move
-        // (a column at a bound whose descent leaves the box cannot).
-        let rnorm = (2.0 * cost).sqrt();
-        let cosine = (0..n)
-            .filter(|&j| {
-                let descent = -g[j];
-                !((u[j] <= 0.0 && descent < 0.0) || (u[j] >= 1.0 && descent > 0.0))
-            })
-            .map(|j| g[j].abs() / (jtj[j * n + j].sqrt() * rnorm).max(f64::MIN_POSITIVE))
-            .fold(0.0f64, f64::max);
-        if cosine <= params.gtol {
+        if normal.gradient_cosine(&u, cost) <= params.gtol {
             break Termination::Converged;
         }
         let floor = 1e-12 * largest;
-        let mut accepted = None;
-        while evaluations < budget && lambda <= 1e12 {
-            let mut a = jtj.clone();
-            for i in 0..n {
-                a[i * n + i] += lambda * jtj[i * n + i].max(floor);
-            }
-            let rhs: Vec<f64> = g.iter().map(|v| -v).collect();
-            let Some(delta) = solve_spd(&a, n, &rhs, 1) else {
-                lambda *= 4.0;
-                continue;
-            };
-            let trial: Vec<f64> = u
-                .iter()
-                .zip(&delta)
-                .map(|(a, b)| (a + b.clamp(-params.max_step, params.max_step)).clamp(0.0, 1.0))
-                .collect();
-            let rt = eval(std::slice::from_ref(&trial)).pop().flatten();
-            evaluations += 1;
-            let ct = half_norm2(&rt);
-            if ct < cost {
-                lambda = (lambda / 3.0).max(1e-12);
-                accepted = Some((trial, rt, ct));
-                break;
-            }
-            lambda *= 4.0;
-        }
+        let accepted = search.trial_steps(&u, &normal, floor, cost, &mut lambda, &mut evaluations);
         let Some((trial, rt, ct)) = accepted else {
             break if lambda > 1e12 {
                 Termination::Converged
@@ -256,12 +204,8 @@ pub fn minimize(
         if decrease < params.ftol {
             break Termination::Converged;
         }
-        let w = params.stall_window;
-        if w > 0 && history.len() > w {
-            let before = history[history.len() - 1 - w].f_best;
-            if (before - cost) < params.stall_decrease * before {
-                break Termination::Stalled;
-            }
+        if stalled(&history, cost, params) {
+            break Termination::Stalled;
         }
     };
     Ok(LmResult {
@@ -272,6 +216,158 @@ pub fn minimize(
         history,
         termination,
     })
+}
+
+/// The settings, start point and budget checked before the first
+/// evaluation: an error names what cannot be used.
+fn check_inputs(
+    bounds: &Bounds,
+    x0: &[f64],
+    budget: usize,
+    params: &LmParams,
+) -> Result<(), OptimizeError> {
+    params.check().map_err(|message| OptimizeError::Settings {
+        optimizer: "levenberg_marquardt".into(),
+        message,
+    })?;
+    let n = bounds.dim();
+    if x0.len() != n || x0.iter().any(|v| !v.is_finite()) {
+        return Err(OptimizeError::StartPoint {
+            message: format!("need {n} finite values, got {x0:?}"),
+        });
+    }
+    if budget < n + 2 {
+        return Err(OptimizeError::Budget {
+            message: format!("a budget of {budget} cannot pay one Jacobian of {n} parameters and a step; give at least {}", n + 2),
+        });
+    }
+    Ok(())
+}
+
+/// The Gauss–Newton normal equations at the current point: JᵀJ (row-major,
+/// n × n) and the gradient g = Jᵀr, from which every trial step of the
+/// iteration is solved.
+struct NormalEquations {
+    n: usize,
+    jtj: Vec<f64>,
+    g: Vec<f64>,
+}
+
+impl NormalEquations {
+    /// JᵀJ and Jᵀr from the Jacobian's `columns` and the residuals `res`.
+    fn new(columns: &[Vec<f64>], res: &[f64]) -> Self {
+        let n = columns.len();
+        let mut jtj = vec![0.0; n * n];
+        let mut g = vec![0.0; n];
+        for a in 0..n {
+            g[a] = columns[a].iter().zip(res).map(|(x, y)| x * y).sum();
+            for b in 0..=a {
+                let v: f64 = columns[a].iter().zip(&columns[b]).map(|(x, y)| x * y).sum();
+                jtj[a * n + b] = v;
+                jtj[b * n + a] = v;
+            }
+        }
+        NormalEquations { n, jtj, g }
+    }
+
+    /// The largest diagonal entry of JᵀJ (0: no direction moves r).
+    fn largest_diagonal(&self) -> f64 {
+        let n = self.n;
+        (0..n).map(|i| self.jtj[i * n + i]).fold(0.0f64, f64::max)
+    }
+
+    /// The largest cosine between r and a Jacobian column that can move at
+    /// `u` (`cost` = ½‖r‖²), compared with MINPACK's gtol.
+    fn gradient_cosine(&self, u: &[f64], cost: f64) -> f64 {
+        let (n, g, jtj) = (self.n, &self.g, &self.jtj);
+        // MINPACK's gtol: r is orthogonal to every column that can move
+        // (a column at a bound whose descent leaves the box cannot).
+        let rnorm = (2.0 * cost).sqrt();
+        (0..n)
+            .filter(|&j| {
+                let descent = -g[j];
+                !((u[j] <= 0.0 && descent < 0.0) || (u[j] >= 1.0 && descent > 0.0))
+            })
+            .map(|j| g[j].abs() / (jtj[j * n + j].sqrt() * rnorm).max(f64::MIN_POSITIVE))
+            .fold(0.0f64, f64::max)
+    }
+
+    /// The damped step δ of (JᵀJ + λ diag(JᵀJ)) δ = −Jᵀr, the diagonal
+    /// floored at `floor` (Marquardt's scaling); `None` when the system
+    /// cannot be solved.
+    fn damped_step(&self, lambda: f64, floor: f64) -> Option<Vec<f64>> {
+        let (n, jtj) = (self.n, &self.jtj);
+        let mut a = jtj.clone();
+        for i in 0..n {
+            a[i * n + i] += lambda * jtj[i * n + i].max(floor);
+        }
+        let rhs: Vec<f64> = self.g.iter().map(|v| -v).collect();
+        solve_spd(&a, n, &rhs, 1)
+    }
+}
+
+/// An accepted trial: the unit-box point, its residuals and cost.
+type Accepted = (Vec<f64>, Option<Vec<f64>>, f64);
+
+/// What the search for a step that lowers the cost works with.
+struct StepSearch<'a> {
+    /// Residuals of a batch of unit-box points.
+    eval: &'a Batch<'a>,
+    budget: usize,
+    params: &'a LmParams,
+}
+
+impl StepSearch<'_> {
+    /// Trial steps from `u` (cost `cost`) with the damping updated after
+    /// each: λ ÷ 3 on the first that lowers the cost (returned), × 4 on a
+    /// failure, until λ passes 1e12 or the budget runs out (`None`). Each
+    /// coordinate of a step is clipped to ±`max_step` (the trust region)
+    /// and then to the box; each trial is one evaluation.
+    fn trial_steps(
+        &self,
+        u: &[f64],
+        normal: &NormalEquations,
+        floor: f64,
+        cost: f64,
+        lambda: &mut f64,
+        evaluations: &mut usize,
+    ) -> Option<Accepted> {
+        let params = self.params;
+        while *evaluations < self.budget && *lambda <= 1e12 {
+            let Some(delta) = normal.damped_step(*lambda, floor) else {
+                *lambda *= 4.0;
+                continue;
+            };
+            let trial: Vec<f64> = u
+                .iter()
+                .zip(&delta)
+                .map(|(a, b)| (a + b.clamp(-params.max_step, params.max_step)).clamp(0.0, 1.0))
+                .collect();
+            let rt = (self.eval)(std::slice::from_ref(&trial)).pop().flatten();
+            *evaluations += 1;
+            let ct = half_norm2(&rt);
+            if ct < cost {
+                *lambda = (*lambda / 3.0).max(1e-12);
+                return Some((trial, rt, ct));
+            }
+            *lambda *= 4.0;
+        }
+        None
+    }
+}
+
+/// True when the last `stall_window` accepted steps (`history`, ending at
+/// `cost`) lowered the cost by less than `stall_decrease` of where they
+/// began: a fit crawling along a bound.
+fn stalled(history: &[HistoryPoint], cost: f64, params: &LmParams) -> bool {
+    let w = params.stall_window;
+    if w > 0 && history.len() > w {
+        let before = history[history.len() - 1 - w].f_best;
+        if (before - cost) < params.stall_decrease * before {
+            return true;
+        }
+    }
+    false
 }
 
 #[cfg(test)]

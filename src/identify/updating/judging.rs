@@ -1,0 +1,240 @@
+//! The judging of an update's result and its follow-ups: each outcome
+//! assessed ([`super::super::assessment`]) and judged into a [`Verdict`]; a
+//! refit of the parameters the score test implicates, or the escape search
+//! ([`super::super::follow_up`]), judged again and taken when it fits better.
+
+use super::super::assessment::{assess, bound_warnings};
+use super::super::consider::Consider;
+use super::super::follow_up::{escape, refit, Outcome, ESCAPED};
+use super::super::guided::GuidedResult;
+use super::super::identifiability::Identifiability;
+use super::super::objective::ModalObjective;
+use super::super::verdict::{Fit, FrfJudgement, Status, Verdict};
+use super::super::IdentifyError;
+use super::{FinalPair, Plan};
+
+/// Where the judging of an update stands.
+pub(super) struct Standing {
+    pub(super) outcome: Outcome,
+    pub(super) judged: Judged,
+    /// The strategy's and the follow-ups' evaluations.
+    pub(super) evaluations: usize,
+    /// The assessments' evaluations.
+    pub(super) assessment_evaluations: usize,
+    /// Refitted parameters whose refit fitted materially better (cost below
+    /// ESCAPED of before): only these make the screening the verdict's cause
+    /// (a refit that gains little says the misfit lies elsewhere).
+    pub(super) material: Vec<String>,
+    /// A refit that did not fit better refutes the implication: the verdict
+    /// is judged without it, and the escape search may run instead.
+    pub(super) refuted: bool,
+}
+
+/// What the judging and the follow-ups of an update work with.
+pub(super) struct FollowUps<'a> {
+    pub(super) o: &'a ModalObjective,
+    pub(super) plan: &'a Plan<'a>,
+    pub(super) start: &'a [f64],
+    pub(super) guided: Option<&'a GuidedResult>,
+    /// Evaluations kept for the final assessment.
+    pub(super) reserve: usize,
+    pub(super) progress: &'a (dyn Fn(u64) + Sync),
+}
+
+impl FollowUps<'_> {
+    /// [`judge`] `outcome`.
+    pub(super) fn judge(&self, outcome: &Outcome) -> Result<Judged, IdentifyError> {
+        judge(
+            self.o,
+            self.start,
+            outcome,
+            self.guided,
+            self.plan,
+            self.progress,
+        )
+    }
+
+    /// The follow-ups ([`super::follow_up`]) from the first judgement, each
+    /// judged again; a refit that does not fit better is not taken.
+    pub(super) fn run(&self, mut s: Standing) -> Result<Standing, IdentifyError> {
+        let (o, plan, start, progress) = (self.o, self.plan, self.start, self.progress);
+        for _ in 0..2 {
+            let left = plan
+                .budget
+                .saturating_sub(s.evaluations + s.assessment_evaluations + self.reserve);
+            let mut implicated = s.judged.implicated(o);
+            implicated.truncate(REFIT_AT_ONCE);
+            let refitting = !implicated.is_empty() && plan.refit_implicated && !s.refuted;
+            let step = if refitting {
+                refit(o, plan, start, &s.outcome, &implicated, left, progress)?
+            } else if s.judged.verdict.fit == Fit::AboveNoise && !s.outcome.searched {
+                escape(o, plan, start, &s.outcome, left, progress)?
+            } else {
+                None
+            };
+            let Some((next, cost)) = step else { break };
+            s.evaluations += cost;
+            let mut next_judged = self.judge(&next)?;
+            s.assessment_evaluations += next_judged.evaluations;
+            // NaN (unsolvable) is never better.
+            let better = fit_rms(&next_judged.verdict)
+                .partial_cmp(&fit_rms(&s.judged.verdict))
+                .is_some_and(|o| o.is_lt());
+            if refitting && !better {
+                let within = refute(&mut s.judged, &next_judged);
+                s.refuted = true;
+                if within {
+                    break;
+                }
+                continue;
+            }
+            if refitting && refit_is_material(&s.judged, &mut next_judged) {
+                s.material.clone_from(&next.refitted);
+            }
+            s.outcome = next;
+            s.judged = next_judged;
+        }
+        Ok(s)
+    }
+}
+
+/// Refute the score test's implication after a refit (judged `refitted`)
+/// that did not fit better: `judged` goes back to its untested verdict, with
+/// a warning saying so. True when the fit is within the noise (then the
+/// follow-ups end).
+fn refute(judged: &mut Judged, refitted: &Judged) -> bool {
+    let (now, then) = (fit_rms(&judged.verdict), fit_rms(&refitted.verdict));
+    let names = judged.verdict.implicated.join(", ");
+    // The implication is refuted: within the noise it was
+    // statistical, not practical (thousands of FRF lines make a tiny
+    // structure significant); above it, the misfit is not theirs and
+    // the escape search may tell a local minimum from model error.
+    let within = judged.verdict.fit == Fit::WithinNoise;
+    judged.verdict = judged.untested.clone();
+    judged.verdict.warnings.push(format!(
+        "the score test implicated {names}, but identifying them too did not fit better ({then:.2}σ against {now:.2}σ): {}",
+        if within {
+            "the fit is within the noise, not counted against the verdict"
+        } else {
+            "not taken, and the misfit is judged as not theirs"
+        }
+    ));
+    within
+}
+
+/// True when a refit (judged `refitted`) that fitted better than `judged`
+/// did so materially (cost below [`ESCAPED`] of before); otherwise
+/// `refitted`'s verdict warns that the evidence against the screening is
+/// weak.
+fn refit_is_material(judged: &Judged, refitted: &mut Judged) -> bool {
+    let (now, then) = (fit_rms(&judged.verdict), fit_rms(&refitted.verdict));
+    if (then / now).powi(2) < ESCAPED {
+        return true;
+    }
+    refitted.verdict.warnings.push(format!(
+        "refitting with the implicated parameters identified too fitted only slightly better ({then:.2}σ against {now:.2}σ): weak evidence that the screening is the cause"
+    ));
+    false
+}
+
+/// Most implicated parameters one refit adds (largest statistics first).
+const REFIT_AT_ONCE: usize = 3;
+
+/// The residual RMS (σ units) a verdict is about: the FRFs' when given.
+fn fit_rms(v: &Verdict) -> f64 {
+    v.frf.map_or(v.end_rms, |f| f.end.rms)
+}
+
+/// The assessment and verdict of an [`Outcome`].
+pub(super) struct Judged {
+    pub(super) verdict: Verdict,
+    /// The verdict before the score test's implicated parameters counted.
+    untested: Verdict,
+    pub(super) identifiability: Identifiability,
+    pub(super) consider: Option<Consider>,
+    pub(super) pairs: Vec<Vec<FinalPair>>,
+    pub(super) evaluations: usize,
+}
+
+impl Judged {
+    /// Indices of the implicated fixed parameters, largest statistic first.
+    fn implicated(&self, o: &ModalObjective) -> Vec<usize> {
+        let Some(c) = &self.consider else {
+            return Vec::new();
+        };
+        c.implicated()
+            .iter()
+            .filter_map(|f| o.parameters().iter().position(|p| p.name == f.parameter))
+            .collect()
+    }
+}
+
+/// Assess `outcome` and judge it: against the reference modes, then (with
+/// FRFs) against the FRFs, then the score test's implicated parameters.
+fn judge(
+    o: &ModalObjective,
+    start: &[f64],
+    outcome: &Outcome,
+    guided: Option<&GuidedResult>,
+    plan: &Plan,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<Judged, IdentifyError> {
+    let ((identifiability, consider, cost), pairs, mut counts, close_pairs, damping) =
+        assess(o, start, &outcome.x, &outcome.identified, plan, progress)?;
+    let mut warnings = bound_warnings(o, &outcome.x, &outcome.identified);
+    warnings.extend(close_pairs);
+    if let Some(run) = guided.and_then(|g| g.refinement.first()) {
+        counts.2.outliers = run.outliers.len();
+        warnings.extend(run.outliers.iter().map(|f| {
+            format!(
+                "reference mode {} at position {} ({:.2} Hz) down-weighted as an outlier: residual {:.1}σ RMS against a median of {:.1}σ",
+                f.mode, f.position, f.frequency_hz, f.rms, f.median
+            )
+        }));
+    }
+    if !outcome.refitted.is_empty() {
+        warnings.push(format!(
+            "the score test implicated {} (held fixed by the screening); identified too and refitted",
+            outcome.refitted.join(", ")
+        ));
+    }
+    let identifiable = identifiability
+        .parameters
+        .iter()
+        .filter(|p| p.identifiable)
+        .count();
+    let verdict = Verdict::judge(
+        outcome.status,
+        counts.0,
+        counts.1,
+        counts.2,
+        outcome.identified.len(),
+        identifiable,
+        warnings,
+    );
+    // With FRFs they are the reference the verdict is about (damping
+    // included); from modes alone the identified damping is judged apart.
+    let verdict = match (&outcome.frf, damping) {
+        (Some(r), _) => verdict.with_frf(
+            Status::of(&r.status),
+            FrfJudgement::new(r.summary.start, r.summary.end),
+        ),
+        (None, Some(d)) => verdict.with_damping(d),
+        (None, None) => verdict,
+    };
+    let implicated: Vec<(String, f64, f64)> = consider.as_ref().map_or(Vec::new(), |c| {
+        c.implicated()
+            .iter()
+            .map(|f| (f.parameter.clone(), f.change, f.statistic))
+            .collect()
+    });
+    Ok(Judged {
+        untested: verdict.clone(),
+        verdict: verdict.with_implicated(&implicated),
+        identifiability,
+        consider,
+        pairs,
+        // Final pairing (3) and the Jacobian batch.
+        evaluations: 3 + cost,
+    })
+}
