@@ -3,7 +3,7 @@
 //! channel, optional `position`/`position_label` columns and a
 //! `# quantity: …` metadata line.
 
-use crate::frf::{Dof, FrfChannel, FrfSet, Position};
+use crate::frf::{Dof, FrfChannel, FrfQuantity, FrfSet, Position};
 use crate::io::csv_table::{csv_err, fmt_f64, from_csv_error, metadata, quantity_name, real_cell};
 use crate::io::dof_text::{format_channel, parse_channel};
 use crate::io::error::{IoError, Location, Place};
@@ -137,7 +137,19 @@ pub fn read_frf_csv(bytes: &[u8], source: &str) -> Result<Vec<FrfSet>, IoError> 
         .clone();
     let header_line = rdr.position().line().max(1) as usize;
     let cols = columns(&headers, source, header_line)?;
-    let column = |i: usize| headers.get(i).unwrap_or("");
+    let groups = read_positions(&mut rdr, &headers, &cols, source)?;
+    frf_sets(groups, &cols, quantity, source)
+}
+
+/// The data rows grouped by position, in the order positions first appear;
+/// each row's size is bounded before it is kept, its label, frequency and
+/// coherences checked as it is read.
+fn read_positions(
+    rdr: &mut csv::Reader<&[u8]>,
+    headers: &csv::StringRecord,
+    cols: &Columns,
+    source: &str,
+) -> Result<Vec<Rows>, IoError> {
     let mut groups: Vec<Rows> = Vec::new();
     let mut group_of: HashMap<u32, usize> = HashMap::new();
     let mut cells_read = 0f64;
@@ -204,40 +216,64 @@ pub fn read_frf_csv(bytes: &[u8], source: &str) -> Result<Vec<FrfSet>, IoError> 
         })?;
         g.freqs.push(f);
         g.lines.push(line);
-        for (k, (name, _, re, im, coh)) in cols.channels.iter().enumerate() {
-            let (re_text, im_text) = (cell(*re), cell(*im));
-            let v = match (re_text.is_empty(), im_text.is_empty()) {
-                (true, true) => None,
-                (false, false) => Some(Complex64::new(
-                    real_cell(source, line, column(*re), re_text)?,
-                    real_cell(source, line, column(*im), im_text)?,
-                )),
-                _ => {
-                    return Err(csv_err(
-                        source,
-                        line,
-                        format!("channel {name}: re and im must both be given"),
-                    ))
-                }
-            };
-            g.cells[k].push(v);
-            let c = match coh.map(|i| (i, cell(i))).filter(|(_, c)| !c.is_empty()) {
-                Some((i, c)) => {
-                    let v = real_cell(source, line, column(i), c)?;
-                    check_coherence(v).map_err(|m| {
-                        IoError::implausible(
-                            source,
-                            Place::Line(line),
-                            format!("{}: {m}", column(i)),
-                        )
-                    })?;
-                    Some(v)
-                }
-                None => None,
-            };
-            g.coh[k].push(c);
-        }
+        push_cells(g, &rec, headers, cols, source, line)?;
     }
+    Ok(groups)
+}
+
+/// Append record `rec`'s FRF and coherence cells (one per channel, `None`
+/// when empty) to position `g`, checking each value; `line` locates errors.
+fn push_cells(
+    g: &mut Rows,
+    rec: &csv::StringRecord,
+    headers: &csv::StringRecord,
+    cols: &Columns,
+    source: &str,
+    line: usize,
+) -> Result<(), IoError> {
+    let column = |i: usize| headers.get(i).unwrap_or("");
+    let cell = |i: usize| rec.get(i).unwrap_or("");
+    for (k, (name, _, re, im, coh)) in cols.channels.iter().enumerate() {
+        let (re_text, im_text) = (cell(*re), cell(*im));
+        let v = match (re_text.is_empty(), im_text.is_empty()) {
+            (true, true) => None,
+            (false, false) => Some(Complex64::new(
+                real_cell(source, line, column(*re), re_text)?,
+                real_cell(source, line, column(*im), im_text)?,
+            )),
+            _ => {
+                return Err(csv_err(
+                    source,
+                    line,
+                    format!("channel {name}: re and im must both be given"),
+                ))
+            }
+        };
+        g.cells[k].push(v);
+        let c = match coh.map(|i| (i, cell(i))).filter(|(_, c)| !c.is_empty()) {
+            Some((i, c)) => {
+                let v = real_cell(source, line, column(i), c)?;
+                check_coherence(v).map_err(|m| {
+                    IoError::implausible(source, Place::Line(line), format!("{}: {m}", column(i)))
+                })?;
+                Some(v)
+            }
+            None => None,
+        };
+        g.coh[k].push(c);
+    }
+    Ok(())
+}
+
+/// One [`FrfSet`] per position, with the channels that have values; a
+/// position without any, a channel or coherence filled in some rows only,
+/// and a table without rows are errors.
+fn frf_sets(
+    groups: Vec<Rows>,
+    cols: &Columns,
+    quantity: FrfQuantity,
+    source: &str,
+) -> Result<Vec<FrfSet>, IoError> {
     let mut sets = Vec::new();
     for g in groups {
         let mut channels = Vec::new();

@@ -42,15 +42,62 @@ pub fn read_modal_csv(
     shapes_csv: &[u8],
     shapes_source: &str,
 ) -> Result<Vec<ModalModel>, IoError> {
-    let src = modes_source;
+    let ModesTable {
+        mut models,
+        model_of,
+        slots,
+    } = read_modes(modes_csv, modes_source)?;
+    if !shapes_csv.trim_ascii().is_empty() {
+        read_shapes(
+            &mut models,
+            &Lookup {
+                model_of: &model_of,
+                slots: &slots,
+            },
+            shapes_csv,
+            shapes_source,
+        )?;
+    }
+    Ok(models
+        .into_iter()
+        .map(|(mut m, numbers)| {
+            let mut order: Vec<usize> = (0..m.modes.len()).collect();
+            order.sort_by_key(|&i| numbers[i]);
+            m.modes = order.iter().map(|&i| m.modes[i].clone()).collect();
+            m
+        })
+        .collect())
+}
+
+/// The modes table as read: per model, its modes in file order (no shapes
+/// yet) with their mode numbers, and the lookups into them.
+struct ModesTable {
+    models: Vec<(ModalModel, Vec<u32>)>,
+    model_of: HashMap<u32, usize>,
+    slots: HashMap<(usize, u32), usize>,
+}
+
+/// The columns of `modes.csv` found in its header.
+struct ModeColumns {
+    position: Option<usize>,
+    label: Option<usize>,
+    mode: usize,
+    frequency: usize,
+    damping: Option<usize>,
+}
+
+/// Read `modes.csv` (`src` names it in errors): one model per position, a
+/// position with two labels or a mode number listed twice is an error.
+fn read_modes(bytes: &[u8], src: &str) -> Result<ModesTable, IoError> {
     let known = MODES_HEADER;
-    let (t, mut rdr) = Table::open(modes_csv, src, &known, &known[2..4])?;
-    let (c_pos, c_label) = (t.col("position"), t.col("position_label"));
-    let (c_mode, c_f, c_z) = (
-        t.col("mode").unwrap_or(0),
-        t.col("frequency_hz").unwrap_or(0),
-        t.col("damping_ratio"),
-    );
+    let (t, mut rdr) = Table::open(bytes, src, &known, &known[2..4])?;
+    let cols = ModeColumns {
+        position: t.col("position"),
+        label: t.col("position_label"),
+        mode: t.col("mode").unwrap_or(0),
+        frequency: t.col("frequency_hz").unwrap_or(0),
+        damping: t.col("damping_ratio"),
+    };
     // Per model: the mode numbers next to the modes, sorted at the end.
     let mut models: Vec<(ModalModel, Vec<u32>)> = Vec::new();
     // Lookups by hash, so the time is linear in the rows: position → model,
@@ -60,26 +107,7 @@ pub fn read_modal_csv(
     for rec in rdr.records() {
         let rec = rec.map_err(|e| from_csv_error(src, &e))?;
         let line = rec.position().map(|p| p.line() as usize).unwrap_or(0);
-        let cell = |i: usize| rec.get(i).unwrap_or("");
-        let index = match c_pos {
-            Some(i) => int_cell::<u32>(src, line, "position", cell(i))?,
-            None => 0,
-        };
-        let label = c_label.map(|i| cell(i).to_string()).unwrap_or_default();
-        let number = int_cell::<u32>(src, line, "mode", cell(c_mode))?;
-        let frequency_hz = real_cell(src, line, "frequency_hz", cell(c_f))?;
-        check_natural_frequency(frequency_hz).map_err(|m| {
-            IoError::implausible(src, Place::Line(line), format!("frequency_hz: {m}"))
-        })?;
-        let damping_ratio = match c_z.map(cell).filter(|c| !c.trim().is_empty()) {
-            Some(c) => real_cell(src, line, "damping_ratio", c)?,
-            None => f64::NAN,
-        };
-        let mode = Mode {
-            frequency_hz,
-            damping_ratio,
-            shape: Vec::new(),
-        };
+        let (index, label, number, mode) = mode_row(&rec, &cols, src, line)?;
         let m = match model_of.get(&index) {
             Some(&m) => m,
             None => {
@@ -117,26 +145,41 @@ pub fn read_modal_csv(
         numbers.push(number);
         model.modes.push(mode);
     }
-    if !shapes_csv.trim_ascii().is_empty() {
-        read_shapes(
-            &mut models,
-            &Lookup {
-                model_of: &model_of,
-                slots: &slots,
-            },
-            shapes_csv,
-            shapes_source,
-        )?;
-    }
-    Ok(models
-        .into_iter()
-        .map(|(mut m, numbers)| {
-            let mut order: Vec<usize> = (0..m.modes.len()).collect();
-            order.sort_by_key(|&i| numbers[i]);
-            m.modes = order.iter().map(|&i| m.modes[i].clone()).collect();
-            m
-        })
-        .collect())
+    Ok(ModesTable {
+        models,
+        model_of,
+        slots,
+    })
+}
+
+/// One row of `modes.csv` at `line`: position index, position label, mode
+/// number and the mode without its shape (damping NaN when not given).
+fn mode_row(
+    rec: &csv::StringRecord,
+    cols: &ModeColumns,
+    src: &str,
+    line: usize,
+) -> Result<(u32, String, u32, Mode), IoError> {
+    let cell = |i: usize| rec.get(i).unwrap_or("");
+    let index = match cols.position {
+        Some(i) => int_cell::<u32>(src, line, "position", cell(i))?,
+        None => 0,
+    };
+    let label = cols.label.map(|i| cell(i).to_string()).unwrap_or_default();
+    let number = int_cell::<u32>(src, line, "mode", cell(cols.mode))?;
+    let frequency_hz = real_cell(src, line, "frequency_hz", cell(cols.frequency))?;
+    check_natural_frequency(frequency_hz)
+        .map_err(|m| IoError::implausible(src, Place::Line(line), format!("frequency_hz: {m}")))?;
+    let damping_ratio = match cols.damping.map(cell).filter(|c| !c.trim().is_empty()) {
+        Some(c) => real_cell(src, line, "damping_ratio", c)?,
+        None => f64::NAN,
+    };
+    let mode = Mode {
+        frequency_hz,
+        damping_ratio,
+        shape: Vec::new(),
+    };
+    Ok((index, label, number, mode))
 }
 
 /// The modes table's hash lookups: position → model, (model, mode
@@ -146,6 +189,29 @@ struct Lookup<'a> {
     slots: &'a HashMap<(usize, u32), usize>,
 }
 
+/// The columns of `mode_shapes.csv` found in its header.
+struct ShapeColumns {
+    position: Option<usize>,
+    mode: usize,
+    node: usize,
+    direction: usize,
+    real: usize,
+    imag: Option<usize>,
+}
+
+/// One row of `mode_shapes.csv`.
+struct ShapeRow {
+    index: u32,
+    number: u32,
+    node: u32,
+    direction: i8,
+    re: f64,
+    im: f64,
+}
+
+/// Read `mode_shapes.csv` (`src` names it in errors) into the shapes of the
+/// modes read from `modes.csv`: each row must name a mode of that table,
+/// and every mode of a position needs a value at every DOF of it.
 fn read_shapes(
     models: &mut [(ModalModel, Vec<u32>)],
     lookup: &Lookup<'_>,
@@ -155,7 +221,14 @@ fn read_shapes(
     let known = SHAPES_HEADER;
     let (t, mut rdr) = Table::open(bytes, src, &known, &["mode", "node", "direction", "real"])?;
     let c = |n: &str| t.col(n).unwrap_or(0);
-    let (c_pos, c_imag) = (t.col("position"), t.col("imag"));
+    let cols = ShapeColumns {
+        position: t.col("position"),
+        mode: c("mode"),
+        node: c("node"),
+        direction: c("direction"),
+        real: c("real"),
+        imag: t.col("imag"),
+    };
     // Per model: (mode slot, DOF slot) → value and the line where each DOF first appears.
     let mut values: Vec<Vec<Vec<Option<Complex64>>>> = models
         .iter()
@@ -167,28 +240,14 @@ fn read_shapes(
     for rec in rdr.records() {
         let rec = rec.map_err(|e| from_csv_error(src, &e))?;
         let line = rec.position().map(|p| p.line() as usize).unwrap_or(0);
-        let cell = |i: usize| rec.get(i).unwrap_or("");
-        let index = match c_pos {
-            Some(i) => int_cell::<u32>(src, line, "position", cell(i))?,
-            None => 0,
-        };
-        let number = int_cell::<u32>(src, line, "mode", cell(c("mode")))?;
-        let node = int_cell::<u32>(src, line, "node", cell(c("node")))?;
-        let direction = parse_direction(cell(c("direction"))).ok_or_else(|| {
-            csv_err(
-                src,
-                line,
-                format!(
-                    "direction {:?}: use +X … -RZ, S or a code -6 to 6",
-                    cell(c("direction"))
-                ),
-            )
-        })?;
-        let re = real_cell(src, line, "real", cell(c("real")))?;
-        let im = match c_imag.map(cell).filter(|s| !s.is_empty()) {
-            Some(s) => real_cell(src, line, "imag", s)?,
-            None => 0.0,
-        };
+        let ShapeRow {
+            index,
+            number,
+            node,
+            direction,
+            re,
+            im,
+        } = shape_row(&rec, &cols, src, line)?;
         let m = lookup.model_of.get(&index).copied().ok_or_else(|| {
             csv_err(
                 src,
@@ -229,6 +288,58 @@ fn read_shapes(
         }
         slot[d] = Some(Complex64::new(re, im));
     }
+    fill_shapes(models, &values, &first_lines, src)
+}
+
+/// One row of `mode_shapes.csv` at `line`, its cells parsed (imag 0 when
+/// not given).
+fn shape_row(
+    rec: &csv::StringRecord,
+    cols: &ShapeColumns,
+    src: &str,
+    line: usize,
+) -> Result<ShapeRow, IoError> {
+    let cell = |i: usize| rec.get(i).unwrap_or("");
+    let index = match cols.position {
+        Some(i) => int_cell::<u32>(src, line, "position", cell(i))?,
+        None => 0,
+    };
+    let number = int_cell::<u32>(src, line, "mode", cell(cols.mode))?;
+    let node = int_cell::<u32>(src, line, "node", cell(cols.node))?;
+    let direction = parse_direction(cell(cols.direction)).ok_or_else(|| {
+        csv_err(
+            src,
+            line,
+            format!(
+                "direction {:?}: use +X … -RZ, S or a code -6 to 6",
+                cell(cols.direction)
+            ),
+        )
+    })?;
+    let re = real_cell(src, line, "real", cell(cols.real))?;
+    let im = match cols.imag.map(cell).filter(|s| !s.is_empty()) {
+        Some(s) => real_cell(src, line, "imag", s)?,
+        None => 0.0,
+    };
+    Ok(ShapeRow {
+        index,
+        number,
+        node,
+        direction,
+        re,
+        im,
+    })
+}
+
+/// Give every mode its shape over its model's DOFs from `values` (per
+/// model, mode slot and DOF slot); a DOF without a value for some mode is
+/// an error at the line that first listed it (`first_lines`).
+fn fill_shapes(
+    models: &mut [(ModalModel, Vec<u32>)],
+    values: &[Vec<Vec<Option<Complex64>>>],
+    first_lines: &[Vec<usize>],
+    src: &str,
+) -> Result<(), IoError> {
     for (m, (model, numbers)) in models.iter_mut().enumerate() {
         for (k, mode) in model.modes.iter_mut().enumerate() {
             let row = &values[m][k];

@@ -223,102 +223,51 @@ impl Engine<'_> {
         progress: &dyn Progress,
     ) -> Outcome {
         let node = &self.plan.nodes[i];
-        let mut report = StageReport {
-            name: node.name.clone(),
-            kind: node.kind.kind().to_string(),
-            status: Status::Failed,
-            key: None,
-            seconds: 0.0,
-            reason: String::new(),
-            error: None,
-            counters: BTreeMap::new(),
+        let mut attempt = Attempt {
+            report: StageReport {
+                name: node.name.clone(),
+                kind: node.kind.kind().to_string(),
+                status: Status::Failed,
+                key: None,
+                seconds: 0.0,
+                reason: String::new(),
+                error: None,
+                counters: BTreeMap::new(),
+                warnings: Vec::new(),
+            },
             warnings: Vec::new(),
-        };
-        let fail = |mut report: StageReport, msg: String, warnings| {
-            report.status = Status::Failed;
-            report.error = Some(msg);
-            Outcome {
-                report,
-                done: None,
-                provenance: None,
-                warnings,
-                fatal: None,
-            }
-        };
-        let fatal = |report: StageReport, e: RunError, warnings| {
-            let message = e.to_string();
-            Outcome {
-                fatal: Some(e),
-                ..fail(report, message, warnings)
-            }
         };
         let material = match self.material(i, done) {
             Ok(m) => m,
-            Err(e) => return fail(report, e, vec![]),
+            Err(e) => return attempt.fail(e),
         };
         let key = material.key();
-        report.key = Some(key.clone());
+        attempt.report.key = Some(key.clone());
         let previous = self.last.stages.get(&node.name);
-        report.reason = if self.forced[i] {
+        attempt.report.reason = if self.forced[i] {
             "forced".into()
         } else {
             provenance::explain(previous, &material, &[], &self.input_refs(node))
         };
-        let mut warnings = Vec::new();
         let _lock = match self.store.lock_key(&key) {
             Ok(l) => l,
-            Err(e) => return fatal(report, e.into(), warnings),
+            Err(e) => return attempt.fatal(e.into()),
         };
-        let record = match (self.forced[i], self.cached(node, &key)) {
-            (false, Ok(rec)) => {
-                report.status = Status::Cached;
-                report.reason = "up to date".into();
-                rec
-            }
-            (_, cached) => {
-                if let Err(Some(problem)) = cached {
-                    warnings.push(format!(
-                        "stage {}: cache entry unusable: {problem}; recomputing",
-                        node.name
-                    ));
-                    report.reason = format!("cache entry corrupt ({problem})");
-                }
-                if self.store.read_only() {
-                    let e = RunError::ReadOnly {
-                        stage: node.name.clone(),
-                        cache: self.store.root().to_path_buf(),
-                        reason: report.reason.clone(),
-                    };
-                    return fatal(report, e, warnings);
-                }
-                match self.compute(node, &key, &material, done, progress) {
-                    Ok(rec) => {
-                        report.status = Status::Ran;
-                        rec
-                    }
-                    Err(JobError::Stage(e)) => return fail(report, e, warnings),
-                    Err(JobError::Store(e)) => return fatal(report, e.into(), warnings),
-                    Err(JobError::Storage(message)) => {
-                        let e = RunError::Storage {
-                            stage: node.name.clone(),
-                            message,
-                        };
-                        return fatal(report, e, warnings);
-                    }
-                }
-            }
+        let record = match self.obtain_record(i, &key, &material, done, progress, &mut attempt) {
+            Ok(rec) => rec,
+            Err(failure) => return attempt.end(failure),
         };
-        report.seconds = record.seconds;
-        report.counters = record.counters.clone();
-        report.warnings = record.warnings.clone();
-        warnings.extend(
+        attempt.report.seconds = record.seconds;
+        attempt.report.counters = record.counters.clone();
+        attempt.report.warnings = record.warnings.clone();
+        attempt.warnings.extend(
             record
                 .warnings
                 .iter()
                 .map(|w| format!("stage {}: {w}", node.name)),
         );
         if let Err(e) = self.place(node, &material, &key, &record, done) {
-            return fatal(report, e.into(), warnings);
+            return attempt.fatal(e.into());
         }
         let outputs = record
             .outputs
@@ -336,9 +285,62 @@ impl Engine<'_> {
                 outputs: record.outputs,
                 warnings: record.warnings,
             }),
-            report,
-            warnings,
+            report: attempt.report,
+            warnings: attempt.warnings,
             fatal: None,
+        }
+    }
+
+    /// The run record of node `i` under `key`: its verified cache entry, or
+    /// (forced, no entry, a corrupt one) the record the executor commits
+    /// after computing the stage. Sets the report's status, and its reason
+    /// and a warning for a corrupt entry; a read-only cache that would have
+    /// to compute fails the run.
+    fn obtain_record(
+        &self,
+        i: usize,
+        key: &str,
+        material: &KeyMaterial,
+        done: &dyn Fn(usize) -> Option<Done>,
+        progress: &dyn Progress,
+        attempt: &mut Attempt,
+    ) -> Result<RunRecord, Failure> {
+        let node = &self.plan.nodes[i];
+        let report = &mut attempt.report;
+        match (self.forced[i], self.cached(node, key)) {
+            (false, Ok(rec)) => {
+                report.status = Status::Cached;
+                report.reason = "up to date".into();
+                Ok(rec)
+            }
+            (_, cached) => {
+                if let Err(Some(problem)) = cached {
+                    attempt.warnings.push(format!(
+                        "stage {}: cache entry unusable: {problem}; recomputing",
+                        node.name
+                    ));
+                    report.reason = format!("cache entry corrupt ({problem})");
+                }
+                if self.store.read_only() {
+                    return Err(Failure::Fatal(RunError::ReadOnly {
+                        stage: node.name.clone(),
+                        cache: self.store.root().to_path_buf(),
+                        reason: report.reason.clone(),
+                    }));
+                }
+                match self.compute(node, key, material, done, progress) {
+                    Ok(rec) => {
+                        report.status = Status::Ran;
+                        Ok(rec)
+                    }
+                    Err(JobError::Stage(e)) => Err(Failure::Stage(e)),
+                    Err(JobError::Store(e)) => Err(Failure::Fatal(e.into())),
+                    Err(JobError::Storage(message)) => Err(Failure::Fatal(RunError::Storage {
+                        stage: node.name.clone(),
+                        message,
+                    })),
+                }
+            }
         }
     }
 
@@ -454,6 +456,59 @@ impl Engine<'_> {
             .collect();
         let manifest = Manifest::new(&node.name, material, key, origins, record);
         results::materialize(&self.store, &self.results.join(&node.name), &manifest)
+    }
+}
+
+/// A stage's report and warning lines while it is run or reused, until
+/// they become its [`Outcome`].
+struct Attempt {
+    report: StageReport,
+    warnings: Vec<String>,
+}
+
+/// Why a stage ended without a record.
+enum Failure {
+    /// The stage itself failed; the run goes on with independent stages.
+    Stage(String),
+    /// The cache or the file system failed: the run stops.
+    Fatal(RunError),
+}
+
+impl Attempt {
+    /// The outcome of a stage that failed with `msg`: no result, no
+    /// provenance, the run goes on.
+    fn fail(self, msg: String) -> Outcome {
+        let Attempt {
+            mut report,
+            warnings,
+        } = self;
+        report.status = Status::Failed;
+        report.error = Some(msg);
+        Outcome {
+            report,
+            done: None,
+            provenance: None,
+            warnings,
+            fatal: None,
+        }
+    }
+
+    /// The outcome of a stage the cache or file system failed: the stage
+    /// fails with the error's text and the run stops with `e`.
+    fn fatal(self, e: RunError) -> Outcome {
+        let message = e.to_string();
+        Outcome {
+            fatal: Some(e),
+            ..self.fail(message)
+        }
+    }
+
+    /// The outcome of a stage that ended with `failure`.
+    fn end(self, failure: Failure) -> Outcome {
+        match failure {
+            Failure::Stage(msg) => self.fail(msg),
+            Failure::Fatal(e) => self.fatal(e),
+        }
     }
 }
 

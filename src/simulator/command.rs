@@ -127,24 +127,15 @@ impl CommandModel {
     }
 
     /// Run one process for `xs`; one result per sample, indices local to `xs`.
-    fn run_chunk(&self, xs: &[Vec<f64>]) -> Vec<Result<Vec<f64>, EvalError>> {
-        let all = |make: &dyn Fn() -> EvalError| -> Vec<Result<Vec<f64>, EvalError>> {
+    fn run_chunk(&self, xs: &[Vec<f64>]) -> Answers {
+        let all = |make: &dyn Fn() -> EvalError| -> Answers {
             (0..xs.len()).map(|i| Err(make().at_sample(i))).collect()
         };
         if let Some(x) = xs.iter().find(|x| x.len() != self.parameters.len()) {
             let (expected, got) = (self.parameters.len(), x.len());
             return all(&|| EvalError::Dimension { expected, got });
         }
-        let spawned = Command::new("sh")
-            .arg("-c")
-            .arg(&self.options.command)
-            .current_dir(&self.options.dir)
-            .stdin(Stdio::piped())
-            .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .process_group(0)
-            .spawn();
-        let mut child = match spawned {
+        let mut child = match self.spawn_command() {
             Ok(c) => c,
             Err(e) => {
                 let kind = e.kind();
@@ -156,78 +147,12 @@ impl CommandModel {
             }
         };
         let requests: String = xs.iter().map(|x| self.request(x) + "\n").collect();
-        // Detached threads: a grandchild that keeps a pipe open must not block us.
-        if let Some(mut stdin) = child.stdin.take() {
-            std::thread::spawn(move || {
-                // A command that stops reading early is reported through its answers.
-                let _ = stdin.write_all(requests.as_bytes());
-            });
-        }
-        let (line_tx, lines) = mpsc::channel();
-        if let Some(stdout) = child.stdout.take() {
-            std::thread::spawn(move || {
-                for line in BufReader::new(stdout).lines() {
-                    let Ok(line) = line else { break };
-                    if line.trim().is_empty() {
-                        continue;
-                    }
-                    if line_tx.send(line).is_err() {
-                        break;
-                    }
-                }
-            });
-        }
-        let (err_tx, stderr_text) = mpsc::channel();
-        if let Some(mut stderr) = child.stderr.take() {
-            std::thread::spawn(move || {
-                let mut text = String::new();
-                let _ = stderr.read_to_string(&mut text);
-                let _ = err_tx.send(text);
-            });
-        }
+        let (lines, stderr_text) = connect_pipes(&mut child, requests);
         let deadline = self.options.timeout.map(|t| Instant::now() + t);
-        let mut results = Vec::with_capacity(xs.len());
-        let mut ended: Option<EvalError> = None;
-        for i in 0..xs.len() {
-            let line = match deadline {
-                Some(d) => lines.recv_timeout(d.saturating_duration_since(Instant::now())),
-                None => lines
-                    .recv()
-                    .map_err(|_| mpsc::RecvTimeoutError::Disconnected),
-            };
-            match line {
-                Ok(line) => results.push(self.parse(&line).map_err(|e| e.at_sample(i))),
-                Err(mpsc::RecvTimeoutError::Timeout) => {
-                    kill_group(&mut child);
-                    ended = Some(EvalError::Timeout {
-                        seconds: self.options.timeout.map_or(0.0, |t| t.as_secs_f64()),
-                    });
-                    break;
-                }
-                Err(mpsc::RecvTimeoutError::Disconnected) => {
-                    let status = wait(&mut child, deadline);
-                    ended = Some(EvalError::Command(format!(
-                        "`{}` ended after answering {i} of {} samples ({status}){}",
-                        self.options.command,
-                        xs.len(),
-                        tail(&stderr_text)
-                    )));
-                    break;
-                }
-            }
-        }
+        let (mut results, ended) =
+            self.read_answers(xs.len(), &mut child, &lines, &stderr_text, deadline);
         if let Some(e) = ended {
-            let text = e.to_string();
-            let timeout = matches!(e, EvalError::Timeout { .. });
-            let seconds = self.options.timeout.map_or(0.0, |t| t.as_secs_f64());
-            for i in results.len()..xs.len() {
-                let e = if timeout {
-                    EvalError::Timeout { seconds }
-                } else {
-                    EvalError::Command(text.clone())
-                };
-                results.push(Err(e.at_sample(i)));
-            }
+            self.fill_unanswered(&mut results, &e, xs.len());
             return results;
         }
         let status = wait(&mut child, deadline);
@@ -250,6 +175,122 @@ impl CommandModel {
         }
         results
     }
+
+    /// Start `sh -c COMMAND` in the working directory, in its own process
+    /// group (so a timeout can kill all it started), with piped streams.
+    fn spawn_command(&self) -> std::io::Result<Child> {
+        Command::new("sh")
+            .arg("-c")
+            .arg(&self.options.command)
+            .current_dir(&self.options.dir)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .process_group(0)
+            .spawn()
+    }
+
+    /// Read up to `n` answer lines from `lines` and parse each, until the
+    /// `deadline`. Returns the answers read and, when the process timed out
+    /// (its group is then killed) or ended before answering all, why.
+    fn read_answers(
+        &self,
+        n: usize,
+        child: &mut Child,
+        lines: &mpsc::Receiver<String>,
+        stderr_text: &mpsc::Receiver<String>,
+        deadline: Option<Instant>,
+    ) -> (Answers, Option<EvalError>) {
+        let mut results = Vec::with_capacity(n);
+        let mut ended: Option<EvalError> = None;
+        for i in 0..n {
+            let line = match deadline {
+                Some(d) => lines.recv_timeout(d.saturating_duration_since(Instant::now())),
+                None => lines
+                    .recv()
+                    .map_err(|_| mpsc::RecvTimeoutError::Disconnected),
+            };
+            match line {
+                Ok(line) => results.push(self.parse(&line).map_err(|e| e.at_sample(i))),
+                Err(mpsc::RecvTimeoutError::Timeout) => {
+                    kill_group(child);
+                    ended = Some(EvalError::Timeout {
+                        seconds: self.options.timeout.map_or(0.0, |t| t.as_secs_f64()),
+                    });
+                    break;
+                }
+                Err(mpsc::RecvTimeoutError::Disconnected) => {
+                    let status = wait(child, deadline);
+                    ended = Some(EvalError::Command(format!(
+                        "`{}` ended after answering {i} of {} samples ({status}){}",
+                        self.options.command,
+                        n,
+                        tail(stderr_text)
+                    )));
+                    break;
+                }
+            }
+        }
+        (results, ended)
+    }
+
+    /// Give every sample the process did not answer before it `ended` (a
+    /// timeout or an early end) that error, so `results` has `n` entries.
+    fn fill_unanswered(&self, results: &mut Answers, ended: &EvalError, n: usize) {
+        let text = ended.to_string();
+        let timeout = matches!(ended, EvalError::Timeout { .. });
+        let seconds = self.options.timeout.map_or(0.0, |t| t.as_secs_f64());
+        for i in results.len()..n {
+            let e = if timeout {
+                EvalError::Timeout { seconds }
+            } else {
+                EvalError::Command(text.clone())
+            };
+            results.push(Err(e.at_sample(i)));
+        }
+    }
+}
+
+/// One result per sample of a chunk.
+type Answers = Vec<Result<Vec<f64>, EvalError>>;
+
+/// Feed `requests` to the child's stdin and read its stdout (non-blank
+/// lines) and stderr (all of it), each on a detached thread. Returns the
+/// receivers of the answer lines and of the stderr text.
+fn connect_pipes(
+    child: &mut Child,
+    requests: String,
+) -> (mpsc::Receiver<String>, mpsc::Receiver<String>) {
+    // Detached threads: a grandchild that keeps a pipe open must not block us.
+    if let Some(mut stdin) = child.stdin.take() {
+        std::thread::spawn(move || {
+            // A command that stops reading early is reported through its answers.
+            let _ = stdin.write_all(requests.as_bytes());
+        });
+    }
+    let (line_tx, lines) = mpsc::channel();
+    if let Some(stdout) = child.stdout.take() {
+        std::thread::spawn(move || {
+            for line in BufReader::new(stdout).lines() {
+                let Ok(line) = line else { break };
+                if line.trim().is_empty() {
+                    continue;
+                }
+                if line_tx.send(line).is_err() {
+                    break;
+                }
+            }
+        });
+    }
+    let (err_tx, stderr_text) = mpsc::channel();
+    if let Some(mut stderr) = child.stderr.take() {
+        std::thread::spawn(move || {
+            let mut text = String::new();
+            let _ = stderr.read_to_string(&mut text);
+            let _ = err_tx.send(text);
+        });
+    }
+    (lines, stderr_text)
 }
 
 impl Model for CommandModel {

@@ -89,6 +89,49 @@ fn header_ints(line: &str, n: usize, at: usize, what: &str) -> Result<Vec<usize>
 /// Read a real assembled Harwell–Boeing matrix (`RSA` or `RUA`).
 pub fn read_harwell_boeing(text: &str) -> Result<FeMatrix, FeError> {
     let lines: Vec<&str> = text.lines().collect();
+    let h = parse_header(&lines)?;
+    let start = h.start;
+    let (ind_start, val_start) = (
+        start.saturating_add(h.ptrcrd),
+        start.saturating_add(h.ptrcrd).saturating_add(h.indcrd),
+    );
+    check_sizes(&lines, &h, ind_start, val_start)?;
+    let ptr = fixed_fields(&lines, start, h.ptrcrd, h.pf, h.n_ptr, "column pointers")?;
+    let ind = fixed_fields(&lines, ind_start, h.indcrd, h.inf, h.nnz, "row indices")?;
+    let val = fixed_fields(&lines, val_start, h.valcrd, h.vf, h.nnz, "values")?;
+    let entries = assemble_entries(&h, &ptr, &ind, &val)?;
+    Ok(FeMatrix {
+        n: h.nrow,
+        entries,
+        labels: None,
+    })
+}
+
+/// What the header lines say (line 5, the right-hand side's, is skipped).
+struct Header {
+    /// Card counts of the pointers, indices and values.
+    ptrcrd: usize,
+    indcrd: usize,
+    valcrd: usize,
+    nrow: usize,
+    ncol: usize,
+    nnz: usize,
+    /// NCOL + 1 (the pointers' count) and NNZERO + 1 (the last pointer).
+    n_ptr: usize,
+    nnz_end: usize,
+    /// `RSA`: one triangle is stored.
+    symmetric: bool,
+    /// (count, width) of the pointer, index and value formats.
+    pf: (usize, usize),
+    inf: (usize, usize),
+    vf: (usize, usize),
+    /// Index of the first pointer card among the lines.
+    start: usize,
+}
+
+/// The four header lines: card counts, matrix type and sizes (a square
+/// `RSA` or `RUA` matrix), and the Fortran formats of the data cards.
+fn parse_header(lines: &[&str]) -> Result<Header, FeError> {
     if lines.len() < 4 {
         return fail(
             lines.len().max(1),
@@ -144,10 +187,47 @@ pub fn read_harwell_boeing(text: &str) -> Result<FeMatrix, FeError> {
     };
     let (pf, inf, vf) = (fmt(pf, "pointer")?, fmt(inf, "index")?, fmt(vf, "value")?);
     let start: usize = if rhscrd > 0 { 5 } else { 4 };
-    let (ind_start, val_start) = (
-        start.saturating_add(ptrcrd),
-        start.saturating_add(ptrcrd).saturating_add(indcrd),
-    );
+    Ok(Header {
+        ptrcrd,
+        indcrd,
+        valcrd,
+        nrow,
+        ncol,
+        nnz,
+        n_ptr,
+        nnz_end,
+        symmetric,
+        pf,
+        inf,
+        vf,
+        start,
+    })
+}
+
+/// Whether the header's counts can hold: the pointers (from `h.start`),
+/// indices (from `ind_start`) and values (from `val_start`) each fit in
+/// their cards, and the matrix in memory.
+fn check_sizes(
+    lines: &[&str],
+    h: &Header,
+    ind_start: usize,
+    val_start: usize,
+) -> Result<(), FeError> {
+    let Header {
+        ptrcrd,
+        indcrd,
+        valcrd,
+        nrow,
+        ncol,
+        nnz,
+        n_ptr,
+        symmetric,
+        pf,
+        inf,
+        vf,
+        start,
+        ..
+    } = *h;
     // Sizes against the cards that follow, then against the memory limit,
     // before any of them is read.
     for (at, cards, (count, _), wanted, what) in [
@@ -175,16 +255,25 @@ pub fn read_harwell_boeing(text: &str) -> Result<FeMatrix, FeError> {
         } else {
             nnz
         },
-    )?;
-    let ptr = fixed_fields(&lines, start, ptrcrd, pf, n_ptr, "column pointers")?;
-    let ind = fixed_fields(&lines, ind_start, indcrd, inf, nnz, "row indices")?;
-    let val = fixed_fields(&lines, val_start, valcrd, vf, nnz, "values")?;
+    )
+}
+
+/// The matrix entries (0-based row, column, value) from the column
+/// pointers, row indices and values read, an `RSA` triangle mirrored;
+/// pointers must rise from 1 to NNZERO + 1 and rows lie in 1..=NROW.
+fn assemble_entries(
+    h: &Header,
+    ptr: &[(usize, &str)],
+    ind: &[(usize, &str)],
+    val: &[(usize, &str)],
+) -> Result<Vec<(usize, usize, f64)>, FeError> {
+    let (nrow, nnz_end, symmetric, start) = (h.nrow, h.nnz_end, h.symmetric, h.start);
     let int = |(line, f): &(usize, &str), what: &str| {
         f.parse::<usize>()
             .or_else(|_| fail(*line, format!("{what} `{f}` is not a positive integer")))
     };
     let mut pointers = Vec::new();
-    for p in &ptr {
+    for p in ptr {
         pointers.push(int(p, "column pointer")?);
     }
     if pointers.first() != Some(&1)
@@ -225,11 +314,7 @@ pub fn read_harwell_boeing(text: &str) -> Result<FeMatrix, FeError> {
             }
         }
     }
-    Ok(FeMatrix {
-        n: nrow,
-        entries,
-        labels: None,
-    })
+    Ok(entries)
 }
 
 /// Read an ANSYS `.MAPPING` file (`Matrix Eqn  Node  DOF` lines, DOF one

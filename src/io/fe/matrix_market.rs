@@ -107,6 +107,38 @@ pub fn read_matrix_market(text: &str) -> Result<FeMatrix, FeError> {
             break (k + 1, t);
         }
     };
+    let remaining = text.len().saturating_sub(consumed);
+    let declared = declared_size(sizes, size_line, remaining, symmetric)?;
+    let entries = read_entries(lines, &declared, text)?;
+    Ok(FeMatrix {
+        n: declared.n,
+        entries,
+        labels: None,
+    })
+}
+
+/// What the size line declares, checked.
+struct Declared {
+    /// Rows (= columns).
+    n: usize,
+    /// Entries given.
+    nnz: usize,
+    /// The size line's number.
+    line: usize,
+    /// One triangle given, mirrored.
+    symmetric: bool,
+}
+
+/// The size line `sizes` (line `size_line`) checked before anything is
+/// allocated: a square, non-empty matrix whose entries fit in the
+/// `remaining` bytes and, with a symmetric matrix's mirrored ones, in the
+/// memory limit.
+fn declared_size(
+    sizes: &str,
+    size_line: usize,
+    remaining: usize,
+    symmetric: bool,
+) -> Result<Declared, FeError> {
     let fields: Vec<&str> = sizes.split_whitespace().collect();
     let parsed: Option<Vec<usize>> = fields.iter().map(|f| f.parse().ok()).collect();
     let (rows, cols, nnz) = match parsed.as_deref() {
@@ -129,7 +161,6 @@ pub fn read_matrix_market(text: &str) -> Result<FeMatrix, FeError> {
     if rows == 0 {
         return fail(size_line, "matrix has no rows");
     }
-    let remaining = text.len().saturating_sub(consumed);
     let possible = (remaining + 1) / MIN_ENTRY_BYTES;
     if nnz > possible {
         return fail(
@@ -146,7 +177,28 @@ pub fn read_matrix_market(text: &str) -> Result<FeMatrix, FeError> {
         nnz
     };
     check_size(size_line, rows, stored)?;
-    let n = rows;
+    Ok(Declared {
+        n: rows,
+        nnz,
+        line: size_line,
+        symmetric,
+    })
+}
+
+/// The entries of the `lines` after the size line (0-based row, column,
+/// value; a symmetric matrix's mirrored), exactly as many as `declared`;
+/// `text` is the whole file, whose last line locates a missing entry.
+fn read_entries<'a>(
+    lines: impl Iterator<Item = (usize, &'a str)>,
+    declared: &Declared,
+    text: &str,
+) -> Result<Vec<(usize, usize, f64)>, FeError> {
+    let Declared {
+        n,
+        nnz,
+        line: size_line,
+        symmetric,
+    } = *declared;
     let mut entries = Vec::new();
     let mut read = 0usize;
     for (k, raw) in lines {
@@ -185,11 +237,7 @@ pub fn read_matrix_market(text: &str) -> Result<FeMatrix, FeError> {
             format!("the file ends after {read} of the {nnz} entries the size line (line {size_line}) declares"),
         );
     }
-    Ok(FeMatrix {
-        n,
-        entries,
-        labels: None,
-    })
+    Ok(entries)
 }
 
 #[cfg(test)]

@@ -138,6 +138,45 @@ pub(crate) fn parse(cur: &mut Cursor<'_>) -> Result<Uff55, IoError> {
         *id = String::from_utf8_lossy(l.text).trim_end().to_string();
     }
     let (r6, place6) = read_record6(cur)?;
+    let (precision, complex, values_per_node) = value_layout(&r6, src, place6)?;
+    let (integers, n_real) = read_record7(cur)?;
+    let mut reals = Vec::new();
+    text::read_numbers(cur, n_real, false, "dataset 55 record 8", &mut reals)?;
+
+    let per_node = values_per_node * if complex { 2 } else { 1 };
+    let (nodes, flat) = read_nodes(cur, per_node)?;
+    let values = if complex {
+        Ordinate::Complex(
+            flat.chunks_exact(2)
+                .map(|c| Complex64::new(c[0], c[1]))
+                .collect(),
+        )
+    } else {
+        Ordinate::Real(flat)
+    };
+    Ok(Uff55 {
+        id_lines,
+        model_type: r6[0],
+        analysis_type: r6[1],
+        data_characteristic: r6[2],
+        specific_data_type: r6[3],
+        precision,
+        values_per_node,
+        integers,
+        reals,
+        nodes,
+        values,
+    })
+}
+
+/// Record 6's data type (field 5) as precision and whether values are
+/// complex, and its values per node (field 6, 1 to 64); `place6` locates
+/// record 6 in `src`.
+fn value_layout(
+    r6: &[i64; 6],
+    src: &str,
+    place6: Place,
+) -> Result<(Precision, bool, usize), IoError> {
     let precision_complex = match r6[4] {
         2 => (Precision::Single, false),
         4 => (Precision::Double, false),
@@ -163,12 +202,14 @@ pub(crate) fn parse(cur: &mut Cursor<'_>) -> Result<Uff55, IoError> {
         ));
     }
     let values_per_node = r6[5] as usize;
-    let (integers, n_real) = read_record7(cur)?;
-    let mut reals = Vec::new();
-    text::read_numbers(cur, n_real, false, "dataset 55 record 8", &mut reals)?;
-
     let (precision, complex) = precision_complex;
-    let per_node = values_per_node * if complex { 2 } else { 1 };
+    Ok((precision, complex, values_per_node))
+}
+
+/// Records 9 and 10 until the closing `-1`: the node numbers and, flat,
+/// the `per_node` numbers after each.
+fn read_nodes(cur: &mut Cursor<'_>, per_node: usize) -> Result<(Vec<i64>, Vec<f64>), IoError> {
+    let src = cur.source;
     let mut nodes = Vec::new();
     let mut flat = Vec::new();
     loop {
@@ -209,28 +250,7 @@ pub(crate) fn parse(cur: &mut Cursor<'_>) -> Result<Uff55, IoError> {
             &mut flat,
         )?;
     }
-    let values = if complex {
-        Ordinate::Complex(
-            flat.chunks_exact(2)
-                .map(|c| Complex64::new(c[0], c[1]))
-                .collect(),
-        )
-    } else {
-        Ordinate::Real(flat)
-    };
-    Ok(Uff55 {
-        id_lines,
-        model_type: r6[0],
-        analysis_type: r6[1],
-        data_characteristic: r6[2],
-        specific_data_type: r6[3],
-        precision,
-        values_per_node,
-        integers,
-        reals,
-        nodes,
-        values,
-    })
+    Ok((nodes, flat))
 }
 
 fn parse_int(t: &[u8]) -> Option<i64> {

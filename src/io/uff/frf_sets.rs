@@ -16,9 +16,9 @@
 
 use super::artifact::{unescape_label, LABEL_KEY};
 use super::ds58::{Entity58, FunctionType, Ordinate, Uff58};
-use super::units::{abscissa_factor, ordinate_units, Units164, UnitsOverride};
+use super::units::{abscissa_factor, ordinate_units, OrdinateUnits, Units164, UnitsOverride};
 use super::{UffDataset, UffFile, UffWarning};
-use crate::frf::{Dof, FrfChannel, FrfSet, Position};
+use crate::frf::{Dof, FrfChannel, FrfQuantity, FrfSet, Position};
 use crate::io::error::{IoError, Location, Place};
 use std::collections::HashMap;
 
@@ -213,52 +213,10 @@ impl Builder {
         let mut freqs = d.abscissa_values();
         if hz != 1.0 {
             freqs.iter_mut().for_each(|f| *f *= hz);
-            self.note(format!(
-                "frequency axis in {} converted to Hz (× {hz:.6})",
-                d.abscissa_axis.units.trim()
-            ));
         }
-        if let Some(from) = &units.from {
-            self.note(format!(
-                "{from} converted to SI {} (× {})",
-                quantity.si_unit(),
-                units.factor
-            ));
-        }
-        if !units.calibrated {
-            self.uncalibrated += 1;
-            self.note(format!(
-                "{}/{} kept as measured: uncalibrated, no physical scale",
-                d.ordinate_axis.units.trim(),
-                d.denominator_axis.units.trim()
-            ));
-        }
-        if units.assumed_si {
-            self.unlabelled += 1;
-            self.note(format!(
-                "no units label and no dataset 164: read as SI {}",
-                quantity.si_unit()
-            ));
-        }
+        self.note_conversions(d, &units, hz);
         let name = channel_name(response, reference);
-        let key = (position.index, position.label.clone());
-        let idx = match self.positions.get(&key) {
-            Some(&i) => i,
-            None => {
-                check_increasing(&freqs, &at, &name)?;
-                self.sets.push((
-                    FrfSet {
-                        position: position.clone(),
-                        quantity,
-                        frequencies_hz: freqs.clone(),
-                        channels: Vec::new(),
-                    },
-                    at.place,
-                ));
-                self.positions.insert(key, self.sets.len() - 1);
-                self.sets.len() - 1
-            }
-        };
+        let idx = self.set_of(&position, quantity, &freqs, &at, &name)?;
         let (set, first) = &mut self.sets[idx];
         same_axis(
             &set.frequencies_hz,
@@ -295,6 +253,71 @@ impl Builder {
             coherence: None,
         });
         Ok(())
+    }
+
+    /// Note the conversions of dataset `d`'s FRF: its frequency axis by
+    /// `hz`, its ordinate to SI, uncalibrated data kept as measured, and
+    /// data without units read as SI (counting the last two).
+    fn note_conversions(&mut self, d: &Uff58, units: &OrdinateUnits, hz: f64) {
+        let quantity = units.quantity;
+        if hz != 1.0 {
+            self.note(format!(
+                "frequency axis in {} converted to Hz (× {hz:.6})",
+                d.abscissa_axis.units.trim()
+            ));
+        }
+        if let Some(from) = &units.from {
+            self.note(format!(
+                "{from} converted to SI {} (× {})",
+                quantity.si_unit(),
+                units.factor
+            ));
+        }
+        if !units.calibrated {
+            self.uncalibrated += 1;
+            self.note(format!(
+                "{}/{} kept as measured: uncalibrated, no physical scale",
+                d.ordinate_axis.units.trim(),
+                d.denominator_axis.units.trim()
+            ));
+        }
+        if units.assumed_si {
+            self.unlabelled += 1;
+            self.note(format!(
+                "no units label and no dataset 164: read as SI {}",
+                quantity.si_unit()
+            ));
+        }
+    }
+
+    /// The index of `position`'s set; its first FRF (`freqs`, read at `at`,
+    /// channel `name`) opens it after its axis is checked to increase.
+    fn set_of(
+        &mut self,
+        position: &Position,
+        quantity: FrfQuantity,
+        freqs: &[f64],
+        at: &Location,
+        name: &str,
+    ) -> Result<usize, IoError> {
+        let key = (position.index, position.label.clone());
+        Ok(match self.positions.get(&key) {
+            Some(&i) => i,
+            None => {
+                check_increasing(freqs, at, name)?;
+                self.sets.push((
+                    FrfSet {
+                        position: position.clone(),
+                        quantity,
+                        frequencies_hz: freqs.to_vec(),
+                        channels: Vec::new(),
+                    },
+                    at.place,
+                ));
+                self.positions.insert(key, self.sets.len() - 1);
+                self.sets.len() - 1
+            }
+        })
     }
 
     fn attach_coherence(

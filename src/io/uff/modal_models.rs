@@ -204,84 +204,10 @@ pub fn uff55_from_modal_models(
     let known = scaling == ShapeScaling::MassNormalized;
     let mut out = Vec::new();
     for m in models {
-        let scalar = m.dofs.iter().any(|d| d.direction == 0);
-        let vector = m.dofs.iter().any(|d| d.direction != 0);
-        if scalar && vector {
-            return Err(IoError::Unwritable {
-                what: format!(
-                    "position {}: scalar (direction 0) and directional DOFs in one dataset 55",
-                    m.position.index
-                ),
-            });
-        }
-        if let Some(d) = m.dofs.iter().find(|d| d.direction.unsigned_abs() > 6) {
-            return Err(IoError::Unwritable {
-                what: format!("DOF {d}: direction code beyond ±6"),
-            });
-        }
-        let rotations = m.dofs.iter().any(|d| d.direction.unsigned_abs() > 3);
-        let (characteristic, per_node) = match (scalar, rotations) {
-            (true, _) => (1, 1),
-            (false, false) => (2, 3),
-            (false, true) => (3, 6),
-        };
-        let mut nodes: Vec<u32> = Vec::new();
-        for d in &m.dofs {
-            if !nodes.contains(&d.node) {
-                nodes.push(d.node);
-            }
-        }
+        let (characteristic, per_node, nodes) = node_layout(m)?;
         for (k, mode) in m.modes.iter().enumerate() {
-            let mut block = vec![Complex64::new(0.0, 0.0); nodes.len() * per_node];
-            let mut set = vec![false; block.len()];
-            for (dof, v) in m.dofs.iter().zip(&mode.shape) {
-                let slot = nodes.iter().position(|&n| n == dof.node).unwrap_or(0) * per_node
-                    + usize::from(dof.direction.unsigned_abs().max(1))
-                    - 1;
-                let v = if dof.direction < 0 { -v } else { *v };
-                if set[slot] && block[slot] != v {
-                    return Err(IoError::Unwritable {
-                        what: format!(
-                            "mode {} at DOF {dof}: two different values for one axis",
-                            k + 1
-                        ),
-                    });
-                }
-                block[slot] = v;
-                set[slot] = true;
-            }
-            let complex = mode.shape.iter().any(|c| c.im != 0.0);
-            let (analysis_type, reals, values) = if complex {
-                let (w, z) = (2.0 * PI * mode.frequency_hz, mode.damping_ratio);
-                if !(0.0..1.0).contains(&z) {
-                    return Err(IoError::Unwritable {
-                        what: format!(
-                            "complex mode {} with damping ratio {z} outside [0, 1)",
-                            k + 1
-                        ),
-                    });
-                }
-                let lambda = Complex64::new(-z * w, w * (1.0 - z * z).sqrt());
-                let a = if known {
-                    Complex64::new(0.0, 2.0 * lambda.im)
-                } else {
-                    Complex64::new(0.0, 0.0)
-                };
-                let b = -lambda * a;
-                (
-                    3,
-                    vec![lambda.re, lambda.im, a.re, a.im, b.re, b.im],
-                    Ordinate::Complex(block),
-                )
-            } else {
-                let mass = if known { 1.0 } else { 0.0 };
-                let reals = vec![mode.frequency_hz, mass, mode.damping_ratio, 0.0];
-                (
-                    2,
-                    reals,
-                    Ordinate::Real(block.iter().map(|c| c.re).collect()),
-                )
-            };
+            let block = node_values(m, mode, k, &nodes, per_node)?;
+            let (analysis_type, reals, values) = mode_records(mode, k, block, known)?;
             out.push(Uff55 {
                 id_lines: [
                     format!("Mode {}", k + 1),
@@ -304,4 +230,113 @@ pub fn uff55_from_modal_models(
         }
     }
     Ok(out)
+}
+
+/// How model `m`'s DOFs go into datasets 55: the data characteristic (1
+/// scalar, 2 translations, 3 with rotations), the values per node and the
+/// nodes in first-appearance order; scalar and directional DOFs mixed, or a
+/// direction code beyond ±6, cannot be written.
+fn node_layout(m: &ModalModel) -> Result<(i64, usize, Vec<u32>), IoError> {
+    let scalar = m.dofs.iter().any(|d| d.direction == 0);
+    let vector = m.dofs.iter().any(|d| d.direction != 0);
+    if scalar && vector {
+        return Err(IoError::Unwritable {
+            what: format!(
+                "position {}: scalar (direction 0) and directional DOFs in one dataset 55",
+                m.position.index
+            ),
+        });
+    }
+    if let Some(d) = m.dofs.iter().find(|d| d.direction.unsigned_abs() > 6) {
+        return Err(IoError::Unwritable {
+            what: format!("DOF {d}: direction code beyond ±6"),
+        });
+    }
+    let rotations = m.dofs.iter().any(|d| d.direction.unsigned_abs() > 3);
+    let (characteristic, per_node) = match (scalar, rotations) {
+        (true, _) => (1, 1),
+        (false, false) => (2, 3),
+        (false, true) => (3, 6),
+    };
+    let mut nodes: Vec<u32> = Vec::new();
+    for d in &m.dofs {
+        if !nodes.contains(&d.node) {
+            nodes.push(d.node);
+        }
+    }
+    Ok((characteristic, per_node, nodes))
+}
+
+/// Mode `k`'s shape gathered per node into `per_node` values: missing
+/// directions are 0, a negative direction gives its negated value, and two
+/// different values for one axis cannot be written.
+fn node_values(
+    m: &ModalModel,
+    mode: &Mode,
+    k: usize,
+    nodes: &[u32],
+    per_node: usize,
+) -> Result<Vec<Complex64>, IoError> {
+    let mut block = vec![Complex64::new(0.0, 0.0); nodes.len() * per_node];
+    let mut set = vec![false; block.len()];
+    for (dof, v) in m.dofs.iter().zip(&mode.shape) {
+        let slot = nodes.iter().position(|&n| n == dof.node).unwrap_or(0) * per_node
+            + usize::from(dof.direction.unsigned_abs().max(1))
+            - 1;
+        let v = if dof.direction < 0 { -v } else { *v };
+        if set[slot] && block[slot] != v {
+            return Err(IoError::Unwritable {
+                what: format!(
+                    "mode {} at DOF {dof}: two different values for one axis",
+                    k + 1
+                ),
+            });
+        }
+        block[slot] = v;
+        set[slot] = true;
+    }
+    Ok(block)
+}
+
+/// The analysis type, record 8 reals and values of mode `k` (node values
+/// `block`): a normal mode (2) with f, modal mass and ζ, or a complex mode
+/// (3) with λ, modal A and B (module docs); `known`: mass-normalized shapes.
+fn mode_records(
+    mode: &Mode,
+    k: usize,
+    block: Vec<Complex64>,
+    known: bool,
+) -> Result<(i64, Vec<f64>, Ordinate), IoError> {
+    let complex = mode.shape.iter().any(|c| c.im != 0.0);
+    Ok(if complex {
+        let (w, z) = (2.0 * PI * mode.frequency_hz, mode.damping_ratio);
+        if !(0.0..1.0).contains(&z) {
+            return Err(IoError::Unwritable {
+                what: format!(
+                    "complex mode {} with damping ratio {z} outside [0, 1)",
+                    k + 1
+                ),
+            });
+        }
+        let lambda = Complex64::new(-z * w, w * (1.0 - z * z).sqrt());
+        let a = if known {
+            Complex64::new(0.0, 2.0 * lambda.im)
+        } else {
+            Complex64::new(0.0, 0.0)
+        };
+        let b = -lambda * a;
+        (
+            3,
+            vec![lambda.re, lambda.im, a.re, a.im, b.re, b.im],
+            Ordinate::Complex(block),
+        )
+    } else {
+        let mass = if known { 1.0 } else { 0.0 };
+        let reals = vec![mode.frequency_hz, mass, mode.damping_ratio, 0.0];
+        (
+            2,
+            reals,
+            Ordinate::Real(block.iter().map(|c| c.re).collect()),
+        )
+    })
 }

@@ -4,10 +4,11 @@
 //! batch waits a short window for the others to join, then submits for all
 //! of them; each stage then waits on its own task or record.
 
+use super::error::ExecutorError;
 use std::collections::HashMap;
 use std::path::PathBuf;
 use std::sync::mpsc;
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 /// How long a batch stays open after its last member joined.
@@ -23,10 +24,11 @@ pub struct Member {
     pub description: PathBuf,
 }
 
-type Reply<T> = mpsc::Sender<Result<T, String>>;
+/// A member's placement, or the batch's submission error shared by all.
+type Reply<T> = mpsc::Sender<Result<T, Arc<ExecutorError>>>;
 
 /// Submits a batch: one placement per member, in order.
-pub type Submit<'a, T> = dyn Fn(&[Member]) -> Result<Vec<T>, String> + 'a;
+pub type Submit<'a, T> = dyn Fn(&[Member]) -> Result<Vec<T>, ExecutorError> + 'a;
 
 struct Open<T> {
     members: Vec<(Member, Reply<T>)>,
@@ -49,8 +51,9 @@ impl<T> Default for Batcher<T> {
 impl<T: Send> Batcher<T> {
     /// Join the batch `key`; the first member waits for the others and
     /// calls `submit` with all of them (in joining order), which returns one
-    /// placement per member. Returns this member's placement.
-    pub fn join(&self, key: &str, member: Member, submit: &Submit<T>) -> Result<T, String> {
+    /// placement per member. Returns this member's placement; a failed
+    /// submission is every member's [`ExecutorError::Batch`].
+    pub fn join(&self, key: &str, member: Member, submit: &Submit<T>) -> Result<T, ExecutorError> {
         let (tx, rx) = mpsc::channel();
         let leader = {
             let mut open = self.open.lock().unwrap_or_else(|p| p.into_inner());
@@ -92,15 +95,17 @@ impl<T: Send> Batcher<T> {
                     }
                 }
                 Err(e) => {
+                    let e = Arc::new(e);
                     for reply in replies {
-                        let _ = reply.send(Err(e.clone()));
+                        let _ = reply.send(Err(Arc::clone(&e)));
                     }
                 }
             }
         }
-        rx.recv().unwrap_or_else(|_| {
-            Err("the batch's submission ended without an answer (a bug)".into())
-        })
+        match rx.recv() {
+            Ok(answer) => answer.map_err(ExecutorError::Batch),
+            Err(_) => Err(ExecutorError::NoAnswer),
+        }
     }
 }
 

@@ -4,6 +4,7 @@
 //! partial result. The local executor calls it in-process; `modalflow exec`
 //! calls it on a cluster node through [`exec`], from a [`Job`] description.
 
+use super::error::ExecutorError;
 use super::job::{self, Job, ShardRecord};
 use crate::pipeline::store::{self, err, ArtifactKind, OutputRecord, RunRecord, Store, StoreError};
 use crate::stages::shard::{Batch, Role as BatchRole};
@@ -102,6 +103,70 @@ fn run_in(
     let typed = job.typed()?;
     let kind = typed.kind;
     std::fs::create_dir_all(scratch).map_err(err("create directory", scratch))?;
+    let (inputs, sources) = checkout_inputs(store, job, inputs_dir)?;
+    restore_workspace(store, job)?;
+    if verify_files {
+        verify_param_files(job)?;
+    }
+    let batch = batch_of(store, job, role, scratch);
+    let ctx = StageContext {
+        stage: &job.stage,
+        seed: job.seed,
+        inputs: &inputs,
+        sources: &sources,
+        pipeline: &job.pipeline,
+        pipeline_dir: &job.pipeline_dir,
+        scratch,
+        progress,
+        batch: &batch,
+        upstream_warnings: &job.material.upstream_warnings,
+    };
+    let start = Instant::now();
+    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        kind.run(&typed.params, &ctx)
+    }));
+    let seconds = start.elapsed().as_secs_f64();
+    if let Role::Shard(index) = role {
+        return commit_shard(store, job, kind, &batch, outcome, index, seconds);
+    }
+    let produced = match outcome {
+        Ok(Ok(p)) => p,
+        Ok(Err(e)) if out_of_storage(&e) => return Err(JobError::Storage(stage_error_text(&e))),
+        Ok(Err(e)) => return Err(stage_error_text(&e).into()),
+        Err(panic) => return Err(panic_text(kind, panic).into()),
+    };
+    let outputs = commit_outputs(store, job, kind, &produced.files, scratch)?;
+    let record = RunRecord {
+        key: job.key.clone(),
+        kind: kind.kind().to_string(),
+        version: kind.version(),
+        stage: job.stage.clone(),
+        outputs,
+        seconds: seconds + job.partial_seconds,
+        counters: produced.counters,
+        warnings: produced.warnings,
+        modalflow_version: env!("CARGO_PKG_VERSION").to_string(),
+        checksum: String::new(),
+    };
+    store.write_record(&record)?;
+    Ok(Finished::Record(Box::new(record)))
+}
+
+/// The paths of the stage's inputs, per input name.
+type InputPaths = BTreeMap<String, Vec<PathBuf>>;
+/// Where each of the stage's inputs came from, per input name.
+type InputSources = BTreeMap<String, Vec<InputSource>>;
+
+/// Where the kind finds the stage's inputs: per input name, the paths of
+/// its objects in the cache (a directory object is checked out below
+/// `inputs_dir`) and the stage output each one came from. An object missing
+/// from the cache (a host that does not share it) fails here, before the
+/// kind runs.
+fn checkout_inputs(
+    store: &Store,
+    job: &Job,
+    inputs_dir: &Path,
+) -> Result<(InputPaths, InputSources), JobError> {
     let mut inputs: BTreeMap<String, Vec<PathBuf>> = BTreeMap::new();
     let mut sources: BTreeMap<String, Vec<InputSource>> = BTreeMap::new();
     for (name, list) in &job.inputs {
@@ -145,11 +210,14 @@ fn run_in(
         });
         sources.insert(name.clone(), labels.collect());
     }
-    restore_workspace(store, job)?;
-    if verify_files {
-        verify_param_files(job)?;
-    }
-    let batch = match role {
+    Ok((inputs, sources))
+}
+
+/// The batch the kind runs: the whole stage, the merge of the shards'
+/// partials, or shard `index` of `job.shards` writing its partial into
+/// `scratch`.
+fn batch_of(store: &Store, job: &Job, role: Role, scratch: &Path) -> Batch {
+    match role {
         Role::Whole if job.partials.is_empty() => Batch::whole(),
         Role::Whole => Batch::new(BatchRole::Merge {
             partials: job
@@ -163,36 +231,22 @@ fn run_in(
             count: job.shards,
             out: scratch.join(format!("partial-{index}")),
         }),
-    };
-    let ctx = StageContext {
-        stage: &job.stage,
-        seed: job.seed,
-        inputs: &inputs,
-        sources: &sources,
-        pipeline: &job.pipeline,
-        pipeline_dir: &job.pipeline_dir,
-        scratch,
-        progress,
-        batch: &batch,
-        upstream_warnings: &job.material.upstream_warnings,
-    };
-    let start = Instant::now();
-    let outcome = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        kind.run(&typed.params, &ctx)
-    }));
-    let seconds = start.elapsed().as_secs_f64();
-    if let Role::Shard(index) = role {
-        return commit_shard(store, job, kind, &batch, outcome, index, seconds);
     }
-    let produced = match outcome {
-        Ok(Ok(p)) => p,
-        Ok(Err(e)) if out_of_storage(&e) => return Err(JobError::Storage(stage_error_text(&e))),
-        Ok(Err(e)) => return Err(stage_error_text(&e).into()),
-        Err(panic) => return Err(panic_text(kind, panic).into()),
-    };
+}
+
+/// Put the outputs the kind produced (`files`, relative to `scratch`) into
+/// the cache and return their records by output name; a missing output or a
+/// link among them is the stage's fault, a failing cache the run's.
+fn commit_outputs(
+    store: &Store,
+    job: &Job,
+    kind: &dyn Stage,
+    files: &[(String, PathBuf)],
+    scratch: &Path,
+) -> Result<BTreeMap<String, OutputRecord>, JobError> {
     let mut outputs = BTreeMap::new();
     for name in &job.outputs {
-        let Some((_, path)) = produced.files.iter().find(|(n, _)| n == name) else {
+        let Some((_, path)) = files.iter().find(|(n, _)| n == name) else {
             return Err(JobError::Stage(format!(
                 "kind `{}` did not produce its output `{name}`",
                 kind.kind()
@@ -219,20 +273,7 @@ fn run_in(
         })?;
         outputs.insert(name.clone(), OutputRecord { file, artifact });
     }
-    let record = RunRecord {
-        key: job.key.clone(),
-        kind: kind.kind().to_string(),
-        version: kind.version(),
-        stage: job.stage.clone(),
-        outputs,
-        seconds: seconds + job.partial_seconds,
-        counters: produced.counters,
-        warnings: produced.warnings,
-        modalflow_version: env!("CARGO_PKG_VERSION").to_string(),
-        checksum: String::new(),
-    };
-    store.write_record(&record)?;
-    Ok(Finished::Record(Box::new(record)))
+    Ok(outputs)
 }
 
 type RunResult = std::thread::Result<Result<stages::StageOutputs, StageError>>;
@@ -270,7 +311,7 @@ fn commit_shard(
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(err("create directory", dir))?;
     }
-    let json = serde_json::to_vec_pretty(&rec).map_err(|e| e.to_string())?;
+    let json = serde_json::to_vec_pretty(&rec).map_err(ExecutorError::Serialize)?;
     store.write_atomic(&path, &json)?;
     Ok(Finished::Shard(rec))
 }
@@ -287,18 +328,19 @@ fn restore_workspace(store: &Store, job: &Job) -> Result<(), StoreError> {
     Ok(())
 }
 
-fn verify_param_files(job: &Job) -> Result<(), String> {
+fn verify_param_files(job: &Job) -> Result<(), ExecutorError> {
     for (path, hash) in &job.material.files {
         let full = job.pipeline_dir.join(path);
-        let seen = store::hash_path(&full)
-            .map_err(|e| format!("cannot read `{path}` at {}: {e}", full.display()))?;
+        let seen = store::hash_path(&full).map_err(|cause| ExecutorError::ReadParamFile {
+            path: path.clone(),
+            full: full.clone(),
+            cause,
+        })?;
         if &seen != hash {
-            return Err(format!(
-                "`{path}` differs on this host from what the key hashed: the pipeline \
-                 directory {} must be on a file system shared with the submitting machine, \
-                 and not edited while the run is on",
-                job.pipeline_dir.display()
-            ));
+            return Err(ExecutorError::ParamFileDiffers {
+                path: path.clone(),
+                dir: job.pipeline_dir.clone(),
+            });
         }
     }
     Ok(())
@@ -320,26 +362,25 @@ pub fn exec(
     path: &Path,
     shard: Option<usize>,
     scratch: Option<&Path>,
-) -> Result<ExecOutcome, String> {
-    let _guard = store.lock_cache(false).map_err(|e| e.to_string())?;
+) -> Result<ExecOutcome, ExecutorError> {
+    let _guard = store.lock_cache(false)?;
     let mut job = Job::read(path)?;
     job.check()?;
     let role = match shard {
         None => Role::Whole,
         Some(i) if job.shards > 1 && i < job.shards => Role::Shard(i),
         Some(i) if job.shards > 1 => {
-            return Err(format!(
-                "job {}: shard {i} does not exist (the job has {} shards, 0..{})",
-                job.stage,
-                job.shards,
-                job.shards - 1
-            ))
+            return Err(ExecutorError::NoSuchShard {
+                stage: job.stage.clone(),
+                index: i,
+                count: job.shards,
+            })
         }
         Some(i) => {
-            return Err(format!(
-                "job {}: shard {i} does not exist (the job is not sharded); run it without --shard",
-                job.stage
-            ))
+            return Err(ExecutorError::NotSharded {
+                stage: job.stage.clone(),
+                index: i,
+            })
         }
     };
     let done = match role {
@@ -361,7 +402,7 @@ pub fn exec(
     };
     run(store, &call, &NoProgress)
         .map(ExecOutcome::Ran)
-        .map_err(|e| e.to_string())
+        .map_err(ExecutorError::Job)
 }
 
 fn panic_text(kind: &dyn Stage, panic: Box<dyn std::any::Any + Send>) -> String {

@@ -5,6 +5,7 @@
 //! the job (waits on it) instead of submitting the stage again, so a killed
 //! or disconnected submitter costs nothing; `modalflow status` reports it.
 
+use super::error::ExecutorError;
 use crate::pipeline::store::Store;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -79,11 +80,9 @@ pub fn of_key(store: &Store, key: &str) -> Vec<Submission> {
 }
 
 /// Record `s` as in flight for `unit` (atomically).
-pub fn write(store: &Store, dir: &Path, unit: &str, s: &Submission) -> Result<(), String> {
-    let json = serde_json::to_vec_pretty(s).map_err(|e| e.to_string())?;
-    store
-        .write_atomic(&path(dir, unit), &json)
-        .map_err(|e| e.to_string())
+pub fn write(store: &Store, dir: &Path, unit: &str, s: &Submission) -> Result<(), ExecutorError> {
+    let json = serde_json::to_vec_pretty(s).map_err(ExecutorError::Serialize)?;
+    Ok(store.write_atomic(&path(dir, unit), &json)?)
 }
 
 /// The job of `unit` is no longer in flight.

@@ -6,6 +6,7 @@
 //! which parses the params again and never reads the pipeline file. And the
 //! records shard tasks leave beside it.
 
+use super::error::ExecutorError;
 use crate::pipeline::key::{canonical_params, KeyMaterial};
 use crate::pipeline::store::{Artifact, Store};
 use crate::stages::{self, Parsed, Stage};
@@ -101,83 +102,88 @@ pub struct ShardRecord {
 }
 
 impl Job {
-    /// The params as YAML text for the description.
+    /// The params as YAML text for the description. (The engine builds
+    /// descriptions with `String` errors, so this stays one.)
     pub fn params_text(params: &Mapping) -> Result<String, String> {
         serde_yaml_ng::to_string(&Value::Mapping(params.clone()))
             .map_err(|e| format!("cannot write the params: {e}"))
     }
 
     /// The kind and typed params of the job.
-    pub fn typed(&self) -> Result<&Typed, String> {
-        self.typed.as_ref().ok_or_else(|| {
-            format!(
-                "job {}: its params were not parsed (a bug, please report)",
-                self.stage
-            )
+    pub fn typed(&self) -> Result<&Typed, ExecutorError> {
+        self.typed.as_ref().ok_or_else(|| ExecutorError::NotParsed {
+            stage: self.stage.clone(),
         })
     }
 
     /// Read a description written by [`Job::write`].
-    pub fn read(path: &Path) -> Result<Job, String> {
-        let bytes = std::fs::read(path)
-            .map_err(|e| format!("cannot read job description {}: {e}", path.display()))?;
-        let job: Job = serde_json::from_slice(&bytes)
-            .map_err(|e| format!("job description {}: {e}", path.display()))?;
+    pub fn read(path: &Path) -> Result<Job, ExecutorError> {
+        let bytes = std::fs::read(path).map_err(|cause| ExecutorError::ReadDescription {
+            path: path.to_path_buf(),
+            cause,
+        })?;
+        let job: Job =
+            serde_json::from_slice(&bytes).map_err(|cause| ExecutorError::ParseDescription {
+                path: path.to_path_buf(),
+                cause,
+            })?;
         if job.format != FORMAT {
-            return Err(format!(
-                "job description {} has format {}, this modalflow reads {FORMAT}: \
-                 run the same modalflow version on the submitting machine and the compute nodes",
-                path.display(),
-                job.format
-            ));
+            return Err(ExecutorError::Format {
+                path: path.to_path_buf(),
+                found: job.format,
+            });
         }
         Ok(job)
     }
 
     /// Write the description atomically to `path`.
-    pub fn write(&self, store: &Store, path: &Path) -> Result<(), String> {
-        let json = serde_json::to_vec_pretty(self).map_err(|e| e.to_string())?;
-        store.write_atomic(path, &json).map_err(|e| e.to_string())
+    pub fn write(&self, store: &Store, path: &Path) -> Result<(), ExecutorError> {
+        let json = serde_json::to_vec_pretty(self).map_err(ExecutorError::Serialize)?;
+        Ok(store.write_atomic(path, &json)?)
     }
 
     /// Parse the kind and params, checked against the key: the description
     /// is internally consistent and this binary has the same kind version.
-    pub fn check(&mut self) -> Result<(), String> {
-        let kind = stages::find(&self.material.kind).ok_or_else(|| {
-            format!(
-                "job {}: unknown stage kind `{}`; is the job run by an older modalflow?",
-                self.stage, self.material.kind
-            )
+    pub fn check(&mut self) -> Result<(), ExecutorError> {
+        let kind = stages::find(&self.material.kind).ok_or_else(|| ExecutorError::UnknownKind {
+            stage: self.stage.clone(),
+            kind: self.material.kind.clone(),
         })?;
         if kind.version() != self.material.version {
-            return Err(format!(
-                "job {}: kind `{}` is version {} in the job but {} in this modalflow: \
-                 run the same modalflow version on the submitting machine and the compute nodes",
-                self.stage,
-                kind.kind(),
-                self.material.version,
-                kind.version()
-            ));
+            return Err(ExecutorError::KindVersion {
+                stage: self.stage.clone(),
+                kind: kind.kind().to_string(),
+                job: self.material.version,
+                this: kind.version(),
+            });
         }
         let params = match serde_yaml_ng::from_str::<Value>(&self.params) {
             Ok(Value::Mapping(m)) => m,
             Ok(_) => Mapping::new(),
-            Err(e) => return Err(format!("job {}: params: {e}", self.stage)),
+            Err(cause) => {
+                return Err(ExecutorError::ParamsYaml {
+                    stage: self.stage.clone(),
+                    cause,
+                })
+            }
         };
         if canonical_params(&Value::Mapping(params.clone())) != self.material.params
             || self.material.key() != self.key
         {
-            return Err(format!(
-                "job {}: the description does not match its key {}; it was edited or damaged",
-                self.stage, self.key
-            ));
+            return Err(ExecutorError::KeyMismatch {
+                stage: self.stage.clone(),
+                key: self.key.clone(),
+            });
         }
         let parsed = kind.parse(&params).map_err(|problems| {
             let text: Vec<String> = problems
                 .iter()
                 .map(|p| format!("{}: {}", p.path.join("."), p.message))
                 .collect();
-            format!("job {}: params: {}", self.stage, text.join("; "))
+            ExecutorError::ParamProblems {
+                stage: self.stage.clone(),
+                problems: text.join("; "),
+            }
         })?;
         self.typed = Some(Typed {
             kind,

@@ -13,6 +13,7 @@
 
 pub mod batch;
 pub mod config;
+pub mod error;
 pub mod exec;
 pub mod inflight;
 pub mod interrupt;
@@ -24,6 +25,7 @@ pub mod script;
 pub mod slurm;
 
 pub use config::{ExecutorKind, ExecutorSpec};
+pub use error::ExecutorError;
 
 use super::store::{RunRecord, Store};
 use crate::stages::Progress;
@@ -37,11 +39,16 @@ pub enum Executor {
 }
 
 impl Executor {
-    /// The executor `kind` configured by `spec` (the pipeline's block).
+    /// The executor `kind` configured by `spec` (the pipeline's block);
+    /// the error is the [`ExecutorError`]'s message, for the scheduler's
+    /// `RunError::Executor`.
     pub fn new(kind: ExecutorKind, spec: &ExecutorSpec) -> Result<Executor, String> {
         Ok(match kind {
             ExecutorKind::Local => Executor::Local,
-            ExecutorKind::Slurm => Executor::Slurm(Box::new(slurm::Slurm::new(spec)?)),
+            ExecutorKind::Slurm => {
+                let slurm = slurm::Slurm::new(spec).map_err(|e| e.to_string())?;
+                Executor::Slurm(Box::new(slurm))
+            }
         })
     }
 
@@ -59,7 +66,7 @@ impl Executor {
                     local(store, &job, progress)
                 } else {
                     s.compute(store, job, &resources, progress)
-                        .map_err(JobError::Stage)
+                        .map_err(JobError::from)
                 }
             }
             Executor::Local => local(store, &job, progress),

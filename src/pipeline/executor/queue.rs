@@ -7,6 +7,7 @@
 //! The scheduler is asked only whether the job is still pending or running,
 //! and why it ended when it left no result.
 
+use super::error::ExecutorError;
 use std::path::Path;
 use std::process::{Command, Stdio};
 
@@ -56,15 +57,13 @@ pub fn is_terminal(state: &str) -> bool {
 }
 
 /// Submit `script` with `sbatch --parsable`; returns the job id.
-pub fn submit(script: &Path) -> Result<String, String> {
+pub fn submit(script: &Path) -> Result<String, ExecutorError> {
     let out = Command::new("sbatch")
         .arg("--parsable")
         .arg(script)
         .stdin(Stdio::null())
         .output()
-        .map_err(|e| {
-            format!("cannot run sbatch ({e}); is Slurm installed and on PATH on this machine?")
-        })?;
+        .map_err(|cause| ExecutorError::SbatchMissing { cause })?;
     let stdout = String::from_utf8_lossy(&out.stdout);
     let id = stdout
         .lines()
@@ -76,13 +75,12 @@ pub fn submit(script: &Path) -> Result<String, String> {
         .trim()
         .to_string();
     if !out.status.success() || id.is_empty() || !id.bytes().all(|b| b.is_ascii_digit()) {
-        return Err(format!(
-            "sbatch {} failed ({}): {}{}",
-            script.display(),
-            out.status,
-            String::from_utf8_lossy(&out.stderr).trim(),
-            stdout.trim()
-        ));
+        return Err(ExecutorError::SbatchFailed {
+            script: script.to_path_buf(),
+            status: out.status,
+            stderr: String::from_utf8_lossy(&out.stderr).trim().to_string(),
+            stdout: stdout.trim().to_string(),
+        });
     }
     Ok(id)
 }

@@ -59,6 +59,30 @@ pub struct Script<'a> {
 impl Script<'_> {
     /// The script, or why a value cannot go into it.
     pub fn text(&self) -> Result<String, ScriptError> {
+        let lines = self.sbatch_lines()?;
+        let exec = self.exec_command()?;
+        let mut t = String::from("#!/bin/sh\n");
+        for l in &lines {
+            let _ = writeln!(t, "#SBATCH {l}");
+        }
+        let _ = writeln!(
+            t,
+            "# modalflow {} (attempt {})",
+            comment(self.name),
+            self.attempt
+        );
+        let _ = writeln!(
+            t,
+            "export RAYON_NUM_THREADS=\"${{SLURM_CPUS_PER_TASK:-1}}\""
+        );
+        self.write_body(&mut t, &exec)?;
+        Ok(t)
+    }
+
+    /// The `#SBATCH` options (without the prefix): name, directory, log,
+    /// CPUs, the array, memory and time as scaled for the attempt,
+    /// partition, account and the `sbatch:` entries, each value checked.
+    fn sbatch_lines(&self) -> Result<Vec<String>, ScriptError> {
         let r = self.resources;
         let log = match self.tasks {
             Some(_) => "%A_%a.out",
@@ -117,6 +141,13 @@ impl Script<'_> {
             sbatch_option(extra)?;
             lines.push(extra.clone());
         }
+        Ok(lines)
+    }
+
+    /// The `modalflow exec` command line the body runs, without the job
+    /// descriptions.
+    fn exec_command(&self) -> Result<String, ScriptError> {
+        let r = self.resources;
         let mut exec = format!(
             "{} exec --cache {}",
             shell_path("modalflow binary", self.binary)?,
@@ -125,21 +156,13 @@ impl Script<'_> {
         if let Some(s) = &r.scratch {
             let _ = write!(exec, " --scratch {}", scratch_word(s)?);
         }
+        Ok(exec)
+    }
 
-        let mut t = String::from("#!/bin/sh\n");
-        for l in &lines {
-            let _ = writeln!(t, "#SBATCH {l}");
-        }
-        let _ = writeln!(
-            t,
-            "# modalflow {} (attempt {})",
-            comment(self.name),
-            self.attempt
-        );
-        let _ = writeln!(
-            t,
-            "export RAYON_NUM_THREADS=\"${{SLURM_CPUS_PER_TASK:-1}}\""
-        );
+    /// Append the script's body to `t`: `exec` on one description (a task of
+    /// it for a shard array), on description i for array task i, or on all
+    /// of them in turn.
+    fn write_body(&self, t: &mut String, exec: &str) -> Result<(), ScriptError> {
         match &self.body {
             Body::One {
                 description,
@@ -169,7 +192,7 @@ impl Script<'_> {
                 let _ = writeln!(t, "exec {exec} {}", list.join(" "));
             }
         }
-        Ok(t)
+        Ok(())
     }
 }
 

@@ -22,6 +22,7 @@
 
 use super::batch::{Batcher, Member};
 use super::config::ExecutorSpec;
+use super::error::ExecutorError;
 use super::inflight::{self, Submission};
 use super::interrupt::{self, Live};
 use super::job::{self, Job};
@@ -64,12 +65,10 @@ pub struct Slurm {
 
 impl Slurm {
     /// `spec.binary` is absolute here (the plan resolved it).
-    pub fn new(spec: &ExecutorSpec) -> Result<Slurm, String> {
+    pub fn new(spec: &ExecutorSpec) -> Result<Slurm, ExecutorError> {
         let binary = match &spec.binary {
             Some(b) => b.clone(),
-            None => std::env::current_exe().map_err(|e| {
-                format!("cannot find the modalflow binary ({e}); set `executor.binary`")
-            })?,
+            None => std::env::current_exe().map_err(|cause| ExecutorError::NoBinary { cause })?,
         };
         interrupt::install();
         let (first, max) = spec.poll_range();
@@ -100,7 +99,7 @@ impl Slurm {
         mut job: Job,
         resources: &Resolved,
         progress: &dyn Progress,
-    ) -> Result<RunRecord, String> {
+    ) -> Result<RunRecord, ExecutorError> {
         let typed = job.typed()?.clone();
         let dir = store.job_dir(&job.key);
         if finished(store, &job.key) {
@@ -110,8 +109,10 @@ impl Slurm {
             store.remove_record(&job.key);
             let _ = std::fs::remove_dir_all(&dir);
         }
-        std::fs::create_dir_all(dir.join("log"))
-            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir.join("log")).map_err(|cause| ExecutorError::CreateDir {
+            path: dir.clone(),
+            cause,
+        })?;
         let sharded = resources.shards > 1 && typed.kind.shardable(&typed.params);
         if sharded {
             job.shards = resources.shards;
@@ -120,7 +121,7 @@ impl Slurm {
             let count = job.shards;
             for i in 0..count {
                 let rec = job::shard_record(store, &job.key, i, count)
-                    .ok_or_else(|| format!("shard {i} of {count} left no partial result"))?;
+                    .ok_or(ExecutorError::MissingShard { index: i, count })?;
                 job.partial_seconds += rec.seconds;
                 job.partials.push(rec.artifact);
             }
@@ -131,7 +132,9 @@ impl Slurm {
         self.attempts(store, &job, resources, unit, progress)?;
         let record = store
             .record(&job.key)
-            .ok_or_else(|| format!("the run record of {} vanished from the cache", job.key))?;
+            .ok_or_else(|| ExecutorError::RecordVanished {
+                key: job.key.clone(),
+            })?;
         let _ = std::fs::remove_dir_all(&dir);
         Ok(record)
     }
@@ -145,7 +148,7 @@ impl Slurm {
         r: &Resolved,
         unit: &str,
         progress: &dyn Progress,
-    ) -> Result<(), String> {
+    ) -> Result<(), ExecutorError> {
         let dir = store.job_dir(&job.key);
         let count = job.shards;
         let ready = || match unit {
@@ -209,7 +212,9 @@ impl Slurm {
                     r.retries + 1
                 ));
             } else if !adopted {
-                return Err(failure(&sub, &ended, store, job, attempt));
+                return Err(ExecutorError::JobEnded(failure(
+                    &sub, &ended, store, job, attempt,
+                )));
             }
             // An adopted job of an earlier run that ended without its
             // result is submitted again, as that run would have.
@@ -224,7 +229,7 @@ impl Slurm {
         r: &Resolved,
         unit: &str,
         attempt: u32,
-    ) -> Result<Submission, String> {
+    ) -> Result<Submission, ExecutorError> {
         let dir = store.job_dir(&job.key);
         if unit == "shards" {
             let count = job.shards;
@@ -280,7 +285,7 @@ impl Slurm {
         m: &Member,
         r: &Resolved,
         attempt: u32,
-    ) -> Result<Submission, String> {
+    ) -> Result<Submission, ExecutorError> {
         let dir = store.job_dir(&m.key);
         let script = Script {
             name: &m.stage,
@@ -311,7 +316,7 @@ impl Slurm {
         members: &[Member],
         r: &Resolved,
         group: bool,
-    ) -> Result<Vec<Submission>, String> {
+    ) -> Result<Vec<Submission>, ExecutorError> {
         if let [one] = members {
             return Ok(vec![self.submit_alone(store, one, r, 1)?]);
         }
@@ -321,11 +326,17 @@ impl Slurm {
                 .file_name()
                 .map_or_else(|| "batch".into(), |n| n.to_os_string()),
         );
-        std::fs::create_dir_all(dir.join("log"))
-            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        std::fs::create_dir_all(dir.join("log")).map_err(|cause| ExecutorError::CreateDir {
+            path: dir.clone(),
+            cause,
+        })?;
         let keys: Vec<&str> = members.iter().map(|m| m.key.as_str()).collect();
-        std::fs::write(dir.join("members"), keys.join("\n"))
-            .map_err(|e| format!("cannot write {}: {e}", dir.display()))?;
+        std::fs::write(dir.join("members"), keys.join("\n")).map_err(|cause| {
+            ExecutorError::Write {
+                path: dir.clone(),
+                cause,
+            }
+        })?;
         let size = if group { r.group } else { MAX_SHARDS };
         let mut out = Vec::new();
         for (n, chunk) in members.chunks(size).enumerate() {
@@ -411,11 +422,15 @@ impl Slurm {
 
 /// Write `script` to `path` and submit it; a script with a value that
 /// cannot go into it is neither written nor submitted.
-fn send(path: &Path, script: &Script) -> Result<String, String> {
-    let text = script
-        .text()
-        .map_err(|e| format!("job script {}: {e}", path.display()))?;
-    std::fs::write(path, text).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+fn send(path: &Path, script: &Script) -> Result<String, ExecutorError> {
+    let text = script.text().map_err(|cause| ExecutorError::Script {
+        path: path.to_path_buf(),
+        cause,
+    })?;
+    std::fs::write(path, text).map_err(|cause| ExecutorError::Write {
+        path: path.to_path_buf(),
+        cause,
+    })?;
     queue::submit(path)
 }
 

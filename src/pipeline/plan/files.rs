@@ -93,6 +93,31 @@ fn param_path(base: &str, param: &str) -> Vec<String> {
 /// the rest exist. Params that failed to parse are read as written, so a
 /// missing file is reported in the same round as the param problems.
 pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
+    let producers = workspace_producers(cx, nodes);
+    for (i, node) in nodes.iter_mut().enumerate() {
+        let before = cx.diags.len();
+        let refs = if node.parsed.is_valid() {
+            node.kind.files(&node.parsed)
+        } else {
+            node.kind.raw_files(&node.params)
+        };
+        let mut files = Vec::new();
+        for f in refs {
+            files.extend(file_params(cx, dir, &producers, i, node, f));
+        }
+        // Look into the files once they all exist and the params are good
+        // (a file another stage writes may not exist before it runs).
+        let exist = files.iter().all(|f| dir.join(&f.path).exists());
+        if node.parsed.is_valid() && cx.diags.len() == before && exist {
+            referenced_files(cx, dir, node, &mut files);
+        }
+        node.files = files;
+    }
+}
+
+/// Every stage's workspace outputs by normalized path, reporting a path two
+/// stages write.
+fn workspace_producers(cx: &mut Ctx, nodes: &[Node]) -> Producers {
     let mut producers: Producers = HashMap::new();
     for (i, n) in nodes.iter().enumerate() {
         for (out, raw) in n
@@ -113,93 +138,92 @@ pub(super) fn resolve_files(cx: &mut Ctx, dir: &Path, nodes: &mut [Node]) {
             }
         }
     }
-    for (i, node) in nodes.iter_mut().enumerate() {
-        let before = cx.diags.len();
-        let refs = if node.parsed.is_valid() {
-            node.kind.files(&node.parsed)
-        } else {
-            node.kind.raw_files(&node.params)
-        };
-        let mut files = Vec::new();
-        for f in refs {
-            let loc_path = param_path(&node.base, &f.param);
-            let loc_path: Vec<&str> = loc_path.iter().map(String::as_str).collect();
-            let path = normalize(&f.path);
-            let made = produced_by(&producers, &path, f.glob, i);
-            // A file another stage writes is that stage's output: an edge,
-            // hashed by the output's content and restored before this runs.
-            for (out, producer) in &made {
-                files.push(FileParam {
-                    param: f.param.clone(),
-                    path: out.clone(),
-                    producer: Some(producer.clone()),
-                });
-            }
-            let below_made = |rel: &str| {
-                made.iter()
-                    .any(|(out, _)| rel == out || rel.starts_with(&format!("{out}/")))
-            };
-            if f.glob {
-                match stages::expand_glob(dir, &f.path) {
-                    Ok(found) => {
-                        for (rel, _) in found.into_iter().filter(|(r, _)| !below_made(r)) {
-                            if let Some(full) = outside(dir, &cx.read_roots, &rel) {
-                                let loc = cx.spans.value(&loc_path);
-                                cx.at(loc, format!("param `{}` of stage `{}` matches `{}`, outside the pipeline directory", f.param, node.name, full.display()), Some(outside_help(dir)));
-                                continue;
-                            }
-                            files.push(FileParam {
-                                param: f.param.clone(),
-                                path: rel,
-                                producer: None,
-                            });
-                        }
-                    }
-                    Err(_) if !made.is_empty() => {}
-                    Err(message) => {
+    producers
+}
+
+/// The file params that file reference `f` of node `i` stands for: the
+/// workspace outputs of other stages it names (edges), and the files it
+/// names or its glob matches, each reported when outside the pipeline
+/// directory or (a path nobody writes) missing.
+fn file_params(
+    cx: &mut Ctx,
+    dir: &Path,
+    producers: &Producers,
+    i: usize,
+    node: &Node,
+    f: stages::FileRef,
+) -> Vec<FileParam> {
+    let mut files = Vec::new();
+    let loc_path = param_path(&node.base, &f.param);
+    let loc_path: Vec<&str> = loc_path.iter().map(String::as_str).collect();
+    let path = normalize(&f.path);
+    let made = produced_by(producers, &path, f.glob, i);
+    // A file another stage writes is that stage's output: an edge,
+    // hashed by the output's content and restored before this runs.
+    for (out, producer) in &made {
+        files.push(FileParam {
+            param: f.param.clone(),
+            path: out.clone(),
+            producer: Some(producer.clone()),
+        });
+    }
+    let below_made = |rel: &str| {
+        made.iter()
+            .any(|(out, _)| rel == out || rel.starts_with(&format!("{out}/")))
+    };
+    if f.glob {
+        match stages::expand_glob(dir, &f.path) {
+            Ok(found) => {
+                for (rel, _) in found.into_iter().filter(|(r, _)| !below_made(r)) {
+                    if let Some(full) = outside(dir, &cx.read_roots, &rel) {
                         let loc = cx.spans.value(&loc_path);
-                        cx.at(
-                            loc,
-                            format!("param `{}` of stage `{}`: {message}", f.param, node.name),
-                            Some(no_file_help(dir)),
-                        );
+                        cx.at(loc, format!("param `{}` of stage `{}` matches `{}`, outside the pipeline directory", f.param, node.name, full.display()), Some(outside_help(dir)));
+                        continue;
                     }
+                    files.push(FileParam {
+                        param: f.param.clone(),
+                        path: rel,
+                        producer: None,
+                    });
                 }
-                continue;
             }
-            if !made.is_empty() {
-                continue;
-            }
-            if let Some(full) = outside(dir, &cx.read_roots, &path) {
-                let loc = cx.spans.value(&loc_path);
-                cx.at(loc, format!("file `{}` named by param `{}` of stage `{}` is outside the pipeline directory ({})", f.path, f.param, node.name, full.display()), Some(outside_help(dir)));
-                continue;
-            }
-            if !dir.join(&path).exists() {
+            Err(_) if !made.is_empty() => {}
+            Err(message) => {
                 let loc = cx.spans.value(&loc_path);
                 cx.at(
                     loc,
-                    format!(
-                        "file `{}` named by param `{}` of stage `{}` does not exist",
-                        f.path, f.param, node.name
-                    ),
+                    format!("param `{}` of stage `{}`: {message}", f.param, node.name),
                     Some(no_file_help(dir)),
                 );
             }
-            files.push(FileParam {
-                param: f.param,
-                path,
-                producer: None,
-            });
         }
-        // Look into the files once they all exist and the params are good
-        // (a file another stage writes may not exist before it runs).
-        let exist = files.iter().all(|f| dir.join(&f.path).exists());
-        if node.parsed.is_valid() && cx.diags.len() == before && exist {
-            referenced_files(cx, dir, node, &mut files);
-        }
-        node.files = files;
+        return files;
     }
+    if !made.is_empty() {
+        return files;
+    }
+    if let Some(full) = outside(dir, &cx.read_roots, &path) {
+        let loc = cx.spans.value(&loc_path);
+        cx.at(loc, format!("file `{}` named by param `{}` of stage `{}` is outside the pipeline directory ({})", f.path, f.param, node.name, full.display()), Some(outside_help(dir)));
+        return files;
+    }
+    if !dir.join(&path).exists() {
+        let loc = cx.spans.value(&loc_path);
+        cx.at(
+            loc,
+            format!(
+                "file `{}` named by param `{}` of stage `{}` does not exist",
+                f.path, f.param, node.name
+            ),
+            Some(no_file_help(dir)),
+        );
+    }
+    files.push(FileParam {
+        param: f.param,
+        path,
+        producer: None,
+    });
+    files
 }
 
 fn no_file_help(dir: &Path) -> String {

@@ -5,7 +5,7 @@ use super::{Binding, Ctx, Node};
 use crate::pipeline::diagnostic::closest;
 use crate::pipeline::diagnostic::Location;
 use crate::pipeline::matrix;
-use crate::pipeline::spec::{InputRef, InputValue, PipelineSpec, Selector};
+use crate::pipeline::spec::{InputRef, InputValue, PipelineSpec, Selector, StageSpec};
 use crate::stages::Artifact;
 use serde_yaml_ng::Value;
 use std::collections::HashMap;
@@ -20,112 +20,144 @@ pub(super) fn resolve_inputs(cx: &mut Ctx, spec: &PipelineSpec, nodes: &mut [Nod
     for node in nodes.iter() {
         let st = &spec.stages[&node.base];
         let mut out = Vec::new();
-        let declared = node.kind.inputs();
         for (input, value) in &st.inputs {
-            let loc_key = cx.spans.key(&["stages", &node.base, "inputs", input]);
-            let spec_in = declared.map(|d| d.iter().find(|s| s.name == input));
-            if let Some(None) = spec_in {
-                let allowed: Vec<&str> = declared.unwrap_or(&[]).iter().map(|s| s.name).collect();
-                cx.at(
-                    loc_key,
-                    format!(
-                        "unknown input `{input}` for stage `{}` (kind `{}`)",
-                        node.base,
-                        node.kind.kind()
-                    ),
-                    Some(format!(
-                        "`{}` takes inputs: {}",
-                        node.kind.kind(),
-                        allowed.join(", ")
-                    )),
-                );
-                continue;
-            }
-            let mut sources = Vec::new();
-            for (ri, raw) in value.refs().into_iter().enumerate() {
-                let text = match matrix::substitute_str(raw, &node.matrix, &[]) {
-                    Ok(Value::String(s)) => s,
-                    Ok(other) => matrix::scalar_text(&other).unwrap_or_default(),
-                    Err(e) => {
-                        cx.at(
-                            loc_key,
-                            format!(
-                                "`${{matrix.{}}}` in input `{input}` names no matrix key",
-                                e.key
-                            ),
-                            None,
-                        );
-                        continue;
-                    }
-                };
-                let loc = match value {
-                    InputValue::One(_) => cx.spans.value(&["stages", &node.base, "inputs", input]),
-                    InputValue::Many(_) => {
-                        cx.spans
-                            .value(&["stages", &node.base, "inputs", input, &ri.to_string()])
-                    }
-                };
-                // A stage with problems of its own was reported already.
-                let target = InputRef::parse(&text).map(|r| r.stage);
-                if target.as_ref().is_some_and(|t| cx.invalid.contains(t)) {
-                    continue;
-                }
-                match resolve_ref(&text, &by_base, nodes) {
-                    Ok(found) => {
-                        if let Some(want) = spec_in.flatten().map(|s| s.artifact) {
-                            check_artifact(cx, loc, node, input, want, &found, nodes);
-                        }
-                        sources.extend(found)
-                    }
-                    Err((msg, help)) => cx.at(
-                        loc,
-                        format!("input `{input}` of stage `{}`: {msg}", node.name),
-                        Some(help),
-                    ),
-                }
-            }
-            let list_ok = spec_in.flatten().is_none_or(|s| s.list);
-            if sources.len() > 1 && !list_ok {
-                let loc = cx.spans.value(&["stages", &node.base, "inputs", input]);
-                cx.at(loc, format!("input `{input}` of stage `{}` takes one artifact but the reference matches {}", node.name, sources.len()), Some("select one expansion, e.g. `stage[key=value].output`".into()));
-            }
-            out.push(Binding {
-                name: input.clone(),
-                sources,
-            });
-        }
-        let bound: Vec<&str> = st.inputs.keys().map(String::as_str).collect();
-        let own = if node.parsed.is_valid() {
-            node.kind.check_inputs(&node.parsed, &bound)
-        } else {
-            Vec::new()
-        };
-        for p in own {
-            let loc = cx
-                .spans
-                .key(&["stages", &node.base, "inputs"])
-                .or_else(|| cx.spans.key(&["stages", &node.base]));
-            cx.at(loc, format!("stage `{}`: {}", node.base, p.message), p.help);
-        }
-        for s in declared.unwrap_or(&[]).iter().filter(|s| s.required) {
-            if !st.inputs.contains_key(s.name) {
-                let loc = cx.spans.key(&["stages", &node.base]);
-                cx.at(
-                    loc,
-                    format!(
-                        "stage `{}` (kind `{}`) needs input `{}`",
-                        node.base,
-                        node.kind.kind(),
-                        s.name
-                    ),
-                    Some(format!("`{}`: {}", s.name, s.doc)),
-                );
+            if let Some(binding) = bind_input(cx, node, input, value, &by_base, nodes) {
+                out.push(binding);
             }
         }
+        check_stage_inputs(cx, node, st);
         bindings.push(out);
     }
     for (node, b) in nodes.iter_mut().zip(bindings) {
         node.inputs = b;
+    }
+}
+
+/// The binding of input `input` of `node` to the upstream outputs its
+/// references (`value`) name, reporting each reference that names none or
+/// the wrong artifact, and a list bound to an input that takes one artifact.
+/// `None` for an input the kind does not take.
+fn bind_input(
+    cx: &mut Ctx,
+    node: &Node,
+    input: &String,
+    value: &InputValue,
+    by_base: &HashMap<&str, Vec<usize>>,
+    nodes: &[Node],
+) -> Option<Binding> {
+    let declared = node.kind.inputs();
+    let loc_key = cx.spans.key(&["stages", &node.base, "inputs", input]);
+    let spec_in = declared.map(|d| d.iter().find(|s| s.name == input));
+    if let Some(None) = spec_in {
+        let allowed: Vec<&str> = declared.unwrap_or(&[]).iter().map(|s| s.name).collect();
+        cx.at(
+            loc_key,
+            format!(
+                "unknown input `{input}` for stage `{}` (kind `{}`)",
+                node.base,
+                node.kind.kind()
+            ),
+            Some(format!(
+                "`{}` takes inputs: {}",
+                node.kind.kind(),
+                allowed.join(", ")
+            )),
+        );
+        return None;
+    }
+    let mut sources = Vec::new();
+    for (ri, raw) in value.refs().into_iter().enumerate() {
+        let text = match matrix::substitute_str(raw, &node.matrix, &[]) {
+            Ok(Value::String(s)) => s,
+            Ok(other) => matrix::scalar_text(&other).unwrap_or_default(),
+            Err(e) => {
+                cx.at(
+                    loc_key,
+                    format!(
+                        "`${{matrix.{}}}` in input `{input}` names no matrix key",
+                        e.key
+                    ),
+                    None,
+                );
+                continue;
+            }
+        };
+        let loc = match value {
+            InputValue::One(_) => cx.spans.value(&["stages", &node.base, "inputs", input]),
+            InputValue::Many(_) => {
+                cx.spans
+                    .value(&["stages", &node.base, "inputs", input, &ri.to_string()])
+            }
+        };
+        // A stage with problems of its own was reported already.
+        let target = InputRef::parse(&text).map(|r| r.stage);
+        if target.as_ref().is_some_and(|t| cx.invalid.contains(t)) {
+            continue;
+        }
+        match resolve_ref(&text, by_base, nodes) {
+            Ok(found) => {
+                if let Some(want) = spec_in.flatten().map(|s| s.artifact) {
+                    check_artifact(cx, loc, node, input, want, &found, nodes);
+                }
+                sources.extend(found)
+            }
+            Err((msg, help)) => cx.at(
+                loc,
+                format!("input `{input}` of stage `{}`: {msg}", node.name),
+                Some(help),
+            ),
+        }
+    }
+    let list_ok = spec_in.flatten().is_none_or(|s| s.list);
+    if sources.len() > 1 && !list_ok {
+        let loc = cx.spans.value(&["stages", &node.base, "inputs", input]);
+        cx.at(
+            loc,
+            format!(
+                "input `{input}` of stage `{}` takes one artifact but the reference matches {}",
+                node.name,
+                sources.len()
+            ),
+            Some("select one expansion, e.g. `stage[key=value].output`".into()),
+        );
+    }
+    Some(Binding {
+        name: input.clone(),
+        sources,
+    })
+}
+
+/// Report what the stage's kind says about the set of inputs bound (its own
+/// checks, for valid params) and every required input left unbound.
+fn check_stage_inputs(cx: &mut Ctx, node: &Node, st: &StageSpec) {
+    let declared = node.kind.inputs();
+    let bound: Vec<&str> = st.inputs.keys().map(String::as_str).collect();
+    let own = if node.parsed.is_valid() {
+        node.kind.check_inputs(&node.parsed, &bound)
+    } else {
+        Vec::new()
+    };
+    for p in own {
+        let loc = cx
+            .spans
+            .key(&["stages", &node.base, "inputs"])
+            .or_else(|| cx.spans.key(&["stages", &node.base]));
+        cx.at(loc, format!("stage `{}`: {}", node.base, p.message), p.help);
+    }
+    for s in declared.unwrap_or(&[]).iter().filter(|s| s.required) {
+        if !st.inputs.contains_key(s.name) {
+            let loc = cx.spans.key(&["stages", &node.base]);
+            cx.at(
+                loc,
+                format!(
+                    "stage `{}` (kind `{}`) needs input `{}`",
+                    node.base,
+                    node.kind.kind(),
+                    s.name
+                ),
+                Some(format!("`{}`: {}", s.name, s.doc)),
+            );
+        }
     }
 }
 

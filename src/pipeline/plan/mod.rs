@@ -3,12 +3,14 @@
 //! and the DAG. Every problem is collected as a located [`Diagnostic`];
 //! nothing runs unless the whole file validates.
 
+mod executor_block;
 mod files;
 mod inputs;
 mod names;
 mod params;
 mod set;
 
+use executor_block::{check_binary, check_executor, check_executor_stages, check_shards};
 pub use files::normalize;
 use files::resolve_files;
 use inputs::resolve_inputs;
@@ -211,31 +213,8 @@ fn plan_sets(file: &Path, dir: &Path, source: &str, sets: &[String]) -> Result<P
             Err(e) => cx.at(None, e, None),
         }
     }
-    if let Err(deep) = crate::yaml::check_depth(source) {
-        let (line, column) = (deep.line, deep.column);
-        cx.at(
-            Some(Location { line, column }),
-            format!("invalid pipeline file: {deep}"),
-            None,
-        );
+    let Some(mut spec) = parse_spec(&mut cx, source) else {
         return Err(PlanError::Invalid(Diagnostics(cx.diags)));
-    }
-    let mut spec: PipelineSpec = match serde_yaml_ng::from_str(source) {
-        Ok(s) => s,
-        Err(e) => {
-            let loc = e.location().map(|l| Location {
-                line: l.line(),
-                column: l.column(),
-            });
-            let help = "a pipeline file has `name`, optional `seed`, `description` and `executor`, and `stages`; \
-                        each stage has `kind`, and optional `params`, `inputs`, `matrix`, `description`";
-            cx.at(
-                loc,
-                format!("invalid pipeline file: {e}"),
-                Some(help.into()),
-            );
-            return Err(PlanError::Invalid(Diagnostics(cx.diags)));
-        }
     };
     cx.spans = SpanIndex::build(source);
     for (path, loc) in cx.spans.duplicates.clone() {
@@ -255,6 +234,63 @@ fn plan_sets(file: &Path, dir: &Path, source: &str, sets: &[String]) -> Result<P
     resolve_inputs(&mut cx, &spec, &mut nodes);
     resolve_files(&mut cx, dir, &mut nodes);
     files::check_workspace_outputs(&mut cx, dir, &nodes);
+    let (upstream, order) = dependency_graph(&mut cx, &nodes);
+    if !cx.diags.is_empty() {
+        return Err(PlanError::Invalid(Diagnostics(cx.diags)));
+    }
+    let mut overrides = sets.to_vec();
+    overrides.sort();
+    overrides.dedup();
+    Ok(Plan {
+        file: file.to_path_buf(),
+        dir: dir.to_path_buf(),
+        results_name: results_name(&spec.name, &overrides),
+        overrides,
+        name: spec.name,
+        seed: spec.seed,
+        nodes,
+        upstream,
+        order,
+        executor: spec.executor,
+    })
+}
+
+/// The pipeline file's YAML as a [`PipelineSpec`], or `None` after
+/// reporting why it is not one (nested too deep, invalid YAML, unknown or
+/// missing fields); nothing else is checked without it.
+fn parse_spec(cx: &mut Ctx, source: &str) -> Option<PipelineSpec> {
+    if let Err(deep) = crate::yaml::check_depth(source) {
+        let (line, column) = (deep.line, deep.column);
+        cx.at(
+            Some(Location { line, column }),
+            format!("invalid pipeline file: {deep}"),
+            None,
+        );
+        return None;
+    }
+    match serde_yaml_ng::from_str(source) {
+        Ok(s) => Some(s),
+        Err(e) => {
+            let loc = e.location().map(|l| Location {
+                line: l.line(),
+                column: l.column(),
+            });
+            let help = "a pipeline file has `name`, optional `seed`, `description` and `executor`, and `stages`; \
+                        each stage has `kind`, and optional `params`, `inputs`, `matrix`, `description`";
+            cx.at(
+                loc,
+                format!("invalid pipeline file: {e}"),
+                Some(help.into()),
+            );
+            None
+        }
+    }
+}
+
+/// The DAG of the nodes: each node's upstream nodes (through inputs and
+/// produced file params; deduplicated, sorted) and a topological order,
+/// empty after reporting a cycle.
+fn dependency_graph(cx: &mut Ctx, nodes: &[Node]) -> (Vec<Vec<usize>>, Vec<usize>) {
     let upstream: Vec<Vec<usize>> = nodes
         .iter()
         .map(|n| {
@@ -292,24 +328,7 @@ fn plan_sets(file: &Path, dir: &Path, source: &str, sets: &[String]) -> Result<P
             Vec::new()
         }
     };
-    if !cx.diags.is_empty() {
-        return Err(PlanError::Invalid(Diagnostics(cx.diags)));
-    }
-    let mut overrides = sets.to_vec();
-    overrides.sort();
-    overrides.dedup();
-    Ok(Plan {
-        file: file.to_path_buf(),
-        dir: dir.to_path_buf(),
-        results_name: results_name(&spec.name, &overrides),
-        overrides,
-        name: spec.name,
-        seed: spec.seed,
-        nodes,
-        upstream,
-        order,
-        executor: spec.executor,
-    })
+    (upstream, order)
 }
 
 /// The results name of a pipeline run with `overrides` (sorted): its name,
@@ -323,58 +342,6 @@ pub fn results_name(name: &str, overrides: &[String]) -> String {
     format!("{name}--set-{}", &hash[..8])
 }
 
-/// `shards` under `kinds:` must name a kind whose stages here can be split.
-fn check_shards(cx: &mut Ctx, spec: &ExecutorSpec, nodes: &[Node]) {
-    for (kind, resources) in &spec.kinds {
-        if resources.shards.unwrap_or(1) <= 1 {
-            continue;
-        }
-        let mut of_kind = nodes.iter().filter(|n| n.kind.kind() == kind).peekable();
-        if of_kind.peek().is_none()
-            || of_kind.any(|n| !n.parsed.is_valid() || n.kind.shardable(&n.parsed))
-        {
-            continue;
-        }
-        let loc = cx.spans.nearest(&["executor", "kinds", kind, "shards"]);
-        cx.at(
-            loc,
-            format!("executor: no `{kind}` stage of this pipeline can be sharded"),
-            Some(
-                "`shards` splits a stage's batch of independent model evaluations over a job \
-                 array (a `gsa` stage with method sobol); remove it here"
-                    .into(),
-            ),
-        );
-    }
-}
-
-/// Values and kind names of the `executor:` block (serde checked its shape).
-fn check_executor(cx: &mut Ctx, spec: &ExecutorSpec) {
-    for p in spec.problems() {
-        let path: Vec<&str> = std::iter::once("executor")
-            .chain(p.path.iter().map(String::as_str))
-            .collect();
-        let loc = cx.spans.nearest(&path);
-        cx.at(loc, format!("executor: {}", p.message), Some(p.help));
-    }
-    let known: Vec<&str> = stages::registry().iter().map(|s| s.kind()).collect();
-    for kind in spec.kinds.keys() {
-        if !known.contains(&kind.as_str()) {
-            let mut help = format!("`kinds` are stage kinds: {}", known.join(", "));
-            if let Some(c) = closest(kind, known.iter().copied()) {
-                help = format!("did you mean `{c}`? {help}");
-            }
-            let loc = cx.spans.key(&["executor", "kinds", kind]);
-            cx.at(
-                loc,
-                format!("executor: unknown stage kind `{kind}`"),
-                Some(help),
-            );
-        }
-    }
-}
-
-/// `executor.stages` names stages of the file (a base name or an expansion).
 /// Every `--set` must name a stage of the file.
 fn check_sets(cx: &mut Ctx, nodes: &[Node]) {
     let unused: Vec<Override> = cx
@@ -396,53 +363,6 @@ fn check_sets(cx: &mut Ctx, nodes: &[Node]) {
             Some(help),
         );
     }
-}
-
-fn check_executor_stages(cx: &mut Ctx, spec: &ExecutorSpec, nodes: &[Node]) {
-    for name in spec.stages.keys() {
-        if nodes.iter().any(|n| &n.name == name || &n.base == name) {
-            continue;
-        }
-        let mut bases: Vec<&str> = nodes.iter().map(|n| n.base.as_str()).collect();
-        bases.dedup();
-        let mut help = format!(
-            "`stages` under `executor` are stage names: {}",
-            bases.join(", ")
-        );
-        if let Some(c) = closest(name, bases.iter().copied()) {
-            help = format!("did you mean `{c}`? {help}");
-        }
-        let loc = cx.spans.key(&["executor", "stages", name]);
-        cx.at(loc, format!("executor: no stage `{name}`"), Some(help));
-    }
-}
-
-/// `executor.binary`, resolved against the pipeline file's directory, must
-/// be an executable file (a job would fail with exit 127 otherwise).
-fn check_binary(cx: &mut Ctx, spec: &ExecutorSpec, dir: &Path) -> Option<PathBuf> {
-    let given = spec.binary.as_ref()?;
-    let path = dir.join(given);
-    let executable = std::fs::metadata(&path).is_ok_and(|m| {
-        use std::os::unix::fs::PermissionsExt;
-        m.is_file() && m.permissions().mode() & 0o111 != 0
-    });
-    if !executable {
-        let loc = cx.spans.value(&["executor", "binary"]);
-        cx.at(
-            loc,
-            format!(
-                "executor: `binary: {}` is not an executable file ({})",
-                given.display(),
-                path.display()
-            ),
-            Some(
-                "a relative path starts at the pipeline file's directory; leave `binary` out \
-                 to run this modalflow (its path must be visible on the compute nodes)"
-                    .into(),
-            ),
-        );
-    }
-    Some(path)
 }
 
 /// Kinds, matrix expansion and param checks, one node per combination.

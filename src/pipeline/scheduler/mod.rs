@@ -2,15 +2,17 @@
 //! stages concurrently (`--jobs`), and the dry variant behind `status` and
 //! `run --dry-run` that says what would run and why.
 
-use super::execute::{Done, Engine, Outcome, StageReport, Status};
+mod dispatch;
+
+use super::execute::{Done, Engine, StageReport, Status};
 use super::executor::{Executor, ExecutorKind};
 use super::plan::Plan;
 use super::progress::{ProgressMode, Reporter};
 use super::provenance::{self, StageProvenance};
 use super::store::{Store, StoreError};
+use dispatch::Tally;
 use std::collections::BTreeMap;
 use std::path::PathBuf;
-use std::sync::mpsc;
 
 /// Options of `modalflow run`.
 #[derive(Clone, Debug)]
@@ -193,13 +195,6 @@ pub fn wanted(plan: &Plan, targets: &[String]) -> Result<Vec<bool>, RunError> {
     Ok(wanted)
 }
 
-#[derive(Clone)]
-enum State {
-    Pending,
-    Running,
-    Finished(Option<Done>),
-}
-
 /// Run the pipeline.
 pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     let kind = opts.executor.unwrap_or(plan.executor.kind);
@@ -212,116 +207,14 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
     }
     let started = super::executor::inflight::now();
     let mut reporter_lines: Vec<String> = Vec::new();
-    let n = plan.nodes.len();
     let to_run = wanted.iter().filter(|w| **w).count();
     let mut reporter = Reporter::new(to_run, opts.progress, opts.heartbeat);
-    // Stages not wanted count as finished without a result: nothing
-    // wanted depends on them (the wanted set is closed upstream).
-    let mut state: Vec<State> = wanted
-        .iter()
-        .map(|&w| {
-            if w {
-                State::Pending
-            } else {
-                State::Finished(None)
-            }
-        })
-        .collect();
-    let mut reports: Vec<Option<StageReport>> = vec![None; n];
-    let mut updates: Vec<(String, StageProvenance)> = Vec::new();
-    let mut stop_reason: Option<String> = None;
-    let mut fatal: Option<RunError> = None;
-    let jobs = opts.jobs.max(1);
-
-    std::thread::scope(|scope| {
-        let (tx, rx) = mpsc::channel::<(usize, Outcome, super::progress::Progress)>();
-        let mut running = 0usize;
-        loop {
-            // Skip stages whose upstream failed or was skipped.
-            for &i in &plan.order {
-                if !matches!(state[i], State::Pending) {
-                    continue;
-                }
-                let bad: Vec<&str> = plan.upstream[i]
-                    .iter()
-                    .filter(|&&u| matches!(state[u], State::Finished(None)))
-                    .map(|&u| plan.nodes[u].name.as_str())
-                    .collect();
-                if !bad.is_empty() {
-                    state[i] = State::Finished(None);
-                    reports[i] = Some(skipped(
-                        plan,
-                        i,
-                        format!("upstream {} did not finish", bad.join(", ")),
-                    ));
-                }
-            }
-            // Launch ready stages in plan order.
-            if stop_reason.is_none() {
-                for &i in &plan.order {
-                    if running >= jobs {
-                        break;
-                    }
-                    let ready = matches!(state[i], State::Pending)
-                        && plan.upstream[i]
-                            .iter()
-                            .all(|&u| matches!(state[u], State::Finished(Some(_))));
-                    if !ready {
-                        continue;
-                    }
-                    state[i] = State::Running;
-                    running += 1;
-                    // Every ancestor (not only the inputs' stages): a
-                    // kind may read their warnings (`upstream_warnings`).
-                    let upstream: BTreeMap<usize, Done> = plan
-                        .ancestors(i)
-                        .into_iter()
-                        .filter_map(|u| match &state[u] {
-                            State::Finished(Some(d)) => Some((u, d.clone())),
-                            _ => None,
-                        })
-                        .collect();
-                    let progress = reporter.stage(&plan.nodes[i].name);
-                    let tx = tx.clone();
-                    let engine = &engine;
-                    scope.spawn(move || {
-                        let lookup = |u: usize| upstream.get(&u).cloned();
-                        let outcome = engine.execute(i, &lookup, &progress);
-                        let _ = tx.send((i, outcome, progress));
-                    });
-                }
-            }
-            if running == 0 {
-                break;
-            }
-            let Ok((i, outcome, progress)) = rx.recv() else {
-                break;
-            };
-            running -= 1;
-            for w in &outcome.warnings {
-                reporter.line(&format!("warning: {w}"));
-            }
-            reporter.done(progress, &line(&outcome.report));
-            if outcome.report.status == Status::Failed && !opts.keep_going && stop_reason.is_none()
-            {
-                stop_reason = Some(format!(
-                    "not started: {} failed (use --keep-going to run independent stages)",
-                    outcome.report.name
-                ));
-            }
-            if let Some(e) = outcome.fatal {
-                stop_reason.get_or_insert_with(|| {
-                    format!("not started: {} hit a cache failure", outcome.report.name)
-                });
-                fatal.get_or_insert(e);
-            }
-            if let Some(p) = outcome.provenance {
-                updates.push((plan.nodes[i].name.clone(), p));
-            }
-            state[i] = State::Finished(outcome.done);
-            reports[i] = Some(outcome.report);
-        }
-    });
+    let Tally {
+        mut reports,
+        updates,
+        stop_reason,
+        fatal,
+    } = dispatch::dispatch(plan, &engine, &wanted, &reporter, opts);
     reporter.finish();
     for &i in &plan.order {
         if reports[i].is_none() && wanted[i] {
@@ -329,30 +222,8 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
             reports[i] = Some(skipped(plan, i, why));
         }
     }
-    let keep: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
     if !engine.store.read_only() {
-        let saved = provenance::update(
-            &engine.store,
-            &plan.results_name,
-            &plan.path(),
-            updates,
-            &keep,
-        );
-        if !plan.overrides.is_empty() {
-            let run = super::results::SetRun {
-                results: plan.results_name.clone(),
-                overrides: plan.overrides.clone(),
-            };
-            if let Err(e) = super::results::write_set_run(&engine.results, &run) {
-                reporter_lines.push(format!(
-                    "warning: cannot record the overrides in {}: {e}",
-                    engine.results.display()
-                ));
-            }
-        }
-        if opts.targets.is_empty() && fatal.is_none() {
-            super::results::remove_stale(&engine.results, &keep);
-        }
+        let saved = record_run(&engine, opts, updates, fatal.is_none(), &mut reporter_lines);
         // The first failure is the one to report; a full disk fails this too.
         if fatal.is_none() {
             saved?;
@@ -370,6 +241,45 @@ pub fn run(plan: &Plan, opts: &RunOptions) -> Result<RunReport, RunError> {
         Some(e) => Err(e),
         None => Ok(report),
     }
+}
+
+/// Record a finished run in a writable cache: the last-run provenance, the
+/// `--set` overrides of the results folder and, after a whole clean run, the
+/// removal of results of stages the file no longer has. Returns the
+/// provenance update's result, for `run` to report unless an earlier
+/// failure comes first; a failure to record the overrides is a warning.
+fn record_run(
+    engine: &Engine,
+    opts: &RunOptions,
+    updates: Vec<(String, StageProvenance)>,
+    clean: bool,
+    warnings: &mut Vec<String>,
+) -> Result<(), StoreError> {
+    let plan = engine.plan;
+    let keep: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
+    let saved = provenance::update(
+        &engine.store,
+        &plan.results_name,
+        &plan.path(),
+        updates,
+        &keep,
+    );
+    if !plan.overrides.is_empty() {
+        let run = super::results::SetRun {
+            results: plan.results_name.clone(),
+            overrides: plan.overrides.clone(),
+        };
+        if let Err(e) = super::results::write_set_run(&engine.results, &run) {
+            warnings.push(format!(
+                "warning: cannot record the overrides in {}: {e}",
+                engine.results.display()
+            ));
+        }
+    }
+    if opts.targets.is_empty() && clean {
+        super::results::remove_stale(&engine.results, &keep);
+    }
+    saved
 }
 
 /// Write the run's trace; a failure to write it is a warning, not an error.
