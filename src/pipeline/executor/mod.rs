@@ -39,14 +39,12 @@ pub enum Executor {
 }
 
 impl Executor {
-    /// The executor `kind` configured by `spec` (the pipeline's block);
-    /// the error is the [`ExecutorError`]'s message, for the scheduler's
-    /// `RunError::Executor`.
-    pub fn new(kind: ExecutorKind, spec: &ExecutorSpec) -> Result<Executor, String> {
+    /// The executor `kind` configured by `spec` (the pipeline's block).
+    pub fn new(kind: ExecutorKind, spec: &ExecutorSpec) -> Result<Executor, ExecutorError> {
         Ok(match kind {
             ExecutorKind::Local => Executor::Local,
             ExecutorKind::Slurm => {
-                let slurm = slurm::Slurm::new(spec).map_err(|e| e.to_string())?;
+                let slurm = slurm::Slurm::new(spec)?;
                 Executor::Slurm(Box::new(slurm))
             }
         })

@@ -72,8 +72,10 @@ pub enum RunError {
     UnknownForce { name: String, known: String },
     #[error("no stage `{name}` to run\n  = help: stages: {known}")]
     UnknownTarget { name: String, known: String },
+    /// The executor could not be set up (its message in the text, not as
+    /// a source, so a printed chain does not repeat it).
     #[error("executor: {0}")]
-    Executor(String),
+    Executor(crate::pipeline::executor::ExecutorError),
     /// Another pipeline file of this cache has the same `name:`.
     #[error(
         "pipeline name `{name}` belongs to {} in this cache, not to {}: their results \
