@@ -41,55 +41,128 @@ pub fn compare_frfs(
     plots: &Path,
 ) -> Result<FrfMetrics, StageError> {
     let mut conversions = Vec::new();
-    let mut convert = |sets: &[FrfSet], what: &str, r: &FrfSet| -> Option<FrfSet> {
-        let s = sets.iter().find(|s| s.position.index == r.position.index)?;
-        if s.quantity == r.quantity {
-            return Some(s.clone());
-        }
-        let (converted, dropped) = convert_quantity(s, r.quantity);
-        conversions.push(format!(
-            "position {}: {what} {} converted to {} by (jω)^{}{}",
-            r.position.index,
-            s.quantity.name(),
-            r.quantity.name(),
-            r.quantity.order() - s.quantity.order(),
-            if dropped > 0 {
-                format!("; {dropped} line(s) at 0 Hz left out (division by jω)")
-            } else {
-                String::new()
-            }
-        ));
-        Some(converted)
-    };
-    let mut csv = String::from("position,response,reference,FRAC,CSF\n");
-    let mut positions = Vec::new();
-    let (mut all_frac, mut all_csf) = (Vec::new(), Vec::new());
-    let (mut init_frac, mut init_csf) = (Vec::new(), Vec::new());
+    let mut tally = Tally::new();
     let mut initial_sets = Vec::new();
     for r in reference {
-        let Some(c) = convert(candidate, "candidate", r) else {
+        let Some(c) = in_reference_quantity(candidate, "candidate", r, &mut conversions) else {
             continue;
         };
-        let c = &c;
-        if let Some(i) = initial.and_then(|sets| convert(sets, "initial", r)) {
+        if let Some(i) =
+            initial.and_then(|sets| in_reference_quantity(sets, "initial", r, &mut conversions))
+        {
             initial_sets.push(i);
         }
-        // Compare on the reference lines the candidate also has (exact match).
-        let lines: Vec<(usize, usize)> = r
-            .frequencies_hz
-            .iter()
-            .enumerate()
-            .filter_map(|(i, f)| c.frequencies_hz.iter().position(|g| g == f).map(|j| (i, j)))
-            .collect();
-        if lines.is_empty() {
-            return Err(StageError::InvalidInput {
-                input: "candidate_frf".into(),
-                message: format!(
-                    "position {}: no frequency line in common with the reference",
-                    r.position.index
-                ),
-            });
+        let overlay = tally.add_position(r, &c, &initial_sets)?;
+        if let Some([one, all]) = overlay.to_svgs(r, initial.is_some(), candidate_name) {
+            write(&plots.join(format!("frf_{}.svg", r.position.index)), one)?;
+            write(
+                &plots.join(format!("frf_channels_{}.svg", r.position.index)),
+                all,
+            )?;
         }
+    }
+    write(&tables.join("frac.csv"), &tally.csv)?;
+    Ok(FrfMetrics {
+        channels: tally.frac.len(),
+        mean_frac: mean(&tally.frac),
+        mean_csf: mean(&tally.csf),
+        positions: tally.positions,
+        initial_mean_frac: initial.and(mean(&tally.initial_frac)),
+        initial_mean_csf: initial.and(mean(&tally.initial_csf)),
+        quantity: reference
+            .first()
+            .map_or(String::new(), |r| r.quantity.name().to_string()),
+        conversions,
+    })
+}
+
+/// The set of `sets` at reference `r`'s position in `r`'s quantity
+/// (`None` when there is none), converted by (jω)ⁿ if need be; each
+/// conversion is listed in `conversions` (`what`: whose set it is).
+fn in_reference_quantity(
+    sets: &[FrfSet],
+    what: &str,
+    r: &FrfSet,
+    conversions: &mut Vec<String>,
+) -> Option<FrfSet> {
+    let s = sets.iter().find(|s| s.position.index == r.position.index)?;
+    if s.quantity == r.quantity {
+        return Some(s.clone());
+    }
+    let (converted, dropped) = convert_quantity(s, r.quantity);
+    conversions.push(format!(
+        "position {}: {what} {} converted to {} by (jω)^{}{}",
+        r.position.index,
+        s.quantity.name(),
+        r.quantity.name(),
+        r.quantity.order() - s.quantity.order(),
+        if dropped > 0 {
+            format!("; {dropped} line(s) at 0 Hz left out (division by jω)")
+        } else {
+            String::new()
+        }
+    ));
+    Some(converted)
+}
+
+/// The reference lines the candidate also has (exact match): pairs of
+/// (index in `r`, index in `c`); none is an error of the candidate input.
+fn common_lines(r: &FrfSet, c: &FrfSet) -> Result<Vec<(usize, usize)>, StageError> {
+    let lines: Vec<(usize, usize)> = r
+        .frequencies_hz
+        .iter()
+        .enumerate()
+        .filter_map(|(i, f)| c.frequencies_hz.iter().position(|g| g == f).map(|j| (i, j)))
+        .collect();
+    if lines.is_empty() {
+        return Err(StageError::InvalidInput {
+            input: "candidate_frf".into(),
+            message: format!(
+                "position {}: no frequency line in common with the reference",
+                r.position.index
+            ),
+        });
+    }
+    Ok(lines)
+}
+
+/// What the comparison gathers over the reference positions: the rows of
+/// frac.csv, each position's summary, and every channel's FRAC and CSF of
+/// the candidate and of the initial model (eq. 2.66–2.67).
+struct Tally {
+    csv: String,
+    positions: Vec<PositionFrf>,
+    frac: Vec<f64>,
+    csf: Vec<f64>,
+    initial_frac: Vec<f64>,
+    initial_csf: Vec<f64>,
+}
+
+impl Tally {
+    /// Nothing compared yet: frac.csv's header only.
+    fn new() -> Tally {
+        Tally {
+            csv: String::from("position,response,reference,FRAC,CSF\n"),
+            positions: Vec::new(),
+            frac: Vec::new(),
+            csf: Vec::new(),
+            initial_frac: Vec::new(),
+            initial_csf: Vec::new(),
+        }
+    }
+
+    /// Compare every channel of reference position `r` with the
+    /// candidate's `c` (and the initial model's among `initial_sets`) on
+    /// their common lines, adding the results; returns the position's
+    /// overlay.
+    fn add_position(
+        &mut self,
+        r: &FrfSet,
+        c: &FrfSet,
+        initial_sets: &[FrfSet],
+    ) -> Result<Overlay, StageError> {
+        // Compare on the reference lines the candidate also has (exact match).
+        let lines = common_lines(r, c)?;
         let (mut fracs, mut csfs) = (Vec::new(), Vec::new());
         let mut overlay = Overlay::new(r.quantity);
         let f: Vec<f64> = lines.iter().map(|&(i, _)| r.frequencies_hz[i]).collect();
@@ -107,7 +180,7 @@ pub fn compare_frfs(
             let b: Vec<Complex64> = lines.iter().map(|&(_, j)| cc.values[j] * sign).collect();
             let (fr, cs) = (metrics::frac(&a, &b), metrics::csf(&a, &b));
             let _ = writeln!(
-                csv,
+                self.csv,
                 "{},{},{},{fr},{cs}",
                 r.position.index, ch.response, ch.reference
             );
@@ -116,8 +189,8 @@ pub fn compare_frfs(
                 Some(idx.iter().map(|&j| c0.values[j] * sign0).collect())
             });
             if let Some(h0) = &before {
-                init_frac.push(metrics::frac(&a, h0));
-                init_csf.push(metrics::csf(&a, h0));
+                self.initial_frac.push(metrics::frac(&a, h0));
+                self.initial_csf.push(metrics::csf(&a, h0));
             }
             overlay.add(
                 &format!("{}/{}", ch.response, ch.reference),
@@ -130,36 +203,17 @@ pub fn compare_frfs(
             fracs.push(fr);
             csfs.push(cs);
         }
-        if let Some([one, all]) = overlay.to_svgs(r, initial.is_some(), candidate_name) {
-            write(&plots.join(format!("frf_{}.svg", r.position.index)), one)?;
-            write(
-                &plots.join(format!("frf_channels_{}.svg", r.position.index)),
-                all,
-            )?;
-        }
-        positions.push(PositionFrf {
+        self.positions.push(PositionFrf {
             position: r.position.index,
             label: r.position.label.clone(),
             channels: fracs.len(),
             mean_frac: mean(&fracs),
             mean_csf: mean(&csfs),
         });
-        all_frac.extend(fracs);
-        all_csf.extend(csfs);
+        self.frac.extend(fracs);
+        self.csf.extend(csfs);
+        Ok(overlay)
     }
-    write(&tables.join("frac.csv"), &csv)?;
-    Ok(FrfMetrics {
-        channels: all_frac.len(),
-        mean_frac: mean(&all_frac),
-        mean_csf: mean(&all_csf),
-        positions,
-        initial_mean_frac: initial.and(mean(&init_frac)),
-        initial_mean_csf: initial.and(mean(&init_csf)),
-        quantity: reference
-            .first()
-            .map_or(String::new(), |r| r.quantity.name().to_string()),
-        conversions,
-    })
 }
 
 /// Per position: magnitude and phase of the first channel (style guide

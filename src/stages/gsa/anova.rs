@@ -112,6 +112,9 @@ fn track(
     values
 }
 
+/// ANOVA of the modal models of matrix runs (PUB1): every reference mode
+/// tracked through the runs bound to `modes`, its frequency and damping
+/// analysed over the factors' levels read from the runs' matrix values.
 fn run_modes(
     ctx: &StageContext,
     factors: &[String],
@@ -122,11 +125,47 @@ fn run_modes(
 ) -> Result<StageOutputs, StageError> {
     let reference = artifacts::modes::read_modes(ctx.input("reference")?, "reference")?;
     let paths = ctx.inputs.get("modes").cloned().unwrap_or_default();
-    let sources = ctx.sources.get("modes").cloned().unwrap_or_default();
-    let invalid = |message: String| StageError::InvalidInput {
+    let levels = run_levels(ctx, factors)?;
+
+    let table: Vec<Vec<Option<f64>>> = paths
+        .iter()
+        .map(|path| {
+            artifacts::modes::read_modes(path, "modes")
+                .map(|run| track(&reference, &run, window, min_mac))
+        })
+        .collect::<Result<_, _>>()?;
+    let names = tracked_outputs(&reference);
+    let chosen =
+        sensitivity::select_outputs(&names, selected).map_err(|e| StageError::InvalidParam {
+            param: "outputs".into(),
+            message: e.to_string(),
+        })?;
+    let (result, skipped) = output_tables(&table, &names, chosen, &levels, interactions)?;
+    let text: Vec<Vec<String>> = (0..table.len())
+        .map(|j| levels.labels.iter().map(|l| l[j].clone()).collect())
+        .collect();
+    write_factorial(ctx, &result, &text, &skipped, "runs")
+}
+
+/// A problem with the runs bound to `modes`.
+fn invalid_modes(message: String) -> StageError {
+    StageError::InvalidInput {
         input: "modes".into(),
         message,
-    };
+    }
+}
+
+/// The factors of matrix runs and each run's level of each, as the matrix
+/// values are written (`labels[factor][run]`).
+struct RunLevels {
+    factors: Vec<String>,
+    labels: Vec<Vec<String>>,
+}
+
+/// The levels of `factors` (none given: every matrix key that varies) in
+/// each run bound to `modes`, read from the runs' matrix values.
+fn run_levels(ctx: &StageContext, factors: &[String]) -> Result<RunLevels, StageError> {
+    let sources = ctx.sources.get("modes").cloned().unwrap_or_default();
     // Matrix values of every run, keys in the order of the first run.
     let runs: Vec<Vec<(String, String)>> = sources.iter().map(|s| s.matrix_text()).collect();
     let keys: Vec<String> = runs
@@ -148,7 +187,7 @@ fn run_modes(
         factors.to_vec()
     };
     if factors.is_empty() {
-        return Err(invalid(format!(
+        return Err(invalid_modes(format!(
             "the {} bound runs have no matrix key that varies ({}); bind the modes of a matrix stage such as `ema[*].modes`",
             runs.len(),
             sources.iter().map(|s| s.stage.as_str()).collect::<Vec<_>>().join(", ")
@@ -158,7 +197,7 @@ fn run_modes(
     for (run, source) in runs.iter().zip(&sources) {
         for (f, name) in factors.iter().enumerate() {
             let v = level(run, name).ok_or_else(|| {
-                invalid(format!(
+                invalid_modes(format!(
                     "run `{}` has no matrix key `{name}`; its keys: {}",
                     source.stage,
                     keys.join(", ")
@@ -167,23 +206,23 @@ fn run_modes(
             labels[f].push(v);
         }
     }
+    Ok(RunLevels { factors, labels })
+}
 
-    let table: Vec<Vec<Option<f64>>> = paths
-        .iter()
-        .map(|path| {
-            artifacts::modes::read_modes(path, "modes")
-                .map(|run| track(&reference, &run, window, min_mac))
-        })
-        .collect::<Result<_, _>>()?;
-    let names = tracked_outputs(&reference);
-    let chosen =
-        sensitivity::select_outputs(&names, selected).map_err(|e| StageError::InvalidParam {
-            param: "outputs".into(),
-            message: e.to_string(),
-        })?;
+/// The ANOVA table of each `chosen` output of the tracking `table` (runs ×
+/// outputs) over the design of `levels`, and the outputs left out because
+/// some run has no partner for them.
+fn output_tables(
+    table: &[Vec<Option<f64>>],
+    names: &[String],
+    chosen: Vec<usize>,
+    levels: &RunLevels,
+    interactions: u8,
+) -> Result<(FactorialResult, Vec<String>), StageError> {
+    let factors = &levels.factors;
     let design_factors: Vec<Factor> = factors
         .iter()
-        .zip(&labels)
+        .zip(&levels.labels)
         .map(|(n, l)| Factor::from_labels(n.clone(), l))
         .collect();
     let mut result = FactorialResult {
@@ -210,7 +249,7 @@ fn run_modes(
             response: column.clone(),
         };
         let rows = sensitivity::anova(&design, interactions)
-            .map_err(|e| invalid(format!("output `{name}`: {e}")))?;
+            .map_err(|e| invalid_modes(format!("output `{name}`: {e}")))?;
         for (r, v) in result.responses.iter_mut().zip(&column) {
             r.push(*v);
         }
@@ -218,15 +257,12 @@ fn run_modes(
         result.tables.push(rows);
     }
     if result.outputs.is_empty() {
-        return Err(invalid(format!(
+        return Err(invalid_modes(format!(
             "no reference mode pairs in every run ({}); widen `window` or lower `min_mac`",
             skipped.join("; ")
         )));
     }
-    let text: Vec<Vec<String>> = (0..table.len())
-        .map(|j| labels.iter().map(|l| l[j].clone()).collect())
-        .collect();
-    write_factorial(ctx, &result, &text, &skipped, "runs")
+    Ok((result, skipped))
 }
 
 fn row_text(r: &AnovaRow) -> String {

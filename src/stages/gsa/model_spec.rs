@@ -241,10 +241,12 @@ fn bands(p: &Params) -> Result<Vec<(f64, f64)>, ParamProblem> {
 /// grid): 2·10⁶ lines of complex FRFs per sensor and excitation.
 pub const MAX_BAND_LINES: f64 = 2.0e6;
 
+/// The forms `model:` takes, for problems with a command model or none.
+const MODEL_HELP: &str = "model: {builtin: ishigami} | {builtin: sobol_g, a: [0, 1, 9]} | {command: \"./sim.sh\", parameters: {k: {lower: 1, upper: 10, scale: log}}, outputs: [f1]}";
+
 /// The model `model:` names, checked; file-model settings come from the
 /// other params.
 pub fn model_spec(m: &ModelParam, p: &Params) -> Result<ModelSpec, ParamProblem> {
-    const HELP: &str = "model: {builtin: ishigami} | {builtin: sobol_g, a: [0, 1, 9]} | {command: \"./sim.sh\", parameters: {k: {lower: 1, upper: 10, scale: log}}, outputs: [f1]}";
     let map = match m {
         ModelParam::File(path) => {
             return Ok(ModelSpec::File {
@@ -264,64 +266,80 @@ pub fn model_spec(m: &ModelParam, p: &Params) -> Result<ModelSpec, ParamProblem>
             "remove it for built-in and command models",
         ));
     }
-    if let Some(b) = &map.builtin {
-        let extra = [
-            ("command", map.command.is_some()),
-            ("parameters", map.parameters.is_some()),
-            ("outputs", map.outputs.is_some()),
-            ("timeout", map.timeout.is_some()),
-            ("batch", map.batch.is_some()),
-        ];
-        if let Some((k, _)) = extra.iter().find(|(_, given)| *given) {
-            return Err(problem(
-                &["model", k],
-                format!("unknown key `{k}` in `model`"),
-                "this model takes: builtin, a",
-            ));
-        }
-        return match b.as_str() {
-            "ishigami" if map.a.is_none() => Ok(ModelSpec::Ishigami),
-            "ishigami" => Err(problem(
-                &["model", "a"],
-                "the Ishigami function has fixed a = 7, b = 0.1",
-                "remove `a`",
-            )),
-            "sobol_g" => {
-                let Some(a) = &map.a else {
-                    return Err(problem(
-                        &["model"],
-                        "the Sobol-G function needs `a`, one coefficient per input",
-                        "e.g. a: [0, 1, 4.5, 9, 99]",
-                    ));
-                };
-                if let Some(i) = a.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
-                    return Err(problem(
-                        &["model", "a", &i.to_string()],
-                        "Sobol-G coefficients must be >= 0",
-                        "use a >= 0",
-                    ));
-                }
-                if a.is_empty() {
-                    return Err(problem(
-                        &["model", "a"],
-                        "`a` is empty",
-                        "give one coefficient per input",
-                    ));
-                }
-                Ok(ModelSpec::SobolG { a: a.clone() })
-            }
-            _ => Err(problem(
-                &["model", "builtin"],
-                "unknown built-in model",
-                "built-ins: ishigami, sobol_g",
-            )),
-        };
+    match &map.builtin {
+        Some(b) => builtin_model(b, map),
+        None => command_model(map),
     }
+}
+
+/// The built-in test function `builtin:` names (Ishigami or Sobol-G with
+/// its `a`), checked: a built-in takes no command-model keys.
+fn builtin_model(b: &str, map: &ModelTable) -> Result<ModelSpec, ParamProblem> {
+    let extra = [
+        ("command", map.command.is_some()),
+        ("parameters", map.parameters.is_some()),
+        ("outputs", map.outputs.is_some()),
+        ("timeout", map.timeout.is_some()),
+        ("batch", map.batch.is_some()),
+    ];
+    if let Some((k, _)) = extra.iter().find(|(_, given)| *given) {
+        return Err(problem(
+            &["model", k],
+            format!("unknown key `{k}` in `model`"),
+            "this model takes: builtin, a",
+        ));
+    }
+    match b {
+        "ishigami" if map.a.is_none() => Ok(ModelSpec::Ishigami),
+        "ishigami" => Err(problem(
+            &["model", "a"],
+            "the Ishigami function has fixed a = 7, b = 0.1",
+            "remove `a`",
+        )),
+        "sobol_g" => sobol_g(map.a.as_deref()),
+        _ => Err(problem(
+            &["model", "builtin"],
+            "unknown built-in model",
+            "built-ins: ishigami, sobol_g",
+        )),
+    }
+}
+
+/// The Sobol-G function with coefficients `a`: one per input, each ≥ 0.
+fn sobol_g(a: Option<&[f64]>) -> Result<ModelSpec, ParamProblem> {
+    let Some(a) = a else {
+        return Err(problem(
+            &["model"],
+            "the Sobol-G function needs `a`, one coefficient per input",
+            "e.g. a: [0, 1, 4.5, 9, 99]",
+        ));
+    };
+    if let Some(i) = a.iter().position(|x| !(x.is_finite() && *x >= 0.0)) {
+        return Err(problem(
+            &["model", "a", &i.to_string()],
+            "Sobol-G coefficients must be >= 0",
+            "use a >= 0",
+        ));
+    }
+    if a.is_empty() {
+        return Err(problem(
+            &["model", "a"],
+            "`a` is empty",
+            "give one coefficient per input",
+        ));
+    }
+    Ok(ModelSpec::SobolG { a: a.to_vec() })
+}
+
+/// The JSON-lines command model `command:` names with its parameters and
+/// outputs, checked, and built once (in `.`) so what the command model
+/// itself refuses is a problem now.
+fn command_model(map: &ModelTable) -> Result<ModelSpec, ParamProblem> {
     let Some(command) = &map.command else {
         return Err(problem(
             &["model"],
             "`model` needs `builtin` or `command`",
-            HELP,
+            MODEL_HELP,
         ));
     };
     if map.a.is_some() {
@@ -335,14 +353,14 @@ pub fn model_spec(m: &ModelParam, p: &Params) -> Result<ModelSpec, ParamProblem>
         return Err(problem(
             &["model", "command"],
             "`command` must be a non-empty shell command",
-            HELP,
+            MODEL_HELP,
         ));
     }
     let Some(pmap) = map.parameters.as_ref().filter(|m| !m.is_empty()) else {
         return Err(problem(
             &["model"],
             "a command model needs `parameters`: name → {lower, upper, scale}",
-            HELP,
+            MODEL_HELP,
         ));
     };
     let parameters = pmap
@@ -353,7 +371,7 @@ pub fn model_spec(m: &ModelParam, p: &Params) -> Result<ModelSpec, ParamProblem>
         return Err(problem(
             &["model"],
             "a command model needs `outputs`: the names in its answer lines",
-            HELP,
+            MODEL_HELP,
         ));
     };
     if let Some(t) = map.timeout.filter(|t| !(*t > 0.0 && t.is_finite())) {
@@ -371,6 +389,6 @@ pub fn model_spec(m: &ModelParam, p: &Params) -> Result<ModelSpec, ParamProblem>
         batch: map.batch.unwrap_or(0),
     };
     spec.build(Path::new("."))
-        .map_err(|e| problem(&["model"], e.to_string(), HELP))?;
+        .map_err(|e| problem(&["model"], e.to_string(), MODEL_HELP))?;
     Ok(spec)
 }

@@ -17,8 +17,10 @@
 //! values, spread; per parameter the subproblem it came from; the
 //! refinement runs and stages; the damping fit).
 
+mod inputs;
 mod outputs;
 mod params;
+mod spec;
 mod updated_model;
 
 use super::{
@@ -27,15 +29,16 @@ use super::{
 };
 use crate::artifacts;
 use crate::artifacts::cost::{Cost, Phases};
-use crate::artifacts::model::ModelJson;
-use crate::dynamics;
-use crate::identify::frf_objective::{FrfNoise, FrfReference};
 use crate::identify::updating::{update, Plan, Strategy, Update};
-use crate::identify::{ModalObjective, NamedMode, Screening, SubproblemSpec};
+use crate::identify::{IdentifyError, ModalObjective, Screening};
+use crate::optimize::slsqp::SlsqpParams;
 use crate::optimize::Optimizer;
+use inputs::{load_model, ScreeningInput};
 use outputs::write;
+use params::problem;
 pub use params::Params;
-use params::{problem, spec, Spec, StrategyName};
+pub use spec::Checked;
+use spec::Spec;
 use std::path::Path;
 use std::time::Instant;
 
@@ -73,7 +76,9 @@ const INPUTS: &[InputSpec] = &[
 ];
 
 impl Kind for Identify {
-    type Params = Params;
+    /// The params and the [`Spec`] they describe, derived once when they
+    /// are parsed (which reports every problem of either).
+    type Params = Checked;
     const NAME: &'static str = "identify";
     const FILE_PARAMS: &'static [(&'static str, bool)] = &[("model", false)];
 
@@ -121,25 +126,23 @@ impl Kind for Identify {
         ("subproblems", Artifact::Json),
         ("updated_model", Artifact::Any),
     ];
-    fn outputs(&self, p: &Params) -> Vec<Output> {
-        let guided = p.strategy == StrategyName::SensitivityGuided;
+    fn outputs(&self, p: &Checked) -> Vec<Output> {
+        let guided = p.spec.guided();
         Self::OUTPUTS
             .iter()
             .filter(|(n, _)| guided || *n != "subproblems")
             .map(|(n, a)| Output::new(*n, *a))
             .collect()
     }
-    fn check(&self, p: &Params) -> Vec<ParamProblem> {
-        spec(p).err().unwrap_or_default()
-    }
     fn uses_seed(&self) -> bool {
         true
     }
-    fn seed(&self, p: &Params) -> Option<u64> {
-        p.seed
+    fn seed(&self, p: &Checked) -> Option<u64> {
+        p.params.seed
     }
-    fn files(&self, p: &Params) -> Vec<FileRef> {
-        p.model
+    fn files(&self, p: &Checked) -> Vec<FileRef> {
+        p.params
+            .model
             .iter()
             .map(|m| FileRef {
                 param: "model".into(),
@@ -148,7 +151,8 @@ impl Kind for Identify {
             })
             .collect()
     }
-    fn file_dependencies(&self, p: &Params, dir: &Path) -> Result<Vec<String>, ParamProblem> {
+    fn file_dependencies(&self, p: &Checked, dir: &Path) -> Result<Vec<String>, ParamProblem> {
+        let p = &p.params;
         let Some(path) = &p.model else {
             return Ok(Vec::new());
         };
@@ -176,17 +180,16 @@ impl Kind for Identify {
         Ok(files)
     }
 
-    fn check_inputs(&self, p: &Params, bound: &[&str]) -> Vec<ParamProblem> {
+    fn check_inputs(&self, p: &Checked, bound: &[&str]) -> Vec<ParamProblem> {
         let mut out = Vec::new();
-        let guided = p.strategy == StrategyName::SensitivityGuided;
-        if guided && !bound.contains(&"sensitivity") {
+        if p.spec.guided() && !bound.contains(&"sensitivity") {
             out.push(problem(
                 &["strategy"],
                 "strategy sensitivity_guided needs the `sensitivity` input",
                 "bind a gsa stage's subproblems: `inputs: {sensitivity: gsa.subproblems}`",
             ));
         }
-        if !bound.contains(&"model") && p.model.is_none() {
+        if !bound.contains(&"model") && p.params.model.is_none() {
             out.push(problem(
                 &[],
                 "no model: bind the `model` input (a synthesize `model` output) or give the `model` param",
@@ -196,107 +199,21 @@ impl Kind for Identify {
         out
     }
 
-    fn run(&self, p: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
+    fn run(&self, p: &Checked, ctx: &StageContext) -> Result<StageOutputs, StageError> {
         let started = Instant::now();
-        let spec = spec(p).map_err(|problems| StageError::InvalidParam {
-            param: problems
-                .first()
-                .map(|p| p.path.join("."))
-                .unwrap_or_default(),
-            message: problems
-                .iter()
-                .map(|p| p.message.as_str())
-                .collect::<Vec<_>>()
-                .join("; "),
-        })?;
-        let model = load_model(ctx, p.model.as_deref())?;
-        let reference_dir = ctx.input("reference")?;
-        let reference =
-            artifacts::modes::read_damped_modes(reference_dir, "reference", "identify")?;
-        let invalid_reference = |e: crate::identify::IdentifyError| StageError::InvalidInput {
-            input: "reference".into(),
-            message: e.to_string(),
-        };
-        let mut objective = ModalObjective::new(
-            &model,
-            &reference,
-            spec.positions.as_deref(),
-            spec.weights,
-            spec.pairing,
-        )
-        .map_err(invalid_reference)?;
-        objective.set_uncertainty(spec.uncertainty);
-        if spec.uncertainty.from_estimate {
-            let spread = artifacts::modes::read_mode_spread(reference_dir, "reference")?;
-            for m in spread.unwrap_or_default() {
-                objective.raise_uncertainty(
-                    &spec.uncertainty,
-                    m.position,
-                    m.mode - 1,
-                    m.frequency,
-                    m.damping,
-                );
-            }
-        }
+        let spec = &p.spec;
+        let model = load_model(ctx, p.params.model.as_deref())?;
+        let mut objective = inputs::modal_objective(ctx, &model, spec)?;
         ctx.progress.set_length(spec.budget as u64);
         let progress = |n: u64| ctx.progress.inc(n);
-        let screening_input = if spec.guided {
-            let Some(path) = ctx.inputs.get("sensitivity").and_then(|v| v.first()) else {
-                return Err(StageError::InvalidInput {
-                    input: "sensitivity".into(),
-                    message: "strategy sensitivity_guided needs the `sensitivity` input: bind a gsa stage's `subproblems` output".into(),
-                });
-            };
-            Some(read_subproblems(path)?)
+        let screening_input = if spec.guided() {
+            Some(inputs::screening(ctx)?)
         } else {
             None
         };
-        let slsqp = match &spec.optimizer {
-            Optimizer::Slsqp(p) => p.clone(),
-            _ => Default::default(),
-        };
-        let strategy = match &screening_input {
-            Some(s) => Strategy::Guided {
-                screening: Screening {
-                    specs: &s.specs,
-                    significant: s.significant.as_deref(),
-                    modes: &s.modes,
-                },
-                settings: &spec.settings,
-                slsqp: &slsqp,
-            },
-            None => Strategy::BlackBox {
-                optimizer: &spec.optimizer,
-            },
-        };
-        let frf_reference = ctx
-            .inputs
-            .get("frf")
-            .and_then(|v| v.first())
-            .map(|path| {
-                let sets = artifacts::frf::read_calibrated(
-                    path,
-                    "frf",
-                    "identify",
-                    "FRF fit against the model",
-                )?;
-                let prepared = objective.prepared();
-                let noise = FrfNoise {
-                    averages: spec.frf_averages,
-                };
-                FrfReference::new(
-                    prepared,
-                    &sets,
-                    spec.positions.as_deref(),
-                    spec.frf_band,
-                    noise,
-                )
-                .map_err(|e| StageError::InvalidInput {
-                    input: "frf".into(),
-                    message: e.to_string(),
-                })
-            })
-            .transpose()?;
+        let default_slsqp = SlsqpParams::default();
+        let strategy = strategy(spec, screening_input.as_ref(), &default_slsqp);
+        let frf_reference = inputs::frf_reference(ctx, &objective, spec)?;
         let plan = Plan {
             frf: frf_reference.as_ref().map(|r| (r, &spec.frf_refinement)),
             strategy,
@@ -308,21 +225,7 @@ impl Kind for Identify {
             fixed_spread: spec.fixed_spread,
             refit_implicated: spec.refit_implicated,
         };
-        let mut u = update(&mut objective, &plan, &progress).map_err(|e| match e {
-            // A budget the model or the screening make too small (a model
-            // from the `model` input is first seen here): the param's fault.
-            crate::identify::IdentifyError::Invalid(m) if m.starts_with("budget ") => {
-                StageError::InvalidParam {
-                    param: "budget".into(),
-                    message: m,
-                }
-            }
-            crate::identify::IdentifyError::Invalid(m) => StageError::InvalidInput {
-                input: "reference".into(),
-                message: m,
-            },
-            e => StageError::Failed(e.to_string()),
-        })?;
+        let mut u = update(&mut objective, &plan, &progress).map_err(update_error)?;
         if let Some(w) = frf_reference.as_ref().and_then(|r| r.noise_warning()) {
             u.verdict.warnings.push(w);
         }
@@ -330,11 +233,11 @@ impl Kind for Identify {
             ctx.progress
                 .set_message(format!("verdict: {}", u.verdict.message));
         }
-        let mut files = write_outputs(ctx, &objective, &spec, &u, started)?;
+        let mut files = write_outputs(ctx, &objective, spec, &u, started)?;
         // The updated model file (see stages::updated_model).
         let model_dir = ctx.scratch.join("updated_model");
         let parameters = ctx.scratch.join("parameters.csv");
-        updated_model::write(ctx, p.model.as_deref(), &parameters, &model_dir)?;
+        updated_model::write(ctx, p.params.model.as_deref(), &parameters, &model_dir)?;
         files.push(("updated_model".to_string(), model_dir));
         Ok(StageOutputs {
             // The verdict's warnings are the stage's too: `warning:` lines,
@@ -343,6 +246,52 @@ impl Kind for Identify {
             files,
             counters: [("evaluations".to_string(), u.evaluations as u64)].into(),
         })
+    }
+}
+
+/// The strategy the spec names: guided over the `screening` (its
+/// subproblems solved by the spec's SLSQP, `default_slsqp` only if the spec
+/// holds another optimizer, which [`spec::spec`] refuses for guided), or
+/// the spec's optimizer over all parameters.
+fn strategy<'a>(
+    spec: &'a Spec,
+    screening: Option<&'a ScreeningInput>,
+    default_slsqp: &'a SlsqpParams,
+) -> Strategy<'a> {
+    let slsqp = match &spec.optimizer {
+        Optimizer::Slsqp(p) => p,
+        _ => default_slsqp,
+    };
+    match screening {
+        Some(s) => Strategy::Guided {
+            screening: Screening {
+                specs: &s.specs,
+                significant: s.significant.as_deref(),
+                modes: &s.modes,
+            },
+            settings: &spec.settings,
+            slsqp,
+        },
+        None => Strategy::BlackBox {
+            optimizer: &spec.optimizer,
+        },
+    }
+}
+
+/// The stage error of a failed update: whose fault it is.
+fn update_error(e: IdentifyError) -> StageError {
+    match e {
+        // A budget the model or the screening make too small (a model
+        // from the `model` input is first seen here): the param's fault.
+        IdentifyError::Invalid(m) if m.starts_with("budget ") => StageError::InvalidParam {
+            param: "budget".into(),
+            message: m,
+        },
+        IdentifyError::Invalid(m) => StageError::InvalidInput {
+            input: "reference".into(),
+            message: m,
+        },
+        e => StageError::Failed(e.to_string()),
     }
 }
 
@@ -361,7 +310,7 @@ fn write_outputs(
     u: &Update,
     started: Instant,
 ) -> Result<Vec<(String, std::path::PathBuf)>, StageError> {
-    let failed = |e: crate::identify::IdentifyError| StageError::Failed(e.to_string());
+    let failed = |e: IdentifyError| StageError::Failed(e.to_string());
     let mut files = Vec::new();
     let mut add = |name: &str, file: &str| {
         let path = ctx.scratch.join(file);
@@ -427,17 +376,9 @@ fn write_outputs(
         evaluations: u.evaluations,
         seconds: started.elapsed().as_secs_f64(),
         best_objective: u.objective,
-        strategy: if spec.guided {
-            "sensitivity_guided"
-        } else {
-            "black_box"
-        }
-        .into(),
-        optimizer: if spec.guided {
-            "slsqp".into()
-        } else {
-            spec.optimizer.name().to_string()
-        },
+        strategy: spec.strategy.as_str().into(),
+        // Guided: always slsqp, the only optimizer `spec` allows it.
+        optimizer: spec.optimizer.name().to_string(),
         modes: o.summary(&u.x).map_err(failed)?,
         phase_evaluations: phases,
         frf: u.frf.as_ref().map(|r| r.summary.clone()),
@@ -447,77 +388,4 @@ fn write_outputs(
     cost.write(&path)?;
     files.push(("cost".to_string(), path));
     Ok(files)
-}
-
-/// The screening an identify stage reads from a gsa subproblems.json.
-struct ScreeningInput {
-    specs: Vec<SubproblemSpec>,
-    significant: Option<Vec<String>>,
-    modes: Vec<NamedMode>,
-}
-
-/// The model from the `model` input (model.json) or the `model` param.
-fn load_model(ctx: &StageContext, param: Option<&str>) -> Result<dynamics::Model, StageError> {
-    if let Some(rel) = param {
-        let file = ctx.pipeline_dir.join(rel);
-        let text = std::fs::read_to_string(&file)
-            .map_err(|e| StageError::io(format!("cannot read model file `{rel}`"), e))?;
-        let base = file.parent().unwrap_or(ctx.pipeline_dir).to_path_buf();
-        let resolver =
-            crate::paths::confined_reader(base.clone(), vec![ctx.pipeline_dir.to_path_buf(), base]);
-        return dynamics::Model::from_yaml(&text, rel, &resolver).map_err(|e| {
-            StageError::InvalidParam {
-                param: "model".into(),
-                message: e.to_string(),
-            }
-        });
-    }
-    let Some(path) = ctx.inputs.get("model").and_then(|v| v.first()) else {
-        return Err(StageError::InvalidInput {
-            input: "model".into(),
-            message: "no model: bind the `model` input to a synthesize stage's `model` output, or give the `model` param".into(),
-        });
-    };
-    let json = ModelJson::read(path, "model")?;
-    dynamics::Model::from_yaml(
-        &json.yaml,
-        json.file_name(crate::artifacts::model::FILE),
-        &|p: &str| json.resolve(p),
-    )
-    .map_err(|e| StageError::InvalidInput {
-        input: "model".into(),
-        message: e.to_string(),
-    })
-}
-
-/// The `subproblems` of a gsa subproblems.json, its `significant` list and
-/// the frequencies of the modes it names (both absent in hand-written files).
-fn read_subproblems(path: &Path) -> Result<ScreeningInput, StageError> {
-    let bad = |message: String| StageError::InvalidInput {
-        input: "sensitivity".into(),
-        message,
-    };
-    let bytes =
-        std::fs::read(path).map_err(|e| StageError::io("cannot read input `sensitivity`", e))?;
-    let json: serde_json::Value =
-        serde_json::from_slice(&bytes).map_err(|e| bad(format!("not a subproblems.json: {e}")))?;
-    let list = json.get("subproblems").cloned().ok_or_else(|| {
-        bad("no `subproblems` list; bind a gsa stage's `subproblems` output".into())
-    })?;
-    let specs = serde_json::from_value(list).map_err(|e| bad(format!("subproblems: {e}")))?;
-    let significant = match json.get("significant") {
-        None => None,
-        Some(v) => {
-            Some(serde_json::from_value(v.clone()).map_err(|e| bad(format!("significant: {e}")))?)
-        }
-    };
-    let modes = match json.get("modes") {
-        None => Vec::new(),
-        Some(v) => serde_json::from_value(v.clone()).map_err(|e| bad(format!("modes: {e}")))?,
-    };
-    Ok(ScreeningInput {
-        specs,
-        significant,
-        modes,
-    })
 }

@@ -1,10 +1,11 @@
-//! The `identify` kind's params ([`Params`], declared once) and the
-//! settings of the identification they make ([`Spec`]); [`spec`] checks
-//! what the types cannot say, every problem located by its param path.
+//! The `identify` kind's params ([`Params`], declared once), with the
+//! names they accept: strategies ([`StrategyName`]) and optimizers
+//! ([`OptimizerName`], the stage's one list of them). The settings of the
+//! identification they make are in [`super::spec`].
 
 use crate::identify::frf_refinement::FrfRefinementParams;
 use crate::identify::{GuidedParams, Uncertainty, Weights};
-use crate::optimize::Optimizer;
+use crate::optimize::{OptimizeError, Optimizer};
 use crate::pairing::Pairing;
 use crate::stages::params::TypeName;
 use crate::stages::{ParamProblem, Range};
@@ -25,6 +26,20 @@ crate::string_enum! {
         Slsqp = "slsqp",
         Pso = "pso",
         Ga = "ga",
+    }
+}
+
+/// The optimizer of every subproblem of a sensitivity-guided
+/// identification (PUB3: SLSQP per subproblem).
+pub const GUIDED_OPTIMIZER: OptimizerName = OptimizerName::Slsqp;
+
+impl OptimizerName {
+    /// The optimizer this name stands for with `settings` (the
+    /// `optimizer_settings` mapping; `None`: the defaults), or what is wrong
+    /// with them: the one place the stage's names meet the optimizers'.
+    pub fn optimizer(self, settings: Option<&Mapping>) -> Result<Optimizer, OptimizeError> {
+        let settings = settings.cloned().map(Value::Mapping);
+        Optimizer::from_settings(self.as_str(), settings.as_ref())
     }
 }
 
@@ -221,173 +236,7 @@ crate::params! {
     }
 }
 
-/// The identification the params describe.
-pub struct Spec {
-    pub guided: bool,
-    pub optimizer: Optimizer,
-    pub budget: usize,
-    pub settings: GuidedParams,
-    pub weights: Weights,
-    pub pairing: Pairing,
-    pub uncertainty: Uncertainty,
-    pub observability: f64,
-    pub max_std_error: f64,
-    /// σ of ln p of every fixed parameter (`None`: from its bounds).
-    pub fixed_spread: Option<f64>,
-    pub refit_implicated: bool,
-    pub positions: Option<Vec<u32>>,
-    pub frf_refinement: FrfRefinementParams,
-    pub frf_band: (f64, f64),
-    pub frf_averages: Option<usize>,
-    /// Nominal-model modes to leave out: (position, number).
-    pub exclude: Vec<(u32, usize)>,
-}
-
+/// A problem with the param at `path`, with what to do about it.
 pub fn problem(path: &[&str], message: impl Into<String>, help: &str) -> ParamProblem {
     ParamProblem::new(path, message, help)
-}
-
-/// The settings of the identification, or every problem with them.
-pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
-    let mut out = Vec::new();
-    let guided = p.strategy == StrategyName::SensitivityGuided;
-    if guided && p.optimizer != OptimizerName::Slsqp {
-        out.push(problem(
-            &["optimizer"],
-            format!(
-                "sensitivity_guided uses slsqp per subproblem, not {}",
-                p.optimizer.as_str()
-            ),
-            "remove `optimizer` or use strategy: black_box",
-        ));
-    }
-    let settings_value = p.optimizer_settings.clone().map(Value::Mapping);
-    let optimizer = Optimizer::from_settings(p.optimizer.as_str(), settings_value.as_ref())
-        .map_err(|e| {
-            out.push(problem(
-                &["optimizer_settings"],
-                e.to_string(),
-                "see the optimizer's settings in docs/stage-kinds.md (`identify`)",
-            ))
-        })
-        .ok();
-    let mut settings = p.guided.value.clone();
-    if let Some(r) = p.repeats {
-        if p.guided.has("repeats") {
-            out.push(problem(
-                &["guided", "repeats"],
-                "`repeats` is given twice",
-                "give it once, as `repeats` or as `guided.repeats`",
-            ));
-        }
-        settings.repeats = r;
-    }
-    if let Err(m) = settings.check() {
-        out.push(problem(
-            &["guided"],
-            m,
-            "see the guided settings in docs/stage-kinds.md (`identify`)",
-        ));
-    }
-    let w = p.weights;
-    for (k, x) in [("mac", w.mac), ("nfd", w.nfd), ("ndd", w.ndd)] {
-        if !(x >= 0.0 && x.is_finite()) {
-            out.push(problem(
-                &["weights", k],
-                format!("weight {k} = {x} must be ≥ 0"),
-                "weights are non-negative",
-            ));
-        }
-    }
-    if w.mac + w.nfd + w.ndd == 0.0 {
-        out.push(problem(
-            &["weights"],
-            "all weights are 0",
-            "give at least one positive weight",
-        ));
-    }
-    // Identification's own defaults: a model 30 % off moves modes by up to
-    // 20 %, and a pair below MAC 0.5 is no evidence of one physical mode.
-    let mut pairing = p.pairing.value;
-    if !p.pairing.has("window") {
-        pairing.window = PAIRING_WINDOW;
-    }
-    if !p.pairing.has("min_mac") {
-        pairing.min_mac = PAIRING_MIN_MAC;
-    }
-    if let Some(w) = p.window {
-        if p.pairing.has("window") {
-            out.push(problem(
-                &["window"],
-                "the pairing window is given twice",
-                "give it once, as `window` or as `pairing.window`",
-            ));
-        }
-        pairing.window = w;
-    }
-    if let Err(m) = pairing.check() {
-        out.push(problem(
-            &["pairing"],
-            m,
-            "e.g. pairing: {window: 0.2, frequency_scale: 0.1}",
-        ));
-    }
-    if let Err(m) = p.uncertainty.check() {
-        out.push(problem(
-            &["uncertainty"],
-            m,
-            "standard deviations are positive",
-        ));
-    }
-    if p.positions.as_ref().is_some_and(Vec::is_empty) {
-        out.push(problem(
-            &["positions"],
-            "`positions` must be a non-empty list of position indices",
-            "e.g. positions: [0, 2]",
-        ));
-    }
-    if let Err(m) = p.frf_refinement.check() {
-        out.push(problem(
-            &["frf_refinement"],
-            m,
-            "see the FRF refinement in docs/stage-kinds.md (`identify`)",
-        ));
-    }
-    let frf_band = p.frf_band.unwrap_or((0.0, f64::INFINITY));
-    if frf_band.0 >= frf_band.1 {
-        out.push(problem(
-            &["frf_band"],
-            format!(
-                "frf_band [{}, {}] is not [low, high]",
-                frf_band.0, frf_band.1
-            ),
-            "e.g. frf_band: [10, 200]",
-        ));
-    }
-    match optimizer {
-        Some(optimizer) if out.is_empty() => Ok(Spec {
-            guided,
-            optimizer,
-            budget: p.budget,
-            settings,
-            weights: p.weights,
-            pairing,
-            uncertainty: p.uncertainty,
-            observability: p.observability,
-            max_std_error: p.max_std_error,
-            // A relative σ r is σ of ln p ≈ ln(1 + r).
-            fixed_spread: p.fixed_spread.map(f64::ln_1p),
-            refit_implicated: p.refit_implicated,
-            positions: p.positions.clone(),
-            frf_refinement: p.frf_refinement.clone(),
-            frf_band,
-            frf_averages: p.frf_averages,
-            exclude: p
-                .exclude_modes
-                .iter()
-                .map(|m| (m.position, m.mode))
-                .collect(),
-        }),
-        _ => Err(out),
-    }
 }

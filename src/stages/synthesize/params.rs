@@ -280,10 +280,27 @@ pub fn impact_resources(
 /// by the kind when the files are looked at.
 pub fn check(p: &Params) -> Vec<ParamProblem> {
     let mut out = Vec::new();
+    check_frequency(p.frequency, &mut out);
+    check_noise(p, &mut out);
+    if let Some(imp) = &p.impact_test {
+        check_impact_test(p, imp, &mut out);
+    }
+    check_values(p.values.as_ref(), &mut out);
+    if let Some(Modes::Count(0)) = p.modes {
+        out.push(ParamProblem::new(
+            &["modes"],
+            "zero modes".to_string(),
+            "a mode count >= 1 or {below: Hz}",
+        ));
+    }
+    out
+}
+
+/// Check the frequency grid: non-empty and at most 2 million lines.
+fn check_frequency(g: Grid, out: &mut Vec<ParamProblem>) {
     let mut problem = |path: &[&str], message: String, help: &str| {
         out.push(ParamProblem::new(path, message, help))
     };
-    let g = p.frequency;
     if !(g.min >= 0.0 && g.max > g.min && g.step > 0.0) {
         problem(
             &["frequency"],
@@ -300,6 +317,14 @@ pub fn check(p: &Params) -> Vec<ParamProblem> {
             "use a coarser step",
         );
     }
+}
+
+/// Check the added noise: a level ≥ 0, and not with an impact test (which
+/// brings its own).
+fn check_noise(p: &Params, out: &mut Vec<ParamProblem>) {
+    let mut problem = |path: &[&str], message: String, help: &str| {
+        out.push(ParamProblem::new(path, message, help))
+    };
     if let Some(n) = &p.noise {
         if !(n.relative.is_finite() && n.relative >= 0.0) {
             problem(
@@ -316,29 +341,43 @@ pub fn check(p: &Params) -> Vec<ParamProblem> {
             "an impact test brings its own noise (force_noise, response_noise)",
         );
     }
-    if let Some(imp) = &p.impact_test {
-        for extra in impact_resources(p, imp, None) {
-            let path: Vec<&str> = extra.path.iter().map(String::as_str).collect();
-            problem(&path, extra.message, extra.help.as_deref().unwrap_or(""));
-        }
-        if let Err(e) = imp.resolve(&g, p.quantity.into()).validate() {
+}
+
+/// Check the simulated impact test `imp`: the memory and work it asks for
+/// (before the model is read), its settings on the grid, its estimator.
+fn check_impact_test(p: &Params, imp: &ImpactSpec, out: &mut Vec<ParamProblem>) {
+    let mut problem = |path: &[&str], message: String, help: &str| {
+        out.push(ParamProblem::new(path, message, help))
+    };
+    for extra in impact_resources(p, imp, None) {
+        let path: Vec<&str> = extra.path.iter().map(String::as_str).collect();
+        problem(&path, extra.message, extra.help.as_deref().unwrap_or(""));
+    }
+    if let Err(e) = imp.resolve(&p.frequency, p.quantity.into()).validate() {
+        problem(
+            &["impact_test"],
+            e.to_string(),
+            "see the impact_test fields in docs/stage-kinds.md (`synthesize`)",
+        );
+    }
+    if let Some(est) = &imp.estimator {
+        if !["h1", "h2", "H1", "H2"].contains(&est.as_str()) {
             problem(
-                &["impact_test"],
-                e.to_string(),
-                "see the impact_test fields in docs/stage-kinds.md (`synthesize`)",
+                &["impact_test", "estimator"],
+                format!("unknown estimator `{est}`"),
+                "h1 or h2",
             );
         }
-        if let Some(est) = &imp.estimator {
-            if !["h1", "h2", "H1", "H2"].contains(&est.as_str()) {
-                problem(
-                    &["impact_test", "estimator"],
-                    format!("unknown estimator `{est}`"),
-                    "h1 or h2",
-                );
-            }
-        }
     }
-    match &p.values {
+}
+
+/// Check the parameter values to synthesize with: a positive perturbation,
+/// valid patterns with positive factors, or `truth`.
+fn check_values(values: Option<&Values>, out: &mut Vec<ParamProblem>) {
+    let mut problem = |path: &[&str], message: String, help: &str| {
+        out.push(ParamProblem::new(path, message, help))
+    };
+    match values {
         Some(Values::Perturb { perturb })
             if !(perturb.relative.is_finite() && perturb.relative > 0.0) =>
         {
@@ -373,12 +412,4 @@ pub fn check(p: &Params) -> Vec<ParamProblem> {
         ),
         _ => {}
     }
-    if let Some(Modes::Count(0)) = p.modes {
-        problem(
-            &["modes"],
-            "zero modes".into(),
-            "a mode count >= 1 or {below: Hz}",
-        );
-    }
-    out
 }
