@@ -11,22 +11,22 @@
 //!   damping needs only Gᵀ Φ).
 #![allow(non_snake_case)]
 
-use super::configuration::{axis_states, locate, locate_b, Location};
-use super::craig_bampton::craig_bampton;
+mod blocks;
+
+use super::configuration::{axis_states, locate, locate_b};
 use super::error::DynamicsError;
 use super::lanczos::LanczosOptions;
-use super::model::{BodyKind, End, Model, Parameter};
+use super::model::{BodyKind, Model, Parameter};
 use super::model_file::DampingModel;
 use super::model_file::{SolverMethod, SolverSpec};
 use super::points::{point_masses, point_rows};
-use super::rigid::rigid_mass;
 use super::shift::{sigma_from_hz, Shift};
 use super::shift_invert::WorkspacePool;
 use super::sparse::Csc;
 use super::storage::{choose, Storage};
 use crate::frf::{Dof, Position};
+use blocks::{body_blocks, body_triplets, boundary_nodes, BodyBlocks};
 use faer::Mat;
-use std::collections::BTreeSet;
 use std::sync::Arc;
 
 /// One body in the global DOF vector.
@@ -106,15 +106,6 @@ pub struct PreparedModel {
     pub(crate) scratch: WorkspacePool,
 }
 
-const AXES: [&str; 6] = ["x", "y", "z", "rx", "ry", "rz"];
-
-/// One body's matrices: dense after a Craig–Bampton reduction or for a
-/// rigid body, sparse for an unreduced FE body.
-enum Block {
-    Dense(Mat<f64>, Mat<f64>),
-    Sparse(Csc, Csc),
-}
-
 impl PreparedModel {
     /// Reduce bodies, assemble and set up all configurations, with the
     /// model file's `solver:` settings: the eigensolver shift
@@ -149,67 +140,22 @@ impl PreparedModel {
         PreparedModel::prepare(model, Shift::Fixed(shift), solver)
     }
 
+    /// The work of the constructors: bodies reduced and assembled, point
+    /// masses added, configurations set up and the eigensolver path chosen.
     fn prepare(
         model: &Model,
         shift: Shift,
         solver: SolverSpec,
     ) -> Result<PreparedModel, DynamicsError> {
         let states = axis_states(model);
-        // Nodes of each FE body used anywhere → Craig-Bampton boundary.
-        let mut used: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); model.bodies.len()];
-        let mut mark = |end: &End, loc: Location| {
-            if let Location::Node(n, _) = loc {
-                used[end.body].insert(n);
-            }
-        };
-        for st in &states {
-            for (ji, j) in model.joints.iter().enumerate() {
-                mark(&j.a, locate(model, st, &j.a));
-                if let Some(b) = &j.b {
-                    mark(b, locate_b(model, st, ji, b));
-                }
-            }
-            for p in model.sensors.iter().chain(&model.excitations) {
-                mark(&p.end, locate(model, st, &p.end));
-            }
-            for m in &model.masses {
-                mark(&m.end, locate(model, st, &m.end));
-            }
-        }
-        let mut bodies = Vec::new();
-        let mut blocks: Vec<(Block, f64)> = Vec::new();
-        let mut dof_labels = Vec::new();
-        let mut offset = 0;
-        for (bi, body) in model.bodies.iter().enumerate() {
-            let (block, eta, T) = body_block(body, &used[bi], &mut dof_labels)?;
-            let n = match &block {
-                Block::Dense(M, _) => M.nrows(),
-                Block::Sparse(M, _) => M.n,
-            };
-            bodies.push(PreparedBody { offset, n, T });
-            blocks.push((block, eta));
-            offset += n;
-        }
-        let n = offset;
-        let (mut tm, mut tk, mut td) = (Vec::new(), Vec::new(), Vec::new());
-        for (b, (block, eta)) in bodies.iter().zip(&blocks) {
-            match block {
-                Block::Dense(Mb, Kb) => {
-                    Csc::dense_triplets(Mb, b.offset, &mut tm);
-                    Csc::dense_triplets(Kb, b.offset, &mut tk);
-                    if *eta > 0.0 {
-                        Csc::dense_triplets(&(Kb * faer::Scale(*eta)), b.offset, &mut td);
-                    }
-                }
-                Block::Sparse(Mb, Kb) => {
-                    Mb.triplets(b.offset, 1.0, &mut tm);
-                    Kb.triplets(b.offset, 1.0, &mut tk);
-                    if *eta > 0.0 {
-                        Kb.triplets(b.offset, *eta, &mut td);
-                    }
-                }
-            }
-        }
+        let used = boundary_nodes(model, &states);
+        let BodyBlocks {
+            bodies,
+            blocks,
+            dof_labels,
+            n,
+        } = body_blocks(model, &used)?;
+        let [mut tm, tk, td] = body_triplets(&bodies, &blocks);
         let any_damping = blocks.iter().any(|b| b.1 > 0.0);
         drop(blocks);
         point_masses(model, &bodies, n, &states[0], &mut tm);
@@ -221,25 +167,7 @@ impl PreparedModel {
             .enumerate()
             .map(|(index, st)| configuration(model, &bodies, n, st, index))
             .collect::<Result<Vec<_>, _>>()?;
-        let joint_nnz: usize = configurations
-            .iter()
-            .flat_map(|c| c.stiffness.columns.iter().map(|g| g.len() * g.len()))
-            .sum();
-        let method = choose(solver.method, n, M.nnz().max(K0.nnz()) + joint_nnz);
-        if method == SolverMethod::Dense {
-            let bytes = 8.0 * 6.0 * (n as f64).powi(2);
-            let limit = crate::resources::memory_limit() as f64;
-            if bytes > limit {
-                return Err(DynamicsError::Parameters {
-                    message: format!(
-                        "the dense eigenproblem of {n} DOF needs an estimated {}, more than the \
-                         limit of {} (--max-memory); use `solver: {{method: sparse}}` or a reduction",
-                        crate::resources::human(bytes),
-                        crate::resources::human(limit)
-                    ),
-                });
-            }
-        }
+        let method = eigensolver_path(solver, n, &M, &K0, &configurations)?;
         let storage = Storage::new(method, M, K0, D0, &configurations, &dof_labels)?;
         Ok(PreparedModel {
             parameters: model.parameters.clone(),
@@ -379,91 +307,36 @@ impl PreparedModel {
     }
 }
 
-/// The matrices of one body (reduced if it asks for Craig–Bampton), its
-/// material loss factor and full → reduced map; appends its DOF labels.
-fn body_block(
-    body: &super::model::Body,
-    used: &BTreeSet<usize>,
-    dof_labels: &mut Vec<String>,
-) -> Result<(Block, f64, Option<Mat<f64>>), DynamicsError> {
-    let eta = match &body.kind {
-        BodyKind::Fe { loss_factor, .. } => *loss_factor,
-        BodyKind::Rigid { .. } => 0.0,
-    };
-    Ok(match &body.kind {
-        BodyKind::Rigid {
-            mass,
-            inertia,
-            dofs,
-            ..
-        } => {
-            dof_labels.extend(dofs.iter().map(|&a| format!("{}.{}", body.name, AXES[a])));
-            let full = rigid_mass(*mass, inertia);
-            let n = dofs.len();
-            (
-                Block::Dense(
-                    Mat::from_fn(n, n, |i, j| full[(dofs[i], dofs[j])]),
-                    Mat::zeros(n, n),
+/// The eigensolver path for `n` DOF ([`choose`] on the non-zeros of the
+/// body matrices and the joints' columns), refused when the dense path
+/// would exceed the memory limit.
+fn eigensolver_path(
+    solver: SolverSpec,
+    n: usize,
+    M: &Csc,
+    K0: &Csc,
+    configurations: &[Configuration],
+) -> Result<SolverMethod, DynamicsError> {
+    let joint_nnz: usize = configurations
+        .iter()
+        .flat_map(|c| c.stiffness.columns.iter().map(|g| g.len() * g.len()))
+        .sum();
+    let method = choose(solver.method, n, M.nnz().max(K0.nnz()) + joint_nnz);
+    if method == SolverMethod::Dense {
+        let bytes = 8.0 * 6.0 * (n as f64).powi(2);
+        let limit = crate::resources::memory_limit() as f64;
+        if bytes > limit {
+            return Err(DynamicsError::Parameters {
+                message: format!(
+                    "the dense eigenproblem of {n} DOF needs an estimated {}, more than the \
+                     limit of {} (--max-memory); use `solver: {{method: sparse}}` or a reduction",
+                    crate::resources::human(bytes),
+                    crate::resources::human(limit)
                 ),
-                eta,
-                None,
-            )
+            });
         }
-        BodyKind::Fe {
-            fe, modes: Some(q), ..
-        } => {
-            let boundary: Vec<usize> = used.iter().flat_map(|&n| fe.node_dofs(n)).collect();
-            for &n in used {
-                let id = fe.nodes[n].id;
-                for (j, d) in fe.nodes[n].dofs.iter().enumerate() {
-                    if d.is_some() {
-                        dof_labels.push(format!("{}.node{id}.{}", body.name, AXES[j]));
-                    }
-                }
-            }
-            // Craig–Bampton works on dense matrices: bound them first.
-            let nf = fe.n() as f64;
-            let bytes = 8.0 * 4.0 * nf * nf;
-            let limit = crate::resources::memory_limit() as f64;
-            if bytes > limit {
-                return Err(DynamicsError::Reduction {
-                    body: body.name.clone(),
-                    message: format!(
-                        "the Craig–Bampton reduction of {nf} DOF needs an estimated {} held dense, \
-                         more than the limit of {} (--max-memory); drop the reduction (sparse solver)",
-                        crate::resources::human(bytes),
-                        crate::resources::human(limit)
-                    ),
-                });
-            }
-            let r = craig_bampton(
-                &fe.K.to_dense(),
-                &fe.M.to_dense(),
-                &boundary,
-                *q,
-                &body.name,
-            )?;
-            let nq = r.M.nrows() - boundary.len();
-            dof_labels.extend((0..nq).map(|i| format!("{}.cb{i}", body.name)));
-            (Block::Dense(r.M, r.K), eta, Some(r.T))
-        }
-        BodyKind::Fe {
-            fe, modes: None, ..
-        } => {
-            let mut labels: Vec<String> = (0..fe.n())
-                .map(|i| format!("{}.row{i}", body.name))
-                .collect();
-            for node in &fe.nodes {
-                for (j, d) in node.dofs.iter().enumerate() {
-                    if let Some(d) = d {
-                        labels[*d] = format!("{}.node{}.{}", body.name, node.id, AXES[j]);
-                    }
-                }
-            }
-            dof_labels.extend(labels);
-            (Block::Sparse(fe.M.clone(), fe.K.clone()), eta, None)
-        }
-    })
+    }
+    Ok(method)
 }
 
 fn configuration(

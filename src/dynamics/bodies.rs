@@ -10,7 +10,9 @@ use super::beam_terms::{stiffness_columns, Column};
 use super::error::DynamicsError;
 use super::fe_body::FeBody;
 use super::model::{parameter_ref, Parameter};
-use super::model_file::{BeamSpec, BodySpec, ParameterKind, SectionValue};
+use super::model_file::{
+    BeamSpec, BodySpec, NodePointSpec, ParameterKind, RigidSpec, SectionValue,
+};
 use super::rigid::inertia_is_positive_definite;
 use super::superelement::{load_superelement, Resolver};
 use std::collections::BTreeMap;
@@ -234,6 +236,8 @@ pub(crate) fn finite(file: &str, field: &str, v: &[f64]) -> Result<(), DynamicsE
     }
 }
 
+/// The kind of body `b` (field path `f` in `file`): exactly one of a rigid
+/// body, a beam or a super-element, validated and built.
 pub(crate) fn body_kind(
     b: &BodySpec,
     f: &str,
@@ -250,70 +254,11 @@ pub(crate) fn body_kind(
         ));
     }
     if let Some(r) = &b.rigid {
-        let g = format!("{f}.rigid");
-        finite(file, &format!("{g}.mass"), &[r.mass])?;
-        finite(file, &format!("{g}.inertia"), r.inertia.as_flattened())?;
-        finite(file, &format!("{g}.cg"), &r.cg)?;
-        if r.mass <= 0.0 {
-            return Err(inv(format!("{g}.mass"), "must be positive (kg)"));
-        }
-        if !inertia_is_positive_definite(&r.inertia) {
-            return Err(inv(
-                format!("{g}.inertia"),
-                "must be a positive definite tensor (kg·m²) about the centre of gravity",
-            ));
-        }
-        for (name, p) in &r.points {
-            finite(file, &format!("{g}.points.{name}"), p)?;
-        }
-        let mut dofs: Vec<usize> = match &r.dofs {
-            Some(d) => d.iter().map(|d| d.index()).collect(),
-            None => (0..6).collect(),
-        };
-        dofs.sort_unstable();
-        dofs.dedup();
-        if dofs.is_empty() {
-            return Err(inv(format!("{g}.dofs"), "list at least one DOF"));
-        }
-        return Ok(BodyKind::Rigid {
-            mass: r.mass,
-            inertia: r.inertia,
-            cg: r.cg,
-            points: r.points.clone(),
-            dofs,
-        });
+        return rigid_body(r, &format!("{f}.rigid"), file);
     }
     let (fe, points, reduction, loss_factor, terms, g) = if let Some(bm) = &b.beam {
         let g = format!("{f}.beam");
-        finite(file, &g, &[bm.start, bm.end, bm.orientation].concat())?;
-        if bm.elements == 0 {
-            return Err(inv(format!("{g}.elements"), "need at least one element"));
-        }
-        // The beam is assembled sparse: 2 × 144 triplets per element (24
-        // bytes each) before compression; bound them by the memory limit
-        // before allocating (found by the fuzz harness).
-        let n = 6.0 * (bm.elements as f64 + 1.0);
-        let bytes = 2.0 * 144.0 * 24.0 * bm.elements as f64;
-        let limit = crate::resources::memory_limit() as f64;
-        if bytes > limit {
-            return Err(inv(
-                format!("{g}.elements"),
-                &format!(
-                    "{} elements make {n} DOF whose matrices need an estimated {}, more than \
-                     the limit of {} (--max-memory); use fewer elements",
-                    bm.elements,
-                    crate::resources::human(bytes),
-                    crate::resources::human(limit)
-                ),
-            ));
-        }
-        let R = local_axes(bm.start, bm.end, bm.orientation).ok_or_else(|| {
-            inv(
-                format!("{g}.orientation"),
-                "beam has zero length or orientation is parallel to its axis",
-            )
-        })?;
-        let (fe, eta, terms) = beam_body(bm, &g, file, parameters, R)?;
+        let (fe, eta, terms) = beam_fe(bm, &g, file, parameters)?;
         (fe, &bm.points, &bm.reduction, eta, terms, g)
     } else if let Some(se) = &b.superelement {
         let g = format!("{f}.superelement");
@@ -337,6 +282,104 @@ pub(crate) fn body_kind(
             "must be a finite number >= 0 (typically 0.001-0.005 for metals)",
         ));
     }
+    let points = node_points(&fe, points, &g, file)?;
+    Ok(BodyKind::Fe {
+        fe,
+        points,
+        modes: reduction.as_ref().map(|r| r.modes),
+        loss_factor,
+        terms,
+    })
+}
+
+/// A rigid body (field path `g`): finite numbers, positive mass, positive
+/// definite inertia and at least one DOF (sorted, without repeats).
+fn rigid_body(r: &RigidSpec, g: &str, file: &str) -> Result<BodyKind, DynamicsError> {
+    let inv = |field: String, msg: &str| DynamicsError::invalid(file, field, msg);
+    finite(file, &format!("{g}.mass"), &[r.mass])?;
+    finite(file, &format!("{g}.inertia"), r.inertia.as_flattened())?;
+    finite(file, &format!("{g}.cg"), &r.cg)?;
+    if r.mass <= 0.0 {
+        return Err(inv(format!("{g}.mass"), "must be positive (kg)"));
+    }
+    if !inertia_is_positive_definite(&r.inertia) {
+        return Err(inv(
+            format!("{g}.inertia"),
+            "must be a positive definite tensor (kg·m²) about the centre of gravity",
+        ));
+    }
+    for (name, p) in &r.points {
+        finite(file, &format!("{g}.points.{name}"), p)?;
+    }
+    let mut dofs: Vec<usize> = match &r.dofs {
+        Some(d) => d.iter().map(|d| d.index()).collect(),
+        None => (0..6).collect(),
+    };
+    dofs.sort_unstable();
+    dofs.dedup();
+    if dofs.is_empty() {
+        return Err(inv(format!("{g}.dofs"), "list at least one DOF"));
+    }
+    Ok(BodyKind::Rigid {
+        mass: r.mass,
+        inertia: r.inertia,
+        cg: r.cg,
+        points: r.points.clone(),
+        dofs,
+    })
+}
+
+/// A beam body (field path `g`) after checking its geometry, element count
+/// against the memory limit and orientation: [`beam_body`]'s matrices,
+/// loss factor and parameter terms.
+fn beam_fe(
+    bm: &BeamSpec,
+    g: &str,
+    file: &str,
+    parameters: &[Parameter],
+) -> Result<(FeBody, f64, BodyTerms), DynamicsError> {
+    let inv = |field: String, msg: &str| DynamicsError::invalid(file, field, msg);
+    finite(file, g, &[bm.start, bm.end, bm.orientation].concat())?;
+    if bm.elements == 0 {
+        return Err(inv(format!("{g}.elements"), "need at least one element"));
+    }
+    // The beam is assembled sparse: 2 × 144 triplets per element (24
+    // bytes each) before compression; bound them by the memory limit
+    // before allocating (found by the fuzz harness).
+    let n = 6.0 * (bm.elements as f64 + 1.0);
+    let bytes = 2.0 * 144.0 * 24.0 * bm.elements as f64;
+    let limit = crate::resources::memory_limit() as f64;
+    if bytes > limit {
+        return Err(inv(
+            format!("{g}.elements"),
+            &format!(
+                "{} elements make {n} DOF whose matrices need an estimated {}, more than \
+                 the limit of {} (--max-memory); use fewer elements",
+                bm.elements,
+                crate::resources::human(bytes),
+                crate::resources::human(limit)
+            ),
+        ));
+    }
+    let R = local_axes(bm.start, bm.end, bm.orientation).ok_or_else(|| {
+        inv(
+            format!("{g}.orientation"),
+            "beam has zero length or orientation is parallel to its axis",
+        )
+    })?;
+    beam_body(bm, g, file, parameters, R)
+}
+
+/// The named points of an FE body (field path `g`) as (node index,
+/// offset): the node must exist, and only a node with rotations can carry
+/// a rigid offset.
+fn node_points(
+    fe: &FeBody,
+    points: &BTreeMap<String, NodePointSpec>,
+    g: &str,
+    file: &str,
+) -> Result<BTreeMap<String, (usize, [f64; 3])>, DynamicsError> {
+    let inv = |field: String, msg: &str| DynamicsError::invalid(file, field, msg);
     let mut pts = BTreeMap::new();
     for (name, p) in points {
         let pf = format!("{g}.points.{name}");
@@ -353,11 +396,5 @@ pub(crate) fn body_kind(
         }
         pts.insert(name.clone(), (idx, p.offset));
     }
-    Ok(BodyKind::Fe {
-        fe,
-        points: pts,
-        modes: reduction.as_ref().map(|r| r.modes),
-        loss_factor,
-        terms,
-    })
+    Ok(pts)
 }

@@ -155,15 +155,26 @@ fn plural(n: usize, one: &str, many: &str) -> String {
     format!("{n} {}", if n == 1 { one } else { many })
 }
 
-/// The FRF matrix of `set` to fit under `reciprocity` (module docs), with
-/// the lines inside `band_hz`.
-pub fn frf_data(
-    set: &FrfSet,
-    band_hz: Option<(f64, f64)>,
-    weighting: Weighting,
+/// Where each channel of the full response × reference matrix comes from
+/// (module docs, rule 1).
+struct Sources<'s> {
+    /// The measured channel of each (response, reference), itself or its
+    /// reciprocal.
+    source: HashMap<(Dof, Dof), &'s FrfChannel>,
+    /// Channels "response/reference" taken from their reciprocal.
+    filled: Vec<String>,
+    /// Channels measured neither way.
+    missing: Vec<String>,
+}
+
+/// Every channel of the full matrix of `responses` × `references`, from
+/// itself or, unless `Never`, from its reciprocal.
+fn channel_sources<'s>(
+    set: &'s FrfSet,
+    responses: &[Dof],
+    references: &[Dof],
     reciprocity: Reciprocity,
-) -> Result<(FrfData, Layout), EmaError> {
-    let (responses, references) = (set.responses(), set.references());
+) -> Sources<'s> {
     let measured: HashMap<(Dof, Dof), &FrfChannel> = set
         .channels
         .iter()
@@ -172,8 +183,8 @@ pub fn frf_data(
     // Every channel of the full matrix, from itself or its reciprocal.
     let mut source: HashMap<(Dof, Dof), &FrfChannel> = HashMap::new();
     let (mut filled, mut missing) = (Vec::new(), Vec::new());
-    for &r in &responses {
-        for &q in &references {
+    for &r in responses {
+        for &q in references {
             let own = measured.get(&(r, q)).copied();
             let recip = (reciprocity != Reciprocity::Never)
                 .then(|| measured.get(&(q, r)).copied())
@@ -190,6 +201,77 @@ pub fn frf_data(
             }
         }
     }
+    Sources {
+        source,
+        filled,
+        missing,
+    }
+}
+
+/// The channels of the fitted matrix, output-major: H_oi, taken as the
+/// measured H_io when `transposed`.
+fn fitted_channels<'s>(
+    source: &HashMap<(Dof, Dof), &'s FrfChannel>,
+    outputs: &[Dof],
+    inputs: &[Dof],
+    transposed: bool,
+) -> Result<Vec<&'s FrfChannel>, EmaError> {
+    let mut channels = Vec::with_capacity(outputs.len() * inputs.len());
+    for &o in outputs {
+        for &i in inputs {
+            // Transposed: output o is a measured reference, H_oi = H_io.
+            let k = if transposed { (i, o) } else { (o, i) };
+            let c = source.get(&k).copied().ok_or_else(|| {
+                EmaError::InvalidData(format!("channel {}/{} vanished", k.0, k.1))
+            })?;
+            channels.push(c);
+        }
+    }
+    Ok(channels)
+}
+
+/// The layout's sentence: measured as `references` × `responses` (the
+/// kept ones), fitted as the outputs × references of `data`.
+fn description(data: &FrfData, references: usize, responses: usize, transposed: bool) -> String {
+    let fitted = format!(
+        "{} × {}",
+        plural(data.n_out(), "output", "outputs"),
+        plural(data.n_ref(), "reference", "references")
+    );
+    let measured_as = format!(
+        "{} × {}",
+        plural(references, "reference", "references"),
+        plural(responses, "response", "responses")
+    );
+    if transposed {
+        format!("transposed by reciprocity ({measured_as} fitted as {fitted})")
+    } else {
+        format!("as measured ({measured_as} fitted as {fitted})")
+    }
+}
+
+/// The labels of the DOFs of `all` not in `keep`.
+fn dropped(all: &[Dof], keep: &[usize]) -> Vec<String> {
+    (0..all.len())
+        .filter(|k| !keep.contains(k))
+        .map(|k| all[k].to_string())
+        .collect()
+}
+
+/// The FRF matrix of `set` to fit under `reciprocity` (module docs), with
+/// the lines inside `band_hz`.
+pub fn frf_data(
+    set: &FrfSet,
+    band_hz: Option<(f64, f64)>,
+    weighting: Weighting,
+    reciprocity: Reciprocity,
+) -> Result<(FrfData, Layout), EmaError> {
+    let (responses, references) = (set.responses(), set.references());
+    let Sources {
+        source,
+        filled,
+        missing,
+    } = channel_sources(set, &responses, &references, reciprocity);
     let has = |r: usize, q: usize| source.contains_key(&(responses[r], references[q]));
     let (keep_r, keep_q) = complete_submatrix(responses.len(), references.len(), &has);
     let kept = keep_r.len() * keep_q.len();
@@ -216,17 +298,7 @@ pub fn frf_data(
         keep_q.iter().map(|&q| references[q]).collect(),
     );
     let (outputs, inputs) = if transposed { (&qs, &rs) } else { (&rs, &qs) };
-    let mut channels = Vec::with_capacity(kept);
-    for &o in outputs {
-        for &i in inputs {
-            // Transposed: output o is a measured reference, H_oi = H_io.
-            let k = if transposed { (i, o) } else { (o, i) };
-            let c = source.get(&k).copied().ok_or_else(|| {
-                EmaError::InvalidData(format!("channel {}/{} vanished", k.0, k.1))
-            })?;
-            channels.push(c);
-        }
-    }
+    let channels = fitted_channels(&source, outputs, inputs, transposed)?;
     let data = FrfData::from_channels(
         &set.frequencies_hz,
         band_hz,
@@ -235,27 +307,6 @@ pub fn frf_data(
         &channels,
         weighting,
     )?;
-    let dropped = |all: &[Dof], keep: &[usize]| -> Vec<String> {
-        (0..all.len())
-            .filter(|k| !keep.contains(k))
-            .map(|k| all[k].to_string())
-            .collect()
-    };
-    let fitted = format!(
-        "{} × {}",
-        plural(data.n_out(), "output", "outputs"),
-        plural(data.n_ref(), "reference", "references")
-    );
-    let measured_as = format!(
-        "{} × {}",
-        plural(qs.len(), "reference", "references"),
-        plural(rs.len(), "response", "responses")
-    );
-    let description = if transposed {
-        format!("transposed by reciprocity ({measured_as} fitted as {fitted})")
-    } else {
-        format!("as measured ({measured_as} fitted as {fitted})")
-    };
     let layout = Layout {
         measured_references: references.len(),
         measured_responses: responses.len(),
@@ -267,7 +318,7 @@ pub fn frf_data(
         missing,
         dropped_responses: dropped(&responses, &keep_r),
         dropped_references: dropped(&references, &keep_q),
-        description,
+        description: description(&data, qs.len(), rs.len(), transposed),
     };
     Ok((data, layout))
 }

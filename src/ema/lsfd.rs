@@ -91,30 +91,70 @@ pub fn lsfd_roots(
             "LSFD with a lower residual needs lines above 0 Hz; start the band above 0".into(),
         ));
     }
+    let rows = 2 * nf;
+    let (mut A, scale) = design_matrix(data, lambdas);
+    let mut B = data_matrix(data);
+    let X = least_squares(&mut A, rows, n_col, &mut B, n_ch).ok_or_else(|| {
+        EmaError::InvalidData("LSFD design matrix is rank deficient (coincident poles)".into())
+    })?;
+    let x = Coefficients { X, scale, n_col };
+    let residues: Vec<Vec<Complex64>> = (0..lambdas.len())
+        .map(|r| {
+            (0..n_ch)
+                .map(|ch| Complex64::new(x.at(2 * r, ch), x.at(2 * r + 1, ch)))
+                .collect()
+        })
+        .collect();
+    let lower: Vec<f64> = (0..n_ch).map(|ch| x.at(2 * lambdas.len(), ch)).collect();
+    let upper: Vec<f64> = (0..n_ch)
+        .map(|ch| x.at(2 * lambdas.len() + 1, ch))
+        .collect();
+    let reconstructed = reconstruct(data, lambdas, &x);
+    let (shapes, shape_pole) = shapes(data, &residues, multiplicity);
+    Ok(LsfdFit {
+        residues,
+        lower,
+        upper,
+        shapes,
+        shape_pole,
+        reconstructed,
+    })
+}
+
+/// Column `col` of the LSFD model at line `f`: for pole r the real and
+/// imaginary parts of its residue (columns 2r, 2r + 1) multiply
+/// 1/(jω − λ) ± 1/(jω − λ*), then come the lower residual (−1/ω²) and the
+/// upper residual (1).
+fn basis(data: &FrfData, lambdas: &[Complex64], f: usize, col: usize) -> Complex64 {
     let j = Complex64::new(0.0, 1.0);
-    let basis = |f: usize, col: usize| -> Complex64 {
-        let w = 2.0 * PI * data.frequencies_hz[f];
-        let jw = Complex64::new(0.0, w);
-        match col {
-            c if c < 2 * lambdas.len() => {
-                let l = lambdas[c / 2];
-                let (p, q) = (1.0 / (jw - l), 1.0 / (jw - l.conj()));
-                if c % 2 == 0 {
-                    p + q
-                } else {
-                    j * p - j * q
-                }
+    let w = 2.0 * PI * data.frequencies_hz[f];
+    let jw = Complex64::new(0.0, w);
+    match col {
+        c if c < 2 * lambdas.len() => {
+            let l = lambdas[c / 2];
+            let (p, q) = (1.0 / (jw - l), 1.0 / (jw - l.conj()));
+            if c % 2 == 0 {
+                p + q
+            } else {
+                j * p - j * q
             }
-            c if c == 2 * lambdas.len() => Complex64::new(-1.0 / (w * w), 0.0),
-            _ => Complex64::new(1.0, 0.0),
         }
-    };
+        c if c == 2 * lambdas.len() => Complex64::new(-1.0 / (w * w), 0.0),
+        _ => Complex64::new(1.0, 0.0),
+    }
+}
+
+/// The real design matrix [Re; Im] of the [`basis`] (column-major, 2 n_f
+/// rows), its columns scaled to unit norm, and the scale of each column.
+fn design_matrix(data: &FrfData, lambdas: &[Complex64]) -> (Vec<f64>, Vec<f64>) {
+    let nf = data.n_lines();
+    let n_col = 2 * lambdas.len() + 2;
     let rows = 2 * nf;
     // Column-major design matrix [Re; Im].
     let mut A = vec![0.0; rows * n_col];
     for col in 0..n_col {
         for f in 0..nf {
-            let b = basis(f, col);
+            let b = basis(data, lambdas, f, col);
             A[col * rows + f] = b.re;
             A[col * rows + nf + f] = b.im;
         }
@@ -137,6 +177,14 @@ pub fn lsfd_roots(
     for (c, s) in scale.iter().enumerate() {
         A[c * rows..(c + 1) * rows].iter_mut().for_each(|v| *v *= s);
     }
+    (A, scale)
+}
+
+/// The right-hand sides [Re; Im] of every channel (column-major, 2 n_f rows).
+fn data_matrix(data: &FrfData) -> Vec<f64> {
+    let nf = data.n_lines();
+    let n_ch = data.n_out() * data.n_ref();
+    let rows = 2 * nf;
     let mut B = vec![0.0; rows * n_ch];
     for ch in 0..n_ch {
         for f in 0..nf {
@@ -145,26 +193,46 @@ pub fn lsfd_roots(
             B[ch * rows + nf + f] = v.im;
         }
     }
-    let X = least_squares(&mut A, rows, n_col, &mut B, n_ch).ok_or_else(|| {
-        EmaError::InvalidData("LSFD design matrix is rank deficient (coincident poles)".into())
-    })?;
-    let x = |col: usize, ch: usize| X[ch * n_col + col] * scale[col];
-    let residues: Vec<Vec<Complex64>> = (0..lambdas.len())
-        .map(|r| {
-            (0..n_ch)
-                .map(|ch| Complex64::new(x(2 * r, ch), x(2 * r + 1, ch)))
-                .collect()
-        })
-        .collect();
-    let lower: Vec<f64> = (0..n_ch).map(|ch| x(2 * lambdas.len(), ch)).collect();
-    let upper: Vec<f64> = (0..n_ch).map(|ch| x(2 * lambdas.len() + 1, ch)).collect();
+    B
+}
+
+/// The least-squares solution of the scaled design matrix, per channel.
+struct Coefficients {
+    /// Solution for the scaled columns (`n_col` per channel).
+    X: Vec<f64>,
+    /// Scale of each column ([`design_matrix`]).
+    scale: Vec<f64>,
+    n_col: usize,
+}
+
+impl Coefficients {
+    /// The coefficient of column `col` for channel `ch`, unscaled.
+    fn at(&self, col: usize, ch: usize) -> f64 {
+        self.X[ch * self.n_col + col] * self.scale[col]
+    }
+}
+
+/// The fitted FRFs Σ_c basis_c · x_c, in the layout of [`FrfData::h`].
+fn reconstruct(data: &FrfData, lambdas: &[Complex64], x: &Coefficients) -> Vec<Complex64> {
+    let nf = data.n_lines();
+    let n_ch = data.n_out() * data.n_ref();
     let mut reconstructed = vec![Complex64::new(0.0, 0.0); n_ch * nf];
     for f in 0..nf {
-        let row: Vec<Complex64> = (0..n_col).map(|c| basis(f, c)).collect();
+        let row: Vec<Complex64> = (0..x.n_col).map(|c| basis(data, lambdas, f, c)).collect();
         for ch in 0..n_ch {
-            reconstructed[ch * nf + f] = row.iter().enumerate().map(|(c, b)| b * x(c, ch)).sum();
+            reconstructed[ch * nf + f] = row.iter().enumerate().map(|(c, b)| b * x.at(c, ch)).sum();
         }
     }
+    reconstructed
+}
+
+/// The shapes of each pole, the `multiplicity` leading left singular
+/// vectors of its residue matrix (at least one), and the pole of each shape.
+fn shapes(
+    data: &FrfData,
+    residues: &[Vec<Complex64>],
+    multiplicity: &[usize],
+) -> (Vec<Vec<Complex64>>, Vec<usize>) {
     let mut shapes = Vec::new();
     let mut shape_pole = Vec::new();
     for (r, (res, &m)) in residues.iter().zip(multiplicity).enumerate() {
@@ -174,12 +242,5 @@ pub fn lsfd_roots(
             shape_pole.push(r);
         }
     }
-    Ok(LsfdFit {
-        residues,
-        lower,
-        upper,
-        shapes,
-        shape_pole,
-        reconstructed,
-    })
+    (shapes, shape_pole)
 }

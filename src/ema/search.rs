@@ -188,6 +188,164 @@ fn search_space(p: &AutoEmaParams, summary: &DataSummary) -> Result<Space, EmaEr
     Ok((bounds, fixed))
 }
 
+/// The free hyperparameters and how the search's coordinates map to them:
+/// the pinned values stay, the free ones are searched on their box, in
+/// logarithmic coordinates where [`LOG_SCALE`] says so.
+struct Coordinates {
+    /// Pinned value per hyperparameter (`None`: searched).
+    fixed: [Option<f64>; 9],
+    /// Indices of the searched hyperparameters.
+    free: Vec<usize>,
+    /// Search range of each free hyperparameter, in search coordinates.
+    search: Vec<(f64, f64)>,
+}
+
+impl Coordinates {
+    /// The searched coordinates of the box `bounds` with the values `fixed`
+    /// pinned.
+    fn new(bounds: &[(f64, f64); 9], fixed: [Option<f64>; 9]) -> Coordinates {
+        let free: Vec<usize> = (0..9).filter(|&k| fixed[k].is_none()).collect();
+        let to_search = |k: usize, v: f64| if LOG_SCALE[k] { v.ln() } else { v };
+        let search: Vec<(f64, f64)> = free
+            .iter()
+            .map(|&k| (to_search(k, bounds[k].0), to_search(k, bounds[k].1)))
+            .collect();
+        Coordinates {
+            fixed,
+            free,
+            search,
+        }
+    }
+
+    /// The hyperparameter point of the search coordinates `x`.
+    fn point(&self, x: &[f64]) -> Hyperparameters {
+        let mut a = self.fixed.map(|v| v.unwrap_or(0.0));
+        for (&k, &v) in self.free.iter().zip(x) {
+            a[k] = if LOG_SCALE[k] { v.exp() } else { v };
+        }
+        Hyperparameters::from_array(a)
+    }
+}
+
+/// Every evaluation of the search: its trace entry and its coordinates.
+struct Evaluations {
+    trace: Vec<TraceEntry>,
+    xs: Vec<Vec<f64>>,
+}
+
+/// Bayesian optimization of J(θ) on the Sobol design over the free
+/// coordinates (a single evaluation when none is free), extended until
+/// [`settled`]; returns every evaluation, for [`choose`].
+fn search_hyperparameters(
+    screening: &mut Screening<'_>,
+    orders: &[PoleOrder],
+    coordinates: &Coordinates,
+    p: &AutoEmaParams,
+    on_step: &(dyn Fn() + Sync),
+) -> Evaluations {
+    let mut trace = Vec::new();
+    let mut xs: Vec<Vec<f64>> = Vec::new();
+    let mut objective = |x: &[f64]| {
+        let h = coordinates.point(x);
+        let s = select_modes(screening, orders, &h);
+        trace.push(TraceEntry {
+            hyperparameters: h,
+            mean_frac: s.mean_frac,
+            n_modes: s.n_modes(),
+            n_rejected: s.rejected.len(),
+            objective: s.objective,
+        });
+        xs.push(x.to_vec());
+        on_step();
+        (s.objective, s.n_modes())
+    };
+    if coordinates.free.is_empty() {
+        objective(&[]);
+    } else {
+        let budget = p.evaluations.max(1);
+        let mut bo = SobolSearch::new(coordinates.free.len(), p.initial.clamp(1, budget), p.design);
+        // (objective, modes) of every evaluation.
+        let mut values: Vec<(f64, usize)> = Vec::new();
+        loop {
+            let u = bo.ask();
+            let x: Vec<f64> = u
+                .iter()
+                .zip(&coordinates.search)
+                .map(|(v, &(lo, hi))| lo + v.clamp(0.0, 1.0) * (hi - lo))
+                .collect();
+            let (y, n_modes) = objective(&x);
+            bo.tell(u, y);
+            values.push((y, n_modes));
+            if settled(&values, budget) {
+                break;
+            }
+        }
+    }
+    Evaluations { trace, xs }
+}
+
+/// The final fit's check against the noise floor: the relative error ε²
+/// (power ratio; the larger of the data's noise and the fit's misfit) and
+/// the residual peaks, those at an identified mode marked.
+fn check_fit(
+    screening: &Screening<'_>,
+    orders: &[PoleOrder],
+    best: &Selection,
+    fit: &LsfdFit,
+    summary: &DataSummary,
+) -> (f64, Vec<ResidualPeak>) {
+    let data = screening.data;
+    let relative_error = relative_noise(data, &screening.noise).max(relative_misfit(
+        data,
+        &fit.reconstructed,
+        &screening.noise,
+    ));
+    let mut residual_peaks = residual_peaks(
+        data,
+        &fit.reconstructed,
+        &screening.noise,
+        relative_error,
+        &coherence_relative_error(data, ASSUMED_AVERAGES),
+    );
+    let modes: Vec<(f64, f64)> = best
+        .roots
+        .iter()
+        .map(|r| {
+            let p = r.pole(orders);
+            (p.frequency_hz, p.damping_ratio)
+        })
+        .collect();
+    mark_identified(&mut residual_peaks, &modes, summary.line_spacing_hz);
+    (relative_error, residual_peaks)
+}
+
+/// The sentences that ask the user to act.
+fn warnings(
+    screening: &Screening<'_>,
+    orders: &[PoleOrder],
+    best: &Selection,
+    at_bound: &[AtBound],
+    residual_peaks: &[ResidualPeak],
+) -> Vec<String> {
+    // Warnings ask the user to act: a box that limits the result (widen
+    // `bounds`), a mode the data show and the fit misses (look at that band).
+    // A bound the result does not depend on, and residual structure below
+    // the visibility limit, stay in metrics.json only.
+    let mut warnings: Vec<String> = at_bound
+        .iter()
+        .filter(|b| b.sensitive)
+        .map(AtBound::warning)
+        .collect();
+    warnings.extend(
+        residual_peaks
+            .iter()
+            .filter(|r| r.missing_mode())
+            .map(ResidualPeak::warning),
+    );
+    warnings.extend(inconsistent_references(screening, orders, best));
+    warnings
+}
+
 /// PolyMAX up to the highest order, then Bayesian optimization of the
 /// selection hyperparameters; `on_step` is called after every evaluation.
 pub fn auto_ema(
@@ -211,110 +369,24 @@ pub fn auto_ema(
             max_order: top_order,
         },
     )?;
-    let free: Vec<usize> = (0..9).filter(|&k| fixed[k].is_none()).collect();
-    let to_search = |k: usize, v: f64| if LOG_SCALE[k] { v.ln() } else { v };
-    let search: Vec<(f64, f64)> = free
-        .iter()
-        .map(|&k| (to_search(k, bounds[k].0), to_search(k, bounds[k].1)))
-        .collect();
-    let point = |x: &[f64]| {
-        let mut a = [0.0; 9];
-        for k in 0..9 {
-            a[k] = fixed[k].unwrap_or(0.0);
-        }
-        for (&k, &v) in free.iter().zip(x) {
-            a[k] = if LOG_SCALE[k] { v.exp() } else { v };
-        }
-        Hyperparameters::from_array(a)
-    };
-    let mut trace = Vec::new();
-    let mut xs: Vec<Vec<f64>> = Vec::new();
-    let mut objective = |x: &[f64]| {
-        let h = point(x);
-        let s = select_modes(&mut screening, &orders, &h);
-        trace.push(TraceEntry {
-            hyperparameters: h,
-            mean_frac: s.mean_frac,
-            n_modes: s.n_modes(),
-            n_rejected: s.rejected.len(),
-            objective: s.objective,
-        });
-        xs.push(x.to_vec());
-        on_step();
-        (s.objective, s.n_modes())
-    };
-    if free.is_empty() {
-        objective(&[]);
-    } else {
-        let budget = p.evaluations.max(1);
-        let mut bo = SobolSearch::new(free.len(), p.initial.clamp(1, budget), p.design);
-        // (objective, modes) of every evaluation.
-        let mut values: Vec<(f64, usize)> = Vec::new();
-        loop {
-            let u = bo.ask();
-            let x: Vec<f64> = u
-                .iter()
-                .zip(&search)
-                .map(|(v, &(lo, hi))| lo + v.clamp(0.0, 1.0) * (hi - lo))
-                .collect();
-            let (y, n_modes) = objective(&x);
-            bo.tell(u, y);
-            values.push((y, n_modes));
-            if settled(&values, budget) {
-                break;
-            }
-        }
-    }
-    let chosen = choose(&trace, &xs, &search);
-    let best = select_modes(&mut screening, &orders, &point(&xs[chosen]));
+    let coordinates = Coordinates::new(&bounds, fixed);
+    let Evaluations { trace, xs } =
+        search_hyperparameters(&mut screening, &orders, &coordinates, p, on_step);
+    let chosen = choose(&trace, &xs, &coordinates.search);
+    let best = select_modes(&mut screening, &orders, &coordinates.point(&xs[chosen]));
     let at_bound = probe_bounds(
         &mut screening,
         &orders,
         &best,
         &xs[chosen],
-        &search,
-        &free,
-        &point,
+        &coordinates.search,
+        &coordinates.free,
+        &|x| coordinates.point(x),
     );
     let best = refine_selection(&mut screening, &orders, &best);
     let fit = final_fit(data, &orders, &best)?;
-    let relative_error = relative_noise(data, &screening.noise).max(relative_misfit(
-        data,
-        &fit.reconstructed,
-        &screening.noise,
-    ));
-    let mut residual_peaks = residual_peaks(
-        data,
-        &fit.reconstructed,
-        &screening.noise,
-        relative_error,
-        &coherence_relative_error(data, ASSUMED_AVERAGES),
-    );
-    let modes: Vec<(f64, f64)> = best
-        .roots
-        .iter()
-        .map(|r| {
-            let p = r.pole(&orders);
-            (p.frequency_hz, p.damping_ratio)
-        })
-        .collect();
-    mark_identified(&mut residual_peaks, &modes, summary.line_spacing_hz);
-    // Warnings ask the user to act: a box that limits the result (widen
-    // `bounds`), a mode the data show and the fit misses (look at that band).
-    // A bound the result does not depend on, and residual structure below
-    // the visibility limit, stay in metrics.json only.
-    let mut warnings: Vec<String> = at_bound
-        .iter()
-        .filter(|b| b.sensitive)
-        .map(AtBound::warning)
-        .collect();
-    warnings.extend(
-        residual_peaks
-            .iter()
-            .filter(|r| r.missing_mode())
-            .map(ResidualPeak::warning),
-    );
-    warnings.extend(inconsistent_references(&screening, &orders, &best));
+    let (relative_error, residual_peaks) = check_fit(&screening, &orders, &best, &fit, &summary);
+    let warnings = warnings(&screening, &orders, &best, &at_bound, &residual_peaks);
     Ok(AutoEmaResult {
         orders,
         best,

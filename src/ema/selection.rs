@@ -15,27 +15,24 @@
 //! it beyond the noise (significance) and is not a second copy of another
 //! (duplicate rule), so more modes raise J only when they are real. The
 //! optional per-mode penalty p of PUB5 remains for comparison.
+//!
+//! The final steps for the point the search keeps (multiplicities over all
+//! orders, refined poles, validation again) are in `refinement`.
+
+mod refinement;
+
+pub use refinement::refine_selection;
 
 use super::clustering::{cluster_poles, Cluster, ClusterParams};
 use super::lsfd::{lsfd_roots, LsfdFit};
-use super::noise::{cmif, noise_variance, peak_at};
+use super::noise::{cmif, noise_variance};
 use super::peak_evidence::PeakEvidence;
-use super::polymax::{Pole, PoleOrder};
-use super::projection::{FitOutcome, Projector};
-use super::refine::{nested_statistic, refine_sweep};
-use super::roots::{multiplicity_over_all_orders, roots_from_clusters, Root};
-use super::significance::{
-    chi2_isf, holds_peak, Acceptance, Reason, Rejection, Validated, Validation,
-};
+use super::polymax::PoleOrder;
+use super::projection::Projector;
+use super::roots::{roots_from_clusters, Root};
+use super::significance::{Acceptance, Rejection, Validated, Validation};
 use super::stabilization::{stabilize, PoleFlags, StabilizationParams};
 use super::{EmaError, FrfData};
-use num_complex::Complex64;
-
-/// Fraction of the median stable column of the peak-holding roots below
-/// which a root kept for significance alone is dropped ([`short_columns`]).
-const SHORT_COLUMN: f64 = 0.3;
-/// Damping ratio from which a root's column height is not judged.
-const SHORT_COLUMN_MAX_DAMPING: f64 = 0.02;
 
 /// The tuned quantities, in the order of [`Hyperparameters::to_array`].
 pub const HYPERPARAMETER_NAMES: [&str; 9] = [
@@ -190,30 +187,30 @@ impl Selection {
     }
 }
 
-/// Classify, cluster, validate and score one hyperparameter point.
-pub fn select_modes(
-    screening: &mut Screening<'_>,
-    orders: &[PoleOrder],
-    h: &Hyperparameters,
-) -> Selection {
-    let data = screening.data;
-    let n_orders = orders.iter().take_while(|o| o.order <= h.max_order).count();
-    let band = (
+/// The band of the data (Hz): its first and last line, 0 for none.
+fn band_hz(data: &FrfData) -> (f64, f64) {
+    (
         data.frequencies_hz.first().copied().unwrap_or(0.0),
         data.frequencies_hz.last().copied().unwrap_or(0.0),
-    );
-    let flags = stabilize(
-        orders,
-        n_orders,
-        &StabilizationParams {
-            frequency_tol: h.frequency_tol,
-            damping_tol: h.damping_tol,
-            mac_tol: h.mac_tol,
-            max_damping: h.max_damping,
-            band_hz: band,
-        },
-    );
-    let candidates: Vec<(usize, usize)> = flags
+    )
+}
+
+/// The stabilization tolerances of the hyperparameter point `h` on the
+/// band of `data`.
+fn stabilization_params(h: &Hyperparameters, data: &FrfData) -> StabilizationParams {
+    StabilizationParams {
+        frequency_tol: h.frequency_tol,
+        damping_tol: h.damping_tol,
+        mac_tol: h.mac_tol,
+        max_damping: h.max_damping,
+        band_hz: band_hz(data),
+    }
+}
+
+/// (order index, pole index) of every stable pole of `flags`: the
+/// candidates of the clustering.
+fn stable_poles(flags: &[Vec<PoleFlags>]) -> Vec<(usize, usize)> {
+    flags
         .iter()
         .enumerate()
         .flat_map(|(j, fl)| {
@@ -222,7 +219,19 @@ pub fn select_modes(
                 .filter(|(_, f)| f.stable())
                 .map(move |(k, _)| (j, k))
         })
-        .collect();
+        .collect()
+}
+
+/// Classify, cluster, validate and score one hyperparameter point.
+pub fn select_modes(
+    screening: &mut Screening<'_>,
+    orders: &[PoleOrder],
+    h: &Hyperparameters,
+) -> Selection {
+    let data = screening.data;
+    let n_orders = orders.iter().take_while(|o| o.order <= h.max_order).count();
+    let flags = stabilize(orders, n_orders, &stabilization_params(h, data));
+    let candidates = stable_poles(&flags);
     let clusters = cluster_poles(
         orders,
         &candidates,
@@ -250,237 +259,6 @@ pub fn select_modes(
     }
 }
 
-/// The final steps for the chosen selection: multiplicities on the
-/// evidence of every computed order
-/// ([`super::roots::multiplicity_over_all_orders`]), poles refined on the
-/// FRFs ([`super::refine`], two sweeps with a global refit between), and
-/// validation again.
-pub fn refine_selection(
-    screening: &mut Screening<'_>,
-    orders: &[PoleOrder],
-    s: &Selection,
-) -> Selection {
-    let data = screening.data;
-    let mut roots = s.roots.clone();
-    // Multiplicities on the evidence of every computed order.
-    let h = &s.hyperparameters;
-    let flags = stabilize(
-        orders,
-        orders.len(),
-        &StabilizationParams {
-            frequency_tol: h.frequency_tol,
-            damping_tol: h.damping_tol,
-            mac_tol: h.mac_tol,
-            max_damping: h.max_damping,
-            band_hz: (
-                data.frequencies_hz.first().copied().unwrap_or(0.0),
-                data.frequencies_hz.last().copied().unwrap_or(0.0),
-            ),
-        },
-    );
-    let stable: Vec<(usize, usize)> = flags
-        .iter()
-        .enumerate()
-        .flat_map(|(j, fl)| {
-            fl.iter()
-                .enumerate()
-                .filter(|(_, f)| f.stable())
-                .map(move |(k, _)| (j, k))
-        })
-        .collect();
-    let freqs = &data.frequencies_hz;
-    let step = freqs
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(f64::INFINITY, f64::min);
-    let cmif_peak = |m: usize, f: f64, hw: f64| {
-        screening
-            .cmif
-            .get(m - 1)
-            .is_some_and(|c| peak_at(c, freqs, f, hw.max(step)))
-    };
-    let m: Vec<usize> = (0..roots.len())
-        .map(|k| multiplicity_over_all_orders(orders, &roots, k, &stable, data.n_ref(), &cmif_peak))
-        .collect();
-    for (r, m) in roots.iter_mut().zip(m) {
-        r.multiplicity = m;
-    }
-    for _sweep in 0..2 {
-        refine_roots(screening, orders, &mut roots);
-    }
-    let mut rejected = s.rejected.clone();
-    while let Some((k, reason)) = weakest_nested(screening, orders, &roots) {
-        let p = roots[k].pole(orders);
-        rejected.push(Rejection {
-            frequency_hz: p.frequency_hz,
-            damping_ratio: p.damping_ratio,
-            n_orders: roots[k].n_orders,
-            reason,
-        });
-        roots.remove(k);
-        refine_roots(screening, orders, &mut roots);
-    }
-    // A pole the refinement moved out of the band describes no peak of
-    // these data (mimo UFSC beam: 1002.6 Hz from a 5–800 Hz band).
-    let (lo, hi) = (
-        data.frequencies_hz.first().copied().unwrap_or(0.0),
-        data.frequencies_hz.last().copied().unwrap_or(0.0),
-    );
-    roots.retain(|r| {
-        let p = r.pole(orders);
-        let inside = (lo..=hi).contains(&p.frequency_hz);
-        if !inside {
-            rejected.push(Rejection {
-                frequency_hz: p.frequency_hz,
-                damping_ratio: p.damping_ratio,
-                n_orders: r.n_orders,
-                reason: Reason::OutsideBand { band_hz: (lo, hi) },
-            });
-        }
-        inside
-    });
-    let validated = loop {
-        let validated = screening.validate(orders, roots);
-        let short = short_columns(orders, &validated.roots, &validated.accepted);
-        if short.is_empty() {
-            break validated;
-        }
-        rejected.extend(validated.rejected);
-        roots = Vec::with_capacity(validated.roots.len());
-        for (k, r) in validated.roots.into_iter().enumerate() {
-            match short.iter().find(|(j, _)| *j == k) {
-                Some(&(_, median)) => {
-                    let p = r.pole(orders);
-                    rejected.push(Rejection {
-                        frequency_hz: p.frequency_hz,
-                        damping_ratio: p.damping_ratio,
-                        n_orders: r.n_orders,
-                        reason: Reason::ShortColumn {
-                            peak_median_orders: median,
-                        },
-                    });
-                }
-                None => roots.push(r),
-            }
-        }
-    };
-    let mean_frac = validated.fit.mean_frac();
-    let n_modes: usize = validated.roots.iter().map(|r| r.multiplicity).sum();
-    rejected.extend(validated.rejected);
-    Selection {
-        hyperparameters: s.hyperparameters.clone(),
-        flags: s.flags.clone(),
-        clusters: s.clusters.clone(),
-        objective: mean_frac - screening.params.penalty * n_modes as f64,
-        roots: validated.roots,
-        accepted: validated.accepted,
-        rejected,
-        mean_frac,
-    }
-}
-
-/// A root kept only for its significance (no CMIF peak of its own) needs a
-/// stable column at least [`SHORT_COLUMN`] times the median column of the
-/// roots that hold a peak: cluster size is the model-order evidence of a
-/// physical pole, and automated EMA discards clusters far smaller than the
-/// typical physical one (Magalhães, Cunha & Caetano 2009,
-/// doi:10.1016/j.ymssp.2008.05.003; Reynders, Houbrechts & De Roeck 2012,
-/// doi:10.1016/j.ymssp.2011.11.008). The significance test measures a
-/// root against the random noise only; on measured data a short column
-/// beside strong modes soaks up systematic error instead (mass loading of
-/// a roving accelerometer, the UFSC beam shaker test: 264.1 Hz beside
-/// 266.3 Hz, 14 of a median 56 orders; tool holder H11: 3236 Hz, 6 of
-/// 29). Only lightly damped roots (ζ < [`SHORT_COLUMN_MAX_DAMPING`])
-/// are judged so: a heavily damped pole scatters across orders by a good
-/// part of its half-power band 2ζf and leaves the stabilization tolerances
-/// at many orders, so its column is short though it is physical (the
-/// synthetic high-damping family, ζ 5–8 %, loses true modes on this rule:
-/// 13 instead of 18 successes of 20 at 5 % noise). Returns (index, median)
-/// of every such root.
-fn short_columns(
-    orders: &[PoleOrder],
-    roots: &[Root],
-    accepted: &[Acceptance],
-) -> Vec<(usize, usize)> {
-    let mut peak: Vec<usize> = roots
-        .iter()
-        .zip(accepted)
-        .filter(|(_, a)| matches!(a, Acceptance::CmifPeak { .. }))
-        .map(|(r, _)| r.n_orders)
-        .collect();
-    if peak.is_empty() {
-        return Vec::new();
-    }
-    peak.sort_unstable();
-    let median = peak[peak.len() / 2];
-    roots
-        .iter()
-        .zip(accepted)
-        .enumerate()
-        .filter(|(_, (r, a))| {
-            matches!(a, Acceptance::Significance { .. })
-                && r.pole(orders).damping_ratio < SHORT_COLUMN_MAX_DAMPING
-                && (r.n_orders as f64) < SHORT_COLUMN * median as f64
-        })
-        .map(|(k, _)| (k, median))
-        .collect()
-}
-
-/// One refinement sweep of the roots' poles ([`refine_sweep`]), roots kept
-/// sorted by frequency.
-fn refine_roots(screening: &mut Screening<'_>, orders: &[PoleOrder], roots: &mut [Root]) {
-    let lambdas: Vec<Complex64> = roots.iter().map(|r| r.pole(orders).s).collect();
-    let FitOutcome::Fit(fit) = screening.projector.fit(&lambdas) else {
-        return;
-    };
-    let new = refine_sweep(screening.data, &screening.noise, &lambdas, &fit);
-    for (r, l) in roots.iter_mut().zip(new) {
-        if l != r.pole(orders).s && r.column_holds(orders, l.norm() / (2.0 * std::f64::consts::PI))
-        {
-            let w = l.norm();
-            r.refined = Some(Pole {
-                s: l,
-                frequency_hz: w / (2.0 * std::f64::consts::PI),
-                damping_ratio: -l.re / w,
-                participation: r.representative_pole(orders).participation.clone(),
-            });
-        }
-    }
-    roots.sort_by(|a, b| {
-        a.pole(orders)
-            .frequency_hz
-            .total_cmp(&b.pole(orders).frequency_hz)
-    });
-}
-
-/// The root whose nested likelihood-ratio statistic falls furthest below
-/// its threshold χ²_dof(1 − α/(2 n_r)), if any falls below.
-fn weakest_nested(
-    screening: &mut Screening<'_>,
-    orders: &[PoleOrder],
-    roots: &[Root],
-) -> Option<(usize, Reason)> {
-    let lambdas: Vec<Complex64> = roots.iter().map(|r| r.pole(orders).s).collect();
-    let FitOutcome::Fit(fit) = screening.projector.fit(&lambdas) else {
-        return None;
-    };
-    let n = roots.len().max(1) as f64;
-    let holds = holds_peak(&screening.evidence, orders, roots, &fit, &screening.noise);
-    (0..roots.len())
-        .filter(|&k| !holds[k])
-        .filter_map(|k| {
-            let (t, dof) = nested_statistic(screening.data, &screening.noise, &lambdas, &fit, k)?;
-            let threshold = chi2_isf(dof, screening.params.alpha / (2.0 * n));
-            (t < threshold).then_some((
-                k,
-                t / threshold,
-                Reason::NotSignificantNested { t, threshold },
-            ))
-        })
-        .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
-        .map(|(k, _, r)| (k, r))
-}
-
 /// The final LSFD fit (Householder QR) of a selection: shapes and the
 /// reconstructed FRFs.
 pub fn final_fit(
@@ -491,73 +269,4 @@ pub fn final_fit(
     let lambdas: Vec<_> = selection.roots.iter().map(|r| r.pole(orders).s).collect();
     let mult: Vec<usize> = selection.roots.iter().map(|r| r.multiplicity).collect();
     lsfd_roots(data, &lambdas, &mult)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::metrics::pole as pole_of;
-
-    /// One root per (frequency, damping, column height), each on its own
-    /// order-1 pole list entry.
-    fn roots(spec: &[(f64, f64, usize)]) -> (Vec<PoleOrder>, Vec<Root>) {
-        let poles = spec
-            .iter()
-            .map(|&(f, z, _)| Pole {
-                s: pole_of(f, z),
-                frequency_hz: f,
-                damping_ratio: z,
-                participation: vec![Complex64::new(1.0, 0.0)],
-            })
-            .collect();
-        let orders = vec![PoleOrder { order: 1, poles }];
-        let roots = spec
-            .iter()
-            .enumerate()
-            .map(|(k, &(_, _, n))| Root {
-                members: vec![(0, k)],
-                representative: (0, k),
-                multiplicity: 1,
-                n_orders: n,
-                refined: None,
-            })
-            .collect();
-        (orders, roots)
-    }
-
-    #[test]
-    fn short_columns_are_judged_on_lightly_damped_significance_roots_only() {
-        // Peak roots on 40, 50, 60 orders (median 50, limit 0.3 · 50 = 15);
-        // significance roots on 14 orders at ζ 0.5 % (dropped) and 5 %
-        // (heavily damped: kept), on 15 orders at ζ 0.5 % (kept), and a
-        // peak root on 5 orders (its own peak: kept).
-        let (orders, roots) = roots(&[
-            (100.0, 0.005, 40),
-            (200.0, 0.005, 50),
-            (300.0, 0.005, 60),
-            (350.0, 0.005, 5),
-            (400.0, 0.005, 14),
-            (500.0, 0.05, 14),
-            (600.0, 0.005, 15),
-        ]);
-        let peak = |f| Acceptance::CmifPeak {
-            peak_hz: f,
-            score: 10.0,
-        };
-        let sig = Acceptance::Significance { score: 10.0 };
-        let accepted = vec![
-            peak(100.0),
-            peak(200.0),
-            peak(300.0),
-            peak(350.0),
-            sig.clone(),
-            sig.clone(),
-            sig,
-        ];
-        // Median of 5, 40, 50, 60 (upper middle): 50.
-        assert_eq!(short_columns(&orders, &roots, &accepted), vec![(4, 50)]);
-        // No peak root: nothing to compare with, nothing dropped.
-        let none = vec![Acceptance::Significance { score: 10.0 }; roots.len()];
-        assert!(short_columns(&orders, &roots, &none).is_empty());
-    }
 }

@@ -6,15 +6,31 @@ use super::style::{text_width, LABEL_SIZE, TICK_SIZE, TITLE_SIZE};
 use super::svg::{esc, header, PALETTE};
 use std::fmt::Write;
 
-/// Grouped vertical bars: one group per label (x axis titled `x_label`),
-/// one bar per series.
-pub fn bars(
-    title: &str,
-    (x_label, labels): (&str, &[String]),
-    y_label: &str,
-    series: &[(String, Vec<f64>)],
-    caption: &str,
-) -> String {
+/// Sizes of a bar chart, in px: the group width, the value axis (its top
+/// and ticks), the frame's place (left `l`, top `t`) and size, and the
+/// canvas.
+struct Geometry {
+    group: f64,
+    top: f64,
+    ticks: axis::Ticks,
+    l: f64,
+    t: f64,
+    pw: f64,
+    ph: f64,
+    w: f64,
+    h: f64,
+}
+
+impl Geometry {
+    /// The y of value `v` on the canvas.
+    fn sy(&self, v: f64) -> f64 {
+        self.t + self.ph - v / self.top * self.ph
+    }
+}
+
+/// The sizes that fit the values of `series`, the group `labels`, the
+/// legend and `title`.
+fn geometry(title: &str, labels: &[String], series: &[(String, Vec<f64>)]) -> Geometry {
     let group = 14.0 * series.len().max(1) as f64 + 10.0;
     let vmax = series
         .iter()
@@ -42,7 +58,32 @@ pub fn bars(
         + 40.0;
     let w = (l + pw + legend_w + 10.0).max(text_width(title, TITLE_SIZE) + 24.0);
     let h = t + ph + label_h + LABEL_SIZE + 24.0;
-    let sy = |v: f64| t + ph - v / top * ph;
+    Geometry {
+        group,
+        top,
+        ticks,
+        l,
+        t,
+        pw,
+        ph,
+        w,
+        h,
+    }
+}
+
+/// Grouped vertical bars: one group per label (x axis titled `x_label`),
+/// one bar per series.
+pub fn bars(
+    title: &str,
+    (x_label, labels): (&str, &[String]),
+    y_label: &str,
+    series: &[(String, Vec<f64>)],
+    caption: &str,
+) -> String {
+    let g = geometry(title, labels, series);
+    let Geometry {
+        l, t, pw, ph, w, h, ..
+    } = g;
     let mut s = header(w, h, caption);
     let _ = write!(
         s,
@@ -50,9 +91,26 @@ pub fn bars(
         w / 2.0,
         esc(title)
     );
+    value_axis(&mut s, &g, y_label);
+    groups(&mut s, &g, (x_label, labels), series);
+    legend(&mut s, &g, series);
+    let _ = write!(
+        s,
+        r##"<line x1="{l:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="#444"/>"##,
+        t + ph,
+        l + pw,
+        t + ph
+    );
+    s.push_str("</svg>\n");
+    s
+}
+
+/// The y axis: grid lines with tick labels, and its rotated title.
+fn value_axis(s: &mut String, g: &Geometry, y_label: &str) {
+    let (l, t, pw, ph) = (g.l, g.t, g.pw, g.ph);
     s.push_str(r#"<g class="axis" data-axis="y">"#);
-    for (v, label) in ticks.at.iter().zip(&ticks.labels) {
-        let y = sy(*v);
+    for (v, label) in g.ticks.at.iter().zip(&g.ticks.labels) {
+        let y = g.sy(*v);
         let _ = write!(
             s,
             r##"<line x1="{l:.1}" y1="{y:.1}" x2="{:.1}" y2="{y:.1}" stroke="#e3e3e3"/><text class="tick" x="{:.1}" y="{:.1}" font-size="{TICK_SIZE}" text-anchor="end">{}</text>"##,
@@ -68,13 +126,24 @@ pub fn bars(
         r#"<text class="axis-title" x="{LABEL_SIZE}" y="{cy:.1}" font-size="{LABEL_SIZE}" text-anchor="middle" transform="rotate(-90 {LABEL_SIZE} {cy:.1})">{}</text></g>"#,
         esc(y_label)
     );
+}
+
+/// The x axis: per label a bar of each series with a positive value (its
+/// tooltip the value) and the rotated label, then the axis title.
+fn groups(
+    s: &mut String,
+    g: &Geometry,
+    (x_label, labels): (&str, &[String]),
+    series: &[(String, Vec<f64>)],
+) {
+    let (group, top, l, t, pw, ph, h) = (g.group, g.top, g.l, g.t, g.pw, g.ph, g.h);
     s.push_str(r#"<g class="axis" data-axis="x">"#);
-    for (g, label) in labels.iter().enumerate() {
-        let x0 = l + group * g as f64 + 5.0;
+    for (gi, label) in labels.iter().enumerate() {
+        let x0 = l + group * gi as f64 + 5.0;
         for (k, (_, values)) in series.iter().enumerate() {
-            let v = values.get(g).copied().unwrap_or(f64::NAN);
+            let v = values.get(gi).copied().unwrap_or(f64::NAN);
             if v.is_finite() && v > 0.0 {
-                let y = sy(v.min(top));
+                let y = g.sy(v.min(top));
                 let _ = write!(
                     s,
                     r#"<rect x="{:.1}" y="{y:.1}" width="12" height="{:.1}" fill="{}"><title>{}: {}</title></rect>"#,
@@ -102,6 +171,11 @@ pub fn bars(
         h - 8.0,
         esc(x_label)
     );
+}
+
+/// A colour swatch and the name of each series, right of the frame.
+fn legend(s: &mut String, g: &Geometry, series: &[(String, Vec<f64>)]) {
+    let (l, t, pw) = (g.l, g.t, g.pw);
     for (k, (name, _)) in series.iter().enumerate() {
         let y = t + 10.0 + 16.0 * k as f64;
         let _ = write!(
@@ -114,15 +188,6 @@ pub fn bars(
             esc(name)
         );
     }
-    let _ = write!(
-        s,
-        r##"<line x1="{l:.1}" y1="{:.1}" x2="{:.1}" y2="{:.1}" stroke="#444"/>"##,
-        t + ph,
-        l + pw,
-        t + ph
-    );
-    s.push_str("</svg>\n");
-    s
 }
 
 #[cfg(test)]

@@ -9,19 +9,22 @@ use std::fmt::Write;
 /// One titled categorical axis: its title and a label per row or column.
 pub type Categories<'a> = (&'a str, &'a [String]);
 
-/// An annotated heatmap of `values[row][col]` on [vmin, vmax] (white →
-/// blue), rows and columns given as (axis title, labels); `caption` goes
-/// into `<desc>`.
-pub fn heatmap(
-    title: &str,
-    rows: Categories<'_>,
-    cols: Categories<'_>,
-    values: &[Vec<f64>],
-    (vmin, vmax): (f64, f64),
-    caption: &str,
-) -> String {
-    let (row_title, rows) = rows;
-    let (col_title, cols) = cols;
+/// Sizes of a heatmap, in px: the cell and its font, the grid's place
+/// (left `l`, top `t`) and size, and the canvas.
+struct Geometry {
+    cell: f64,
+    font: f64,
+    l: f64,
+    t: f64,
+    grid_w: f64,
+    grid_h: f64,
+    w: f64,
+    h: f64,
+}
+
+/// The sizes that fit the labels of `rows` and `cols`, the row axis title
+/// and `title`.
+fn geometry(title: &str, row_title: &str, rows: &[String], cols: &[String]) -> Geometry {
     // The columns set the cell size; many rows only make the map taller
     // (99 outputs × 25 parameters stay readable at 14 px).
     let n = cols.len().max(rows.len() / 2);
@@ -55,13 +58,57 @@ pub fn heatmap(
     // The rotated row title must fit beside the grid, however few rows.
     let row_title_half = text_width(row_title, LABEL_SIZE) / 2.0;
     let h = (t + grid_h.max(110.0) + 16.0).max(t + grid_h / 2.0 + row_title_half + 8.0);
-    let mut s = header(w, h, caption);
+    Geometry {
+        cell,
+        font,
+        l,
+        t,
+        grid_w,
+        grid_h,
+        w,
+        h,
+    }
+}
+
+/// An annotated heatmap of `values[row][col]` on [vmin, vmax] (white →
+/// blue), rows and columns given as (axis title, labels); `caption` goes
+/// into `<desc>`.
+pub fn heatmap(
+    title: &str,
+    rows: Categories<'_>,
+    cols: Categories<'_>,
+    values: &[Vec<f64>],
+    (vmin, vmax): (f64, f64),
+    caption: &str,
+) -> String {
+    let (row_title, rows) = rows;
+    let (col_title, cols) = cols;
+    let g = geometry(title, row_title, rows, cols);
+    let mut s = header(g.w, g.h, caption);
     let _ = write!(
         s,
         r#"<text x="{:.1}" y="22" font-size="{TITLE_SIZE}" text-anchor="middle" font-weight="bold">{}</text>"#,
-        w / 2.0,
+        g.w / 2.0,
         esc(title)
     );
+    column_axis(&mut s, &g, (col_title, cols));
+    row_axis(&mut s, &g, (row_title, rows));
+    cells(&mut s, &g, (rows, cols), values, (vmin, vmax));
+    colour_bar(&mut s, g.l + g.grid_w + 12.0, g.t, (vmin, vmax));
+    s.push_str("</svg>\n");
+    s
+}
+
+/// The x axis: a rotated label per column above the grid, and its title.
+fn column_axis(s: &mut String, g: &Geometry, (col_title, cols): Categories<'_>) {
+    let Geometry {
+        cell,
+        font,
+        l,
+        t,
+        grid_w,
+        ..
+    } = *g;
     s.push_str(r#"<g class="axis" data-axis="x">"#);
     for (j, c) in cols.iter().enumerate() {
         let x = l + cell * (j as f64 + 0.5);
@@ -80,6 +127,18 @@ pub fn heatmap(
         36.0 + LABEL_SIZE,
         esc(col_title)
     );
+}
+
+/// The y axis: a label per row left of the grid, and its rotated title.
+fn row_axis(s: &mut String, g: &Geometry, (row_title, rows): Categories<'_>) {
+    let Geometry {
+        cell,
+        font,
+        l,
+        t,
+        grid_h,
+        ..
+    } = *g;
     s.push_str(r#"<g class="axis" data-axis="y">"#);
     for (i, r) in rows.iter().enumerate() {
         let y = t + cell * (i as f64 + 0.5) + font / 3.0;
@@ -96,6 +155,18 @@ pub fn heatmap(
         r#"<text class="axis-title" x="{LABEL_SIZE}" y="{cy:.1}" font-size="{LABEL_SIZE}" text-anchor="middle" font-weight="bold" transform="rotate(-90 {LABEL_SIZE} {cy:.1})">{}</text></g>"#,
         esc(row_title)
     );
+}
+
+/// A coloured cell per value with its row, column and value as tooltip,
+/// and the value written in it when the cell is large enough.
+fn cells(
+    s: &mut String,
+    g: &Geometry,
+    (rows, cols): (&[String], &[String]),
+    values: &[Vec<f64>],
+    (vmin, vmax): (f64, f64),
+) {
+    let Geometry { cell, l, t, .. } = *g;
     for (i, row) in values.iter().enumerate() {
         let y = t + cell * i as f64;
         for (j, &v) in row.iter().enumerate() {
@@ -129,9 +200,6 @@ pub fn heatmap(
             }
         }
     }
-    colour_bar(&mut s, l + grid_w + 12.0, t, (vmin, vmax));
-    s.push_str("</svg>\n");
-    s
 }
 
 fn colour_bar(s: &mut String, cx: f64, t: f64, (vmin, vmax): (f64, f64)) {

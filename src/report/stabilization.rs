@@ -101,7 +101,36 @@ pub fn render(panels: &[Panel]) -> String {
     s
 }
 
-fn panel(s: &mut String, p: &Panel) {
+/// The axes of a panel: frequency (x), model order (left y) and CMIF
+/// magnitude in decades (right y).
+struct Scales {
+    /// Band of the data (Hz).
+    f: (f64, f64),
+    /// Highest model order.
+    n_max: f64,
+    /// CMIF decades shown (log10).
+    m: (f64, f64),
+}
+
+impl Scales {
+    /// The x of frequency `v` (Hz).
+    fn x(&self, v: f64) -> f64 {
+        LEFT + (v - self.f.0) / (self.f.1 - self.f.0).max(1e-12) * (RIGHT - LEFT)
+    }
+    /// The y of model order `n`.
+    fn y_order(&self, n: f64) -> f64 {
+        BOTTOM - n / self.n_max * (BOTTOM - TOP)
+    }
+    /// The y of CMIF magnitude `v` (log10), clamped to the frame.
+    fn y_mag(&self, v: f64) -> f64 {
+        BOTTOM - ((v - self.m.0) / (self.m.1 - self.m.0)).clamp(0.0, 1.0) * (BOTTOM - TOP)
+    }
+}
+
+/// The CMIF curves in log10, and the scales of the panel: the data's band,
+/// the highest order, and the decades from the top three of the first
+/// curve.
+fn scales(p: &Panel) -> (Scales, Vec<Vec<f64>>) {
     let f = &p.data.frequencies_hz;
     let (f_lo, f_hi) = (
         f.first().copied().unwrap_or(0.0),
@@ -109,8 +138,6 @@ fn panel(s: &mut String, p: &Panel) {
     );
     let r = p.result;
     let n_max = r.orders.last().map_or(1, |o| o.order).max(1) as f64;
-    let x = |v: f64| LEFT + (v - f_lo) / (f_hi - f_lo).max(1e-12) * (RIGHT - LEFT);
-    let y_order = |n: f64| BOTTOM - n / n_max * (BOTTOM - TOP);
     let logs: Vec<Vec<f64>> = r
         .cmif
         .iter()
@@ -126,22 +153,33 @@ fn panel(s: &mut String, p: &Panel) {
     let top = first.iter().cloned().fold(f64::MIN, f64::max);
     let m_lo = m_lo.max(top - 4.0).floor();
     let m_hi = m_hi.ceil().max(m_lo + 1.0);
-    let y_mag = |v: f64| BOTTOM - ((v - m_lo) / (m_hi - m_lo)).clamp(0.0, 1.0) * (BOTTOM - TOP);
-    frame(
-        s,
-        p,
-        (f_lo, f_hi),
+    let scales = Scales {
+        f: (f_lo, f_hi),
         n_max,
-        (m_lo, m_hi),
-        &x,
-        &y_order,
-        &y_mag,
-    );
+        m: (m_lo, m_hi),
+    };
+    (scales, logs)
+}
+
+/// One position's diagram: axes, CMIF curves, rejected roots, pole
+/// symbols, selected modes and the legend.
+fn panel(s: &mut String, p: &Panel) {
+    let (sc, logs) = scales(p);
+    frame(s, p, &sc);
+    cmif_curves(s, &p.data.frequencies_hz, &logs, &sc);
+    rejected_roots(s, p.result, &sc);
+    pole_symbols(s, p.result, &sc);
+    selected_modes(s, p.result, &sc);
+    legend(s, p.result.cmif.len());
+}
+
+/// One polyline per CMIF curve (`logs`, log10) over the lines `f`.
+fn cmif_curves(s: &mut String, f: &[f64], logs: &[Vec<f64>], sc: &Scales) {
     for (k, curve) in logs.iter().enumerate() {
         let pts: Vec<String> = f
             .iter()
             .zip(curve)
-            .map(|(&fv, &m)| format!("{:.1},{:.1}", x(fv), y_mag(m)))
+            .map(|(&fv, &m)| format!("{:.1},{:.1}", sc.x(fv), sc.y_mag(m)))
             .collect();
         let _ = writeln!(
             s,
@@ -151,6 +189,11 @@ fn panel(s: &mut String, p: &Panel) {
             pts.join(" ")
         );
     }
+}
+
+/// A grey tick at the top per root rejected by validation (a reduced
+/// multiplicity is no rejection), its reason as tooltip.
+fn rejected_roots(s: &mut String, r: &AutoEmaResult, sc: &Scales) {
     for rej in &r.best.rejected {
         if matches!(rej.reason, crate::ema::Reason::MultiplicityReduced { .. }) {
             continue;
@@ -158,12 +201,17 @@ fn panel(s: &mut String, p: &Panel) {
         let _ = writeln!(
             s,
             r##"<path d="M{0:.1} {1}v8" stroke="#777" stroke-width="1.5"><title>rejected {2:.3} Hz: {3}</title></path>"##,
-            x(rej.frequency_hz),
+            sc.x(rej.frequency_hz),
             TOP,
             rej.frequency_hz,
             esc(&serde_json::to_string(&rej.reason).unwrap_or_default())
         );
     }
+}
+
+/// The symbol of every pole inside the band at its order.
+fn pole_symbols(s: &mut String, r: &AutoEmaResult, sc: &Scales) {
+    let (f_lo, f_hi) = sc.f;
     for (j, flags) in r.best.flags.iter().enumerate() {
         let order = &r.orders[j];
         for (pole, fl) in order.poles.iter().zip(flags) {
@@ -172,18 +220,23 @@ fn panel(s: &mut String, p: &Panel) {
             }
             if let Some(sym) = symbol(
                 fl.class(),
-                x(pole.frequency_hz),
-                y_order(order.order as f64),
+                sc.x(pole.frequency_hz),
+                sc.y_order(order.order as f64),
             ) {
                 s.push_str(&sym);
                 s.push('\n');
             }
         }
     }
+}
+
+/// Each selected mode as a red line with its representative pole ringed
+/// (and ×m at a repeated root), its values as tooltip.
+fn selected_modes(s: &mut String, r: &AutoEmaResult, sc: &Scales) {
     for root in &r.best.roots {
         let pole = root.pole(&r.orders);
         let order = r.orders[root.representative.0].order as f64;
-        let (cx, cy) = (x(pole.frequency_hz), y_order(order));
+        let (cx, cy) = (sc.x(pole.frequency_hz), sc.y_order(order));
         let mult = if root.multiplicity > 1 {
             format!(" ×{}", root.multiplicity)
         } else {
@@ -204,21 +257,12 @@ fn panel(s: &mut String, p: &Panel) {
             );
         }
     }
-    legend(s, r.cmif.len());
 }
 
 /// Axes, ticks, labels and title.
-#[allow(clippy::too_many_arguments)]
-fn frame(
-    s: &mut String,
-    p: &Panel,
-    (f_lo, f_hi): (f64, f64),
-    n_max: f64,
-    (m_lo, m_hi): (f64, f64),
-    x: &dyn Fn(f64) -> f64,
-    y_order: &dyn Fn(f64) -> f64,
-    y_mag: &dyn Fn(f64) -> f64,
-) {
+fn frame(s: &mut String, p: &Panel, sc: &Scales) {
+    let (f_lo, f_hi) = sc.f;
+    let (m_lo, m_hi) = sc.m;
     let _ = writeln!(
         s,
         r#"<text x="{}" y="22" text-anchor="middle" font-size="14" font-weight="bold">{}</text>"#,
@@ -238,7 +282,7 @@ fn frame(
         let _ = writeln!(
             s,
             r##"<line x1="{0:.2}" y1="{BOTTOM}" x2="{0:.2}" y2="{1}" stroke="#333"/><text class="tick" x="{0:.2}" y="{2}" text-anchor="middle">{3}</text>"##,
-            x(t),
+            sc.x(t),
             BOTTOM + 5.0,
             BOTTOM + 18.0,
             t
@@ -250,14 +294,14 @@ fn frame(
         (LEFT + RIGHT) / 2.0,
         BOTTOM + 34.0
     );
-    for t in ticks(0.0, n_max) {
+    for t in ticks(0.0, sc.n_max) {
         let _ = writeln!(
             s,
             r##"<line x1="{LEFT}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#333"/><text class="tick" x="{2}" y="{3:.2}" text-anchor="end">{4}</text>"##,
-            y_order(t),
+            sc.y_order(t),
             LEFT - 5.0,
             LEFT - 8.0,
-            y_order(t) + 4.0,
+            sc.y_order(t) + 4.0,
             t
         );
     }
@@ -271,10 +315,10 @@ fn frame(
         let _ = writeln!(
             s,
             r##"<line x1="{RIGHT}" y1="{0:.2}" x2="{1}" y2="{0:.2}" stroke="#1f77b4"/><text class="tick" x="{2}" y="{3:.2}" fill="#1f77b4">{4}</text>"##,
-            y_mag(d),
+            sc.y_mag(d),
             RIGHT + 5.0,
             RIGHT + 8.0,
-            y_mag(d) + 4.0,
+            sc.y_mag(d) + 4.0,
             super::format::power_of_ten(d as i32)
         );
         d += 1.0;

@@ -285,12 +285,44 @@ pub(super) fn clip_id(title: &str, caption: &str, k: usize) -> String {
     format!("c{}-{k}", &h.to_hex()[..10])
 }
 
+/// One panel of a figure in `f`: frame, axes (the x axis labelled and
+/// titled only `with_x_title`), then the vertical lines and the series,
+/// clipped to the frame.
 pub(super) fn panel(s: &mut String, p: &Plot, f: &Frame, y_ticks: &Ticks, with_x_title: bool) {
     let (l, t, pw, ph) = (f.l, f.t, f.pw, f.ph);
     let _ = write!(
         s,
         r##"<rect x="{l:.1}" y="{t:.1}" width="{pw:.1}" height="{ph:.1}" fill="none" stroke="#444"/>"##
     );
+    panel_x_axis(s, p, f, with_x_title);
+    panel_y_axis(s, p, f, y_ticks);
+    let _ = write!(
+        s,
+        r#"<clipPath id="{0}"><rect x="{l:.1}" y="{t:.1}" width="{pw:.1}" height="{ph:.1}"/></clipPath><g class="data" clip-path="url(#{0})">"#,
+        f.clip
+    );
+    for (x, label) in &p.vlines {
+        let px = f.sx(*x);
+        let _ = write!(
+            s,
+            r##"<line x1="{px:.1}" y1="{t:.1}" x2="{px:.1}" y2="{:.1}" stroke="#999" stroke-dasharray="2 3"><title>{}</title></line>"##,
+            t + ph,
+            esc(label)
+        );
+    }
+    for series in &p.series {
+        match series.marker {
+            None => polylines(s, p, f, series),
+            Some(rad) => markers(s, p, f, series, rad),
+        }
+    }
+    s.push_str("</g>");
+}
+
+/// The x axis of a panel: grid lines and, `with_x_title` (the last panel
+/// of a stack), tick labels and title.
+fn panel_x_axis(s: &mut String, p: &Plot, f: &Frame, with_x_title: bool) {
+    let (l, t, pw, ph) = (f.l, f.t, f.pw, f.ph);
     // x axis: grid lines and, on the last panel, labels and title.
     let xt = axis::linear(f.x.0, f.x.1);
     if with_x_title {
@@ -322,6 +354,12 @@ pub(super) fn panel(s: &mut String, p: &Plot, f: &Frame, y_ticks: &Ticks, with_x
             esc(&p.x_label)
         );
     }
+}
+
+/// The y axis of a panel: grid lines with the tick labels `y_ticks`, and
+/// its rotated title.
+fn panel_y_axis(s: &mut String, p: &Plot, f: &Frame, y_ticks: &Ticks) {
+    let (l, t, pw, ph) = (f.l, f.t, f.pw, f.ph);
     s.push_str(r#"<g class="axis" data-axis="y">"#);
     for (v, label) in y_ticks.at.iter().zip(&y_ticks.labels) {
         let y = f.sy(*v);
@@ -341,69 +379,57 @@ pub(super) fn panel(s: &mut String, p: &Plot, f: &Frame, y_ticks: &Ticks, with_x
         esc(&p.y_label)
     );
     s.push_str("</g>");
-    let _ = write!(
-        s,
-        r#"<clipPath id="{0}"><rect x="{l:.1}" y="{t:.1}" width="{pw:.1}" height="{ph:.1}"/></clipPath><g class="data" clip-path="url(#{0})">"#,
-        f.clip
-    );
-    for (x, label) in &p.vlines {
-        let px = f.sx(*x);
+}
+
+/// The y of `y` on the panel's axis (log10 on a log axis).
+fn axis_y(p: &Plot, y: f64) -> f64 {
+    if p.y_log {
+        y.log10()
+    } else {
+        y
+    }
+}
+
+/// A line series as polylines, one per run of drawable points.
+fn polylines(s: &mut String, p: &Plot, f: &Frame, series: &Series) {
+    // A point that cannot be drawn (NaN, ≤ 0 on a log axis)
+    // breaks the line: phase wraps, gaps in the data.
+    let dash = series
+        .dash
+        .as_ref()
+        .map_or(String::new(), |d| format!(r#" stroke-dasharray="{d}""#));
+    for run in series
+        .points
+        .split(|q| !p.visible(q))
+        .filter(|r| !r.is_empty())
+    {
+        let pts: Vec<String> = run
+            .iter()
+            .map(|&(x, y)| format!("{:.2},{:.2}", f.sx(x), f.sy(axis_y(p, y))))
+            .collect();
         let _ = write!(
             s,
-            r##"<line x1="{px:.1}" y1="{t:.1}" x2="{px:.1}" y2="{:.1}" stroke="#999" stroke-dasharray="2 3"><title>{}</title></line>"##,
-            t + ph,
-            esc(label)
+            r#"<polyline fill="none" stroke="{}" stroke-width="{}"{dash} stroke-linejoin="round" points="{}"><title>{}</title></polyline>"#,
+            series.color,
+            series.width,
+            pts.join(" "),
+            esc(&series.name)
         );
     }
-    let ty = |y: f64| if p.y_log { y.log10() } else { y };
-    for series in &p.series {
-        let visible: Vec<(f64, f64)> = series
-            .points
-            .iter()
-            .copied()
-            .filter(|q| p.visible(q))
-            .collect();
-        match series.marker {
-            None => {
-                // A point that cannot be drawn (NaN, ≤ 0 on a log axis)
-                // breaks the line: phase wraps, gaps in the data.
-                let dash = series
-                    .dash
-                    .as_ref()
-                    .map_or(String::new(), |d| format!(r#" stroke-dasharray="{d}""#));
-                for run in series
-                    .points
-                    .split(|q| !p.visible(q))
-                    .filter(|r| !r.is_empty())
-                {
-                    let pts: Vec<String> = run
-                        .iter()
-                        .map(|&(x, y)| format!("{:.2},{:.2}", f.sx(x), f.sy(ty(y))))
-                        .collect();
-                    let _ = write!(
-                        s,
-                        r#"<polyline fill="none" stroke="{}" stroke-width="{}"{dash} stroke-linejoin="round" points="{}"><title>{}</title></polyline>"#,
-                        series.color,
-                        series.width,
-                        pts.join(" "),
-                        esc(&series.name)
-                    );
-                }
-            }
-            Some(rad) => {
-                for &(x, y) in &visible {
-                    let _ = write!(
-                        s,
-                        r#"<circle cx="{:.2}" cy="{:.2}" r="{rad}" fill="{}"/>"#,
-                        f.sx(x),
-                        f.sy(ty(y)),
-                        series.color
-                    );
-                }
-            }
-        }
+}
+
+/// A point series as circles of radius `rad` at its drawable points.
+fn markers(s: &mut String, p: &Plot, f: &Frame, series: &Series, rad: f64) {
+    let visible = series.points.iter().copied().filter(|q| p.visible(q));
+    for (x, y) in visible {
+        let _ = write!(
+            s,
+            r#"<circle cx="{:.2}" cy="{:.2}" r="{rad}" fill="{}"/>"#,
+            f.sx(x),
+            f.sy(axis_y(p, y)),
+            series.color
+        );
     }
-    s.push_str("</g>");
 }
 
 pub(super) fn legend_box(s: &mut String, series: &[&Series], x: f64, top: f64) {

@@ -39,20 +39,51 @@ pub fn simulate_impact_test(
     seed: u64,
 ) -> Result<FrfSet, MeasurementError> {
     params.validate()?;
-    let (fs, n, r) = (
-        params.sample_rate_hz,
-        params.block_size,
-        params.oversampling,
-    );
+    let (fs, r) = (params.sample_rate_hz, params.oversampling);
     validate_model(model, fs * r as f64)?;
     let k = dof_index(model, excitation_dof, "excitation")?;
     let responses: Vec<usize> = response_dofs
         .iter()
         .map(|&d| dof_index(model, d, "response"))
         .collect::<Result<_, _>>()?;
-
-    // Clean signals at the internal rate, then decimated to fs (eq. 2.45 modes).
     let mut planner = FftPlanner::new();
+    let clean = clean_signals(model, k, &responses, params, &mut planner);
+    let windows = windows(params, clean.start);
+    let averages = average_hits(params, seed, &clean, &windows, &mut planner);
+    Ok(frf_estimate(
+        model,
+        excitation_dof,
+        response_dofs,
+        params,
+        &averages,
+    ))
+}
+
+/// The noise-free signals of one hit at the sample rate fs.
+struct CleanSignals {
+    /// The force pulse.
+    force: Vec<f64>,
+    /// Per response channel, the response in the sensor's quantity.
+    responses: Vec<Vec<f64>>,
+    /// The trigger sample, where the pulse starts.
+    start: usize,
+}
+
+/// The force pulse and the responses at `responses` to a hit at DOF index
+/// `k`, simulated at the internal rate fs·r and decimated to fs.
+fn clean_signals(
+    model: &ModalModel,
+    k: usize,
+    responses: &[usize],
+    params: &ImpactTestParams,
+    planner: &mut FftPlanner<f64>,
+) -> CleanSignals {
+    let (fs, n, r) = (
+        params.sample_rate_hz,
+        params.block_size,
+        params.oversampling,
+    );
+    // Clean signals at the internal rate, then decimated to fs (eq. 2.45 modes).
     let dt_int = 1.0 / (fs * r as f64);
     let start = (params.pre_trigger_s * fs).round() as usize;
     let pulse = half_sine_pulse(params.peak_force_n, params.pulse_duration_s, dt_int);
@@ -66,7 +97,7 @@ pub fn simulate_impact_test(
         .map(|m| (m.frequency_hz, m.damping_ratio))
         .collect();
     let q = modal_responses(&modes, &pulse, start * r, dt_int, n * r, params.quantity);
-    let force = decimate(&force_int, r, &mut planner);
+    let force = decimate(&force_int, r, planner);
     let clean: Vec<Vec<f64>> = responses
         .iter()
         .map(|&j| {
@@ -77,10 +108,27 @@ pub fn simulate_impact_test(
                     *yn += residue * qn;
                 }
             }
-            decimate(&y, r, &mut planner)
+            decimate(&y, r, planner)
         })
         .collect();
+    CleanSignals {
+        force,
+        responses: clean,
+        start,
+    }
+}
 
+/// The weights of each sample of a block.
+struct Windows {
+    /// The exponential window (all ones without one): the responses'.
+    exp: Vec<f64>,
+    /// The force window times the exponential window: the force's.
+    force: Vec<f64>,
+}
+
+/// The windows of `params`, both starting at the trigger sample `start`.
+fn windows(params: &ImpactTestParams, start: usize) -> Windows {
+    let (fs, n) = (params.sample_rate_hz, params.block_size);
     // Windows (both start at the trigger sample).
     let dt = 1.0 / fs;
     let exp = match params.exponential_window_end {
@@ -97,9 +145,31 @@ pub fn simulate_impact_test(
     .zip(&exp)
     .map(|(a, b)| a * b)
     .collect();
+    Windows {
+        exp,
+        force: force_weights,
+    }
+}
 
+/// The spectra of `params.averages` hits, each scaled by its hit-to-hit
+/// variation, with seeded noise added and windowed, averaged (eq. 2.55–2.58
+/// take their auto- and cross-spectra).
+fn average_hits(
+    params: &ImpactTestParams,
+    seed: u64,
+    clean: &CleanSignals,
+    windows: &Windows,
+    planner: &mut FftPlanner<f64>,
+) -> SpectralAverages {
+    let n = params.block_size;
+    let CleanSignals {
+        force,
+        responses: clean,
+        ..
+    } = clean;
+    let (exp, force_weights) = (&windows.exp, &windows.force);
     let peak = |s: &[f64]| s.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-    let sigma_force = params.force_noise * peak(&force);
+    let sigma_force = params.force_noise * peak(force);
     let sigma_resp: Vec<f64> = clean
         .iter()
         .map(|y| params.response_noise * peak(y))
@@ -133,7 +203,7 @@ pub fn simulate_impact_test(
         let tau = spectrum(
             &mut force
                 .iter()
-                .zip(&force_weights)
+                .zip(force_weights)
                 .map(|(f, w)| (scale * f + draw(&mut force_stream, sigma_force)) * w),
         );
         let ys: Vec<Vec<Complex64>> = clean
@@ -144,14 +214,27 @@ pub fn simulate_impact_test(
                 spectrum(
                     &mut y
                         .iter()
-                        .zip(&exp)
+                        .zip(exp)
                         .map(|(v, w)| (scale * v + draw(stream, sigma)) * w),
                 )
             })
             .collect();
         averages.add(&tau, &ys);
     }
+    averages
+}
 
+/// The FRF set of the `averages`: per response DOF the H1 or H2 estimate
+/// (`params.estimator`) and the coherence on the lines inside the band.
+fn frf_estimate(
+    model: &ModalModel,
+    excitation_dof: Dof,
+    response_dofs: &[Dof],
+    params: &ImpactTestParams,
+    averages: &SpectralAverages,
+) -> FrfSet {
+    let (fs, n) = (params.sample_rate_hz, params.block_size);
+    let lines = n / 2;
     let df = fs / n as f64;
     let (lo, hi) = params.band_hz.unwrap_or((0.0, f64::INFINITY));
     let kept: Vec<usize> = (0..lines)
@@ -182,10 +265,10 @@ pub fn simulate_impact_test(
             }
         })
         .collect();
-    Ok(FrfSet {
+    FrfSet {
         position: model.position.clone(),
         quantity: params.quantity,
         frequencies_hz,
         channels,
-    })
+    }
 }
