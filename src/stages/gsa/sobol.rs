@@ -39,13 +39,12 @@ pub fn run(ctx: &StageContext, s: &SobolSpec) -> Result<StageOutputs, StageError
     let mut warnings = report.warnings.clone();
     warnings.extend(adequacy::warnings(&adequacy, selection.as_ref()));
     let extra = adequacy::json(&adequacy, selection.as_ref(), applied, &screening);
-    let stage_notes: Vec<&String> = warnings.iter().collect();
     let json = subproblems_json(
         s,
         &report,
         &screening,
         extra,
-        &stage_notes,
+        &warnings,
         &model.named_modes(),
     );
     let subproblems = ctx.scratch.join("subproblems.json");
@@ -165,7 +164,7 @@ fn subproblems_json(
     report: &sobol::SobolReport,
     screening: &sensitivity::Screening,
     extra: serde_json::Map<String, serde_json::Value>,
-    warnings: &[&String],
+    warnings: &[String],
     modes: &[(String, f64)],
 ) -> serde_json::Value {
     let mut json = serde_json::json!({
