@@ -29,6 +29,7 @@ mod reliability;
 mod reporting;
 mod slurm_executor;
 mod slurm_scale;
+mod solid_superelement;
 mod studies;
 mod synthesize;
 mod typed_params;
