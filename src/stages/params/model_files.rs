@@ -132,16 +132,26 @@ fn memo_put(loaded: Loaded) {
 
 /// The files the model file `rel` references (path as written, size,
 /// blake3), as its last load in this process found them; read and hashed
-/// when it was not loaded.
+/// (not built) when the memo no longer holds it.
 pub fn referenced_files(dir: &Path, rel: &str) -> Result<Vec<ReferencedFile>, String> {
-    let abs = crate::paths::absolute(&dir.join(rel));
+    let path = dir.join(rel);
+    let abs = crate::paths::absolute(&path);
     {
         let memo = MEMO.lock().unwrap_or_else(|e| e.into_inner());
         if let Some(l) = memo.iter().rev().find(|l| l.path == abs) {
             return Ok(l.files.clone());
         }
     }
-    load(dir, rel).map(|(_, _, files)| files)
+    let text =
+        std::fs::read_to_string(&path).map_err(|e| format!("cannot read model file {rel}: {e}"))?;
+    let base = path.parent().unwrap_or(dir).to_path_buf();
+    let resolver = crate::paths::confined_reader(base.clone(), vec![dir.to_path_buf(), base]);
+    let bytes = referenced_bytes(&text, rel, &resolver)
+        .ok_or_else(|| format!("model file {rel}: a referenced file could not be read"))?;
+    Ok(bytes
+        .iter()
+        .map(|(p, b)| ReferencedFile::of(p, b))
+        .collect())
 }
 
 /// Files a model file references, relative to the pipeline directory
@@ -177,4 +187,48 @@ pub fn checked_model_file(dir: &Path, rel: &str) -> Result<(Arc<Model>, Vec<Stri
 pub fn model_memory(model: &Model) -> Option<ParamProblem> {
     let (bytes, what) = model.memory_estimate();
     super::limits::memory_problem(&["model"], &what, bytes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MODEL: &str = "parameters: []\nbodies:\n  - name: se\n    superelement:\n      mass: se/m.mtx\n      stiffness: se/k.mtx\n      nodes:\n        - {id: 1, dofs: [0, 1, 2], position: [0, 0, 0]}\n      points: {a: {node: 1}}\nsensors: [{name: s, body: se, point: a, node: 1, direction: 1}]\nexcitations: [{name: s, body: se, point: a, node: 1, direction: 1}]\n";
+
+    fn diagonal(v: f64) -> String {
+        format!(
+            "%%MatrixMarket matrix coordinate real symmetric\n3 3 3\n1 1 {v}\n2 2 {v}\n3 3 {v}\n"
+        )
+    }
+
+    /// The same files give the same (shared) model; an edited matrix gives
+    /// a new one, and the references carry the files' blake3.
+    #[test]
+    fn a_model_is_built_once_per_content() {
+        let dir = tempfile::tempdir().unwrap();
+        let d = dir.path();
+        std::fs::create_dir_all(d.join("models/se")).unwrap();
+        std::fs::write(d.join("models/m.yaml"), MODEL).unwrap();
+        std::fs::write(d.join("models/se/m.mtx"), diagonal(2.0)).unwrap();
+        std::fs::write(d.join("models/se/k.mtx"), diagonal(8.0)).unwrap();
+        let (a, _) = load_model(d, "models/m.yaml").unwrap();
+        let (b, _) = load_model(d, "models/m.yaml").unwrap();
+        assert!(Arc::ptr_eq(&a, &b));
+        assert_eq!(a.n_dofs(), 3);
+        let files = referenced_files(d, "models/m.yaml").unwrap();
+        let hash = |t: String| blake3::hash(t.as_bytes()).to_hex().to_string();
+        assert_eq!(files.len(), 2);
+        assert_eq!(files[0].path, "se/k.mtx");
+        assert_eq!(files[0].blake3, hash(diagonal(8.0)));
+        assert_eq!(files[1].blake3, hash(diagonal(2.0)));
+        std::fs::write(d.join("models/se/k.mtx"), diagonal(18.0)).unwrap();
+        let (c, _) = load_model(d, "models/m.yaml").unwrap();
+        assert!(!Arc::ptr_eq(&a, &c));
+        let files = referenced_files(d, "models/m.yaml").unwrap();
+        assert_eq!(files[0].blake3, hash(diagonal(18.0)));
+        // A missing file is the model builder's located error.
+        std::fs::remove_file(d.join("models/se/m.mtx")).unwrap();
+        let e = load_model(d, "models/m.yaml").unwrap_err();
+        assert!(e.contains("se/m.mtx") && e.contains("mass"), "{e}");
+    }
 }
