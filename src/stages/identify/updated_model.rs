@@ -37,11 +37,14 @@ struct ChangeRow<'a> {
     upper: f64,
 }
 
+/// Referenced files by path as the model file writes them: their bytes.
+type Referenced = BTreeMap<String, Vec<u8>>;
+
 /// The model file's text, name and referenced files, as identify read them.
 fn model_source(
     ctx: &StageContext,
     param: Option<&str>,
-) -> Result<(String, String, BTreeMap<String, Vec<u8>>), StageError> {
+) -> Result<(String, String, Referenced), StageError> {
     if let Some(rel) = param {
         let file = ctx.pipeline_dir.join(rel);
         let text = std::fs::read_to_string(&file)

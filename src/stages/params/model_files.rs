@@ -106,9 +106,9 @@ fn referenced_bytes(
     let spec = model_file::parse(text, rel).ok()?;
     let mut out = BTreeMap::new();
     for f in spec.external_files() {
-        if !out.contains_key(&f) {
-            let b = resolver(&f).ok()?;
-            out.insert(f, b);
+        if let std::collections::btree_map::Entry::Vacant(e) = out.entry(f) {
+            let b = resolver(e.key()).ok()?;
+            e.insert(b);
         }
     }
     Some(out)
