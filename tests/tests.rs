@@ -12,6 +12,7 @@ mod dynamics;
 mod eigensolvers;
 mod engine;
 mod evaluate;
+mod fe_by_reference;
 mod fe_formats;
 mod fe_solver;
 mod gsa;

@@ -106,11 +106,15 @@ fn modes_round_trip_with_scaling_and_spread() {
 #[test]
 fn model_round_trips_and_old_files_read() {
     let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("models")).unwrap();
+    std::fs::write(dir.path().join("models/k.mtx"), "1 1 1\n").unwrap();
     let m = model::ModelJson {
         schema_version: SchemaVersion(model::SCHEMA_VERSION),
         file: Some("m.yaml".into()),
+        path: Some("models/m.yaml".into()),
         yaml: "parameters: {}\n".into(),
-        external: [("k.mtx".to_string(), "1 1 1\n".to_string())].into(),
+        files: vec![model::ReferencedFile::of("k.mtx", b"1 1 1\n")],
+        external: Default::default(),
         parameters: vec![model::ModelParameter {
             name: "k".into(),
             value: 2e6,
@@ -128,7 +132,28 @@ fn model_round_trips_and_old_files_read() {
     let path = dir.path().join(model::FILE);
     m.write(&path).unwrap();
     assert_eq!(model::ModelJson::read(&path, "model").unwrap(), m);
-    assert_eq!(m.resolve("k.mtx").unwrap(), b"1 1 1\n");
+    // By reference: the recorded hash is blake3 of the content, and the
+    // file is read beside the model file, below the pipeline directory.
+    assert_eq!(
+        m.files[0].blake3,
+        blake3::hash(b"1 1 1\n").to_hex().to_string()
+    );
+    assert_eq!(m.files[0].bytes, 6);
+    assert_eq!(m.resolver(dir.path())("k.mtx").unwrap(), b"1 1 1\n");
+    assert!(m.resolver(dir.path())("other.mtx").is_err());
+    // Version 2: referenced files embedded as text, still read.
+    std::fs::write(
+        &path,
+        r#"{"schema_version": 2, "file": "m.yaml", "yaml": "x: 1\n", "external": {"k.mtx": "2 2 2\n"}}"#,
+    )
+    .unwrap();
+    let v2 = model::ModelJson::read(&path, "model").unwrap();
+    assert_eq!(v2.resolver(dir.path())("k.mtx").unwrap(), b"2 2 2\n");
+    let all = v2.referenced(dir.path(), "model").unwrap();
+    assert_eq!(all["k.mtx"], b"2 2 2\n");
+    // Written again: the text is not carried over.
+    v2.write(&path).unwrap();
+    assert!(!std::fs::read_to_string(&path).unwrap().contains("2 2 2"));
     // Version 1: no schema_version.
     std::fs::write(&path, r#"{"file": "m.yaml", "yaml": "x: 1\n", "dofs": 3}"#).unwrap();
     let old = model::ModelJson::read(&path, "model").unwrap();
@@ -141,6 +166,37 @@ fn model_round_trips_and_old_files_read() {
         .to_string();
     assert!(
         e.contains("input `model`") && e.contains("synthesize"),
+        "{e}"
+    );
+}
+
+/// A referenced file edited after the synthesize stage ran is refused
+/// with what changed and what to do, never used.
+#[test]
+fn a_changed_referenced_file_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("k.mtx"), "1 1 2\n").unwrap();
+    let m = model::ModelJson {
+        schema_version: SchemaVersion(model::SCHEMA_VERSION),
+        file: Some("m.yaml".into()),
+        path: Some("m.yaml".into()),
+        yaml: String::new(),
+        files: vec![model::ReferencedFile::of("k.mtx", b"1 1 1\n")],
+        external: Default::default(),
+        parameters: vec![],
+        positions: vec![],
+        dofs: 0,
+    };
+    let e = m.resolver(dir.path())("k.mtx").unwrap_err().to_string();
+    assert!(
+        e.contains("`k.mtx` changed since the synthesize stage ran")
+            && e.contains("rerun the synthesize stage"),
+        "{e}"
+    );
+    std::fs::remove_file(dir.path().join("k.mtx")).unwrap();
+    let e = m.referenced(dir.path(), "model").unwrap_err().to_string();
+    assert!(
+        e.contains("input `model`") && e.contains("cannot read `k.mtx`"),
         "{e}"
     );
 }

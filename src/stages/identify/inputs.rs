@@ -130,12 +130,13 @@ pub(super) fn load_model(
         });
     };
     let json = ModelJson::read(path, "model")?;
-    dynamics::Model::from_yaml(
+    let resolve = json.resolver(ctx.pipeline_dir);
+    let model = dynamics::Model::from_yaml(
         &json.yaml,
         json.file_name(crate::artifacts::model::FILE),
-        &|p: &str| json.resolve(p),
-    )
-    .map_err(|e| StageError::InvalidInput {
+        &resolve,
+    );
+    model.map_err(|e| StageError::InvalidInput {
         input: "model".into(),
         message: e.to_string(),
     })

@@ -37,11 +37,14 @@ struct ChangeRow<'a> {
     upper: f64,
 }
 
+/// Referenced files by path as the model file writes them: their bytes.
+type Referenced = BTreeMap<String, Vec<u8>>;
+
 /// The model file's text, name and referenced files, as identify read them.
 fn model_source(
     ctx: &StageContext,
     param: Option<&str>,
-) -> Result<(String, String, BTreeMap<String, String>), StageError> {
+) -> Result<(String, String, Referenced), StageError> {
     if let Some(rel) = param {
         let file = ctx.pipeline_dir.join(rel);
         let text = std::fs::read_to_string(&file)
@@ -58,13 +61,16 @@ fn model_source(
         let mut external = BTreeMap::new();
         for f in spec.external_files() {
             let bytes = read(&f).map_err(|e| StageError::io(format!("cannot read {f}"), e))?;
-            external.insert(f, String::from_utf8_lossy(&bytes).into_owned());
+            external.insert(f, bytes);
         }
         return Ok((text, rel.to_string(), external));
     }
+    // model.json refers to the files (version 3) or embeds them (1–2);
+    // referenced ones are read beside the model file and hash-checked.
     let json = ModelJson::read(ctx.input("model")?, "model")?;
     let name = json.file_name("model.yaml").to_string();
-    Ok((json.yaml, name, json.external))
+    let external = json.referenced(ctx.pipeline_dir, "model")?;
+    Ok((json.yaml, name, external))
 }
 
 /// Write the `updated_model` directory `dir` from identify's
@@ -101,7 +107,7 @@ pub fn write(
     ];
     let yaml = updated_model_file(&text, &updates, &header).map_err(failed)?;
     std::fs::create_dir_all(dir).map_err(|e| StageError::io("cannot create updated_model", e))?;
-    let put = |rel: &str, content: &str| -> Result<(), StageError> {
+    let put = |rel: &str, content: &[u8]| -> Result<(), StageError> {
         let p = dir.join(rel);
         if let Some(parent) = p.parent() {
             std::fs::create_dir_all(parent)
@@ -109,7 +115,7 @@ pub fn write(
         }
         std::fs::write(&p, content).map_err(|e| StageError::io(format!("cannot write {rel}"), e))
     };
-    put("model.yaml", &yaml)?;
+    put("model.yaml", yaml.as_bytes())?;
     for (rel, content) in &external {
         // Only paths inside the directory; others are named in the error.
         if Path::new(rel)
@@ -148,5 +154,5 @@ pub fn write(
         })
         .collect();
     let csv = crate::artifacts::to_csv(&changes, "changes.csv")?;
-    put("changes.csv", &csv)
+    put("changes.csv", csv.as_bytes())
 }

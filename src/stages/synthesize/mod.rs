@@ -13,7 +13,7 @@ use crate::artifacts;
 mod params;
 mod values;
 
-use super::params::model_files::{external_files, load_model, model_memory};
+use super::params::model_files::{external_files, load_model, model_memory, referenced_files};
 use super::{
     Artifact, FileRef, InputSpec, Kind, ParamProblem, StageContext, StageError, StageOutputs,
 };
@@ -28,7 +28,6 @@ use crate::modal::{ModalModel, Mode};
 use num_complex::Complex64;
 use params::{self as sp, Modes, Params, PositionRef};
 use rayon::prelude::*;
-use std::collections::BTreeMap;
 use std::path::Path;
 use values::{override_from_table, significant_parameters, values};
 
@@ -128,8 +127,10 @@ impl Kind for Synthesize {
         // residual check is per mode (issue 32): eigenpairs change. v8:
         // model.json and parameters.csv written through their schemas
         // (`schema_version` stated, fields in schema order; issue 28); more
-        // than 40 modes are found in locked chunks (issue 32).
-        8
+        // than 40 modes are found in locked chunks (issue 32). v9: model.json
+        // refers to the matrix files by path, size and blake3 (schema 3),
+        // never embeds their text (issue 32).
+        9
     }
     fn summary(&self) -> &'static str {
         "solve a model file and write reference FRFs (with noise or a simulated impact test), modes and the truth"
@@ -453,22 +454,18 @@ fn write_model_json(
     x: &[f64],
     prepared: &PreparedModel,
 ) -> Result<(), StageError> {
-    let spec = model_file::parse(text, rel).map_err(|e| StageError::Failed(e.to_string()))?;
-    let model_dir = ctx.pipeline_dir.join(rel);
-    let model_dir = model_dir.parent().unwrap_or(ctx.pipeline_dir);
-    let mut external = BTreeMap::new();
-    for f in spec.external_files() {
-        let content = std::fs::read_to_string(model_dir.join(&f))
-            .map_err(|e| StageError::io(format!("cannot read {f}"), e))?;
-        external.insert(f, content);
-    }
+    // By reference: each referenced file's path, size and blake3 (the hashes
+    // of the bytes this run built the model from), never its text.
+    let files = referenced_files(ctx.pipeline_dir, rel).map_err(StageError::Failed)?;
     let json = ModelJson {
         schema_version: Default::default(),
         file: Path::new(rel)
             .file_name()
             .map(|n| n.to_string_lossy().into_owned()),
+        path: Some(rel.replace('\\', "/")),
         yaml: text.to_string(),
-        external,
+        files,
+        external: Default::default(),
         parameters: model
             .parameters
             .iter()

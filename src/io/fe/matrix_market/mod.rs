@@ -19,7 +19,11 @@
 //! against the memory limit; entries are then collected as they are read, and
 //! an index of 0 or beyond the declared size is an error at its line.
 
-use super::{check_size, fail, parse_real, FeError, FeMatrix};
+mod entries;
+#[cfg(test)]
+mod tests;
+
+use super::{check_size, fail, FeError, FeMatrix};
 
 /// Fewest bytes of one entry line: `i j v` and its line feed.
 const MIN_ENTRY_BYTES: usize = 6;
@@ -68,24 +72,6 @@ fn banner(line: &str) -> Result<bool, FeError> {
     }
 }
 
-/// A 1-based index in `1..=n`, as a 0-based one.
-fn index(text: &str, n: usize, line: usize, what: &str) -> Result<usize, FeError> {
-    match text.parse::<usize>() {
-        Ok(i) if (1..=n).contains(&i) => Ok(i - 1),
-        Ok(i) => fail(
-            line,
-            format!(
-                "{what} index {i} is outside the declared {n}×{n} matrix (indices are 1-based, \
-                 1..={n}); fix the entry or the size line"
-            ),
-        ),
-        Err(_) => fail(
-            line,
-            format!("{what} index `{text}` is not a positive integer"),
-        ),
-    }
-}
-
 /// Read a square real Matrix Market coordinate matrix.
 pub fn read_matrix_market(text: &str) -> Result<FeMatrix, FeError> {
     let mut lines = text.split_inclusive('\n').enumerate();
@@ -109,7 +95,13 @@ pub fn read_matrix_market(text: &str) -> Result<FeMatrix, FeError> {
     };
     let remaining = text.len().saturating_sub(consumed);
     let declared = declared_size(sizes, size_line, remaining, symmetric)?;
-    let entries = read_entries(lines, &declared, text)?;
+    let shape = entries::Shape {
+        n: declared.n,
+        nnz: declared.nnz,
+        size_line: declared.line,
+        symmetric: declared.symmetric,
+    };
+    let entries = entries::read_entries(&text[consumed..], size_line + 1, shape)?;
     Ok(FeMatrix {
         n: declared.n,
         entries,
@@ -183,117 +175,4 @@ fn declared_size(
         line: size_line,
         symmetric,
     })
-}
-
-/// The entries of the `lines` after the size line (0-based row, column,
-/// value; a symmetric matrix's mirrored), exactly as many as `declared`;
-/// `text` is the whole file, whose last line locates a missing entry.
-fn read_entries<'a>(
-    lines: impl Iterator<Item = (usize, &'a str)>,
-    declared: &Declared,
-    text: &str,
-) -> Result<Vec<(usize, usize, f64)>, FeError> {
-    let Declared {
-        n,
-        nnz,
-        line: size_line,
-        symmetric,
-    } = *declared;
-    let mut entries = Vec::new();
-    let mut read = 0usize;
-    for (k, raw) in lines {
-        let line = k + 1;
-        let t = raw.trim();
-        if t.is_empty() || t.starts_with('%') {
-            continue;
-        }
-        if read == nnz {
-            return fail(
-                line,
-                format!("more entries than the {nnz} the size line (line {size_line}) declares"),
-            );
-        }
-        let f: Vec<&str> = t.split_whitespace().collect();
-        let [i, j, v] = f[..] else {
-            return fail(
-                line,
-                format!("{} fields: an entry is `row column value`", f.len()),
-            );
-        };
-        let (i, j) = (index(i, n, line, "row")?, index(j, n, line, "column")?);
-        let v = parse_real(v).ok_or_else(|| FeError {
-            line,
-            message: format!("value `{v}` is not a finite number"),
-        })?;
-        entries.push((i, j, v));
-        if symmetric && i != j {
-            entries.push((j, i, v));
-        }
-        read += 1;
-    }
-    if read < nnz {
-        return fail(
-            text.lines().count().max(1),
-            format!("the file ends after {read} of the {nnz} entries the size line (line {size_line}) declares"),
-        );
-    }
-    Ok(entries)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    const BANNER: &str = "%%MatrixMarket matrix coordinate real symmetric\n";
-
-    fn read(body: &str) -> Result<FeMatrix, FeError> {
-        read_matrix_market(&format!("{BANNER}{body}"))
-    }
-
-    #[test]
-    fn symmetric_entries_are_mirrored() {
-        let m = read("% exported\n\n2 2 2\n1 1 2.0\n2 1 -1\n").unwrap();
-        assert_eq!(m.n, 2);
-        assert_eq!(m.entries, vec![(0, 0, 2.0), (1, 0, -1.0), (0, 1, -1.0)]);
-        let g =
-            read_matrix_market("%%MatrixMarket matrix coordinate integer general\n2 2 1\n1 2 3\n")
-                .unwrap();
-        assert_eq!(g.entries, vec![(0, 1, 3.0)]);
-    }
-
-    #[test]
-    fn absurd_sizes_are_refused_before_allocating() {
-        let e = read("1000000000000 1000000000000 1000000000000\n1 1 1\n").unwrap_err();
-        assert_eq!(e.line, 2);
-        assert!(e.message.contains("room for at most"), "{e}");
-        // Few entries, rows beyond any memory limit.
-        let e = read("1000000000000000 1000000000000000 1\n1 1 1\n").unwrap_err();
-        assert!(e.message.contains("memory limit"), "{e}");
-        let e = read("99999999999999999999999 3 1\n").unwrap_err();
-        assert!(e.message.contains("three non-negative integers"), "{e}");
-        assert!(read("3 4 1\n1 1 1\n").is_err());
-    }
-
-    #[test]
-    fn out_of_range_and_malformed_entries_name_their_line() {
-        let e = read("3 3 2\n1 1 1\n4 1 1\n").unwrap_err();
-        assert_eq!(e.line, 4);
-        assert!(e.message.contains("row index 4 is outside"), "{e}");
-        let e = read("3 3 1\n1 0 1\n").unwrap_err();
-        assert!(e.message.contains("column index 0"), "{e}");
-        let e = read("3 3 1\n1 1 nan\n").unwrap_err();
-        assert!(e.message.contains("not a finite number"), "{e}");
-        let e = read("3 3 2\n1 1 1\n\n\n\n\n\n\n").unwrap_err();
-        assert!(e.message.contains("after 1 of the 2"), "{e}");
-        let e = read("3 3 2\n1 1 1\n").unwrap_err();
-        assert!(
-            e.message.contains("room for at most 1 entry line(s)"),
-            "{e}"
-        );
-        let e = read("3 3 1\n1 1 1\n2 2 1\n").unwrap_err();
-        assert_eq!(e.line, 4);
-        let e = read_matrix_market("%%MatrixMarket matrix array real general\n").unwrap_err();
-        assert!(e.message.contains("coordinate"), "{e}");
-        assert!(read_matrix_market("").is_err());
-    }
 }

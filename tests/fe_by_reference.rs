@@ -1,0 +1,187 @@
+//! Large matrices by reference (issue 32): a synthesize stage's model.json
+//! names the super-element's matrix files by path, size and blake3 and holds
+//! none of their text; identify rebuilds the model (and its updated model)
+//! from the files beside the model file; a file edited after the synthesize
+//! stage ran is refused with what to do, and a rerun follows the edit.
+
+use crate::util::Workspace;
+use modalflow::artifacts::model::{ModelJson, SCHEMA_VERSION};
+use modalflow::dynamics::Model;
+
+/// Two nodes joined by an element in each direction, each grounded by the
+/// parameter k.
+const MODEL: &str = r#"
+parameters:
+  - {name: k, value: 1.0e6, lower: 1.0e5, upper: 1.0e7, scale: log, kind: stiffness}
+  - {name: c, value: 40.0, lower: 10.0, upper: 160.0, scale: log, kind: damping}
+bodies:
+  - name: se
+    superelement:
+      mass: se/m.mtx
+      stiffness: se/k.mtx
+      nodes:
+        - {id: 1, dofs: [0, 1, 2], position: [0, 0, 0]}
+        - {id: 2, dofs: [3, 4, 5], position: [1, 0, 0]}
+      points: {a: {node: 1}, b: {node: 2}}
+joints:
+  - {name: s1, a: {body: se, point: a}, connections: [{dir: x, stiffness: k, damper: c}, {dir: y, stiffness: k, damper: c}, {dir: z, stiffness: k, damper: c}]}
+  - {name: s2, a: {body: se, point: b}, connections: [{dir: x, stiffness: k, damper: c}, {dir: y, stiffness: k, damper: c}, {dir: z, stiffness: k, damper: c}]}
+sensors:
+  - {name: a, body: se, point: a, node: 1, direction: 1}
+  - {name: b, body: se, point: b, node: 2, direction: 1}
+  - {name: ay, body: se, point: a, node: 1, direction: 2}
+  - {name: by, body: se, point: b, node: 2, direction: 2}
+  - {name: az, body: se, point: a, node: 1, direction: 3}
+  - {name: bz, body: se, point: b, node: 2, direction: 3}
+excitations:
+  - {name: b, body: se, point: b, node: 2, direction: 1}
+  - {name: by, body: se, point: b, node: 2, direction: 2}
+  - {name: bz, body: se, point: b, node: 2, direction: 3}
+"#;
+
+const PIPELINE: &str = "name: byref\nstages:\n  truth:\n    kind: synthesize\n    params: {model: models/se.yaml, frequency: {min: 0, max: 600, step: 0.5}, values: {k: 1.3e6}}\n  fit:\n    kind: identify\n    inputs: {model: truth.model, reference: truth.modes}\n    params: {strategy: black_box, optimizer: slsqp, budget: 800, window: 0.3}\n";
+
+/// A symmetric Matrix Market matrix of the two 3-DOF nodes: `diag` on the
+/// diagonal and `off` between the nodes, scaled per direction by
+/// `scale` (distinct directions: no repeated modes).
+fn mm(diag: f64, off: f64, scale: [f64; 3]) -> String {
+    let mut s = String::from("%%MatrixMarket matrix coordinate real symmetric\n6 6 9\n");
+    for i in 1..=6 {
+        s += &format!("{i} {i} {:e}\n", diag * scale[(i - 1) % 3]);
+    }
+    for i in 1..=3 {
+        s += &format!("{} {i} {:e}\n", i + 3, off * scale[i - 1]);
+    }
+    s
+}
+
+fn mass() -> String {
+    mm(1.0, 0.0, [1.0, 1.3, 1.7])
+}
+
+fn stiffness(diag: f64) -> String {
+    mm(diag, -2.0e6, [1.0, 1.5, 2.2])
+}
+
+fn workspace() -> Workspace {
+    let ws = Workspace::new();
+    ws.write("p.yaml", PIPELINE);
+    ws.write("models/se.yaml", MODEL);
+    ws.write("models/se/m.mtx", &mass());
+    ws.write("models/se/k.mtx", &stiffness(2.0e6));
+    ws
+}
+
+/// Every file below `dir` (relative path, bytes).
+fn files_below(dir: &std::path::Path) -> Vec<(String, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        for e in std::fs::read_dir(&d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                stack.push(p);
+            } else {
+                let rel = p.strip_prefix(dir).unwrap().to_string_lossy().into_owned();
+                out.push((rel, std::fs::read(&p).unwrap()));
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn model_json_refers_to_the_matrices_and_holds_none_of_their_text() {
+    let ws = workspace();
+    ws.run(&[], 0);
+    let text = ws.read("results/byref/truth/model.json");
+    let raw: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert_eq!(raw["schema_version"], SCHEMA_VERSION);
+    assert!(raw.get("external").is_none(), "{text}");
+    assert_eq!(raw["path"], "models/se.yaml");
+    let json = ModelJson::read(&ws.path().join("results/byref/truth/model.json"), "m").unwrap();
+    let mut listed: Vec<(String, u64, String)> = json
+        .files
+        .iter()
+        .map(|f| (f.path.clone(), f.bytes, f.blake3.clone()))
+        .collect();
+    listed.sort();
+    let expect = |rel: &str, text: String| {
+        let hash = blake3::hash(text.as_bytes()).to_hex().to_string();
+        (rel.to_string(), text.len() as u64, hash)
+    };
+    assert_eq!(
+        listed,
+        vec![
+            expect("se/k.mtx", stiffness(2.0e6)),
+            expect("se/m.mtx", mass()),
+        ]
+    );
+    // No output of the synthesize stage holds the matrix text (its banner,
+    // or an entry line); in the cache, only the verbatim copies identify's
+    // updated model carries, stored once by content.
+    let stiffness_line = "4 1 -2e6\n";
+    let holds = |b: &[u8]| {
+        let t = String::from_utf8_lossy(b);
+        t.contains("%%MatrixMarket") || t.contains(stiffness_line)
+    };
+    for (rel, bytes) in files_below(&ws.path().join("results/byref/truth")) {
+        assert!(
+            !holds(&bytes),
+            "results/byref/truth/{rel} holds matrix text"
+        );
+    }
+    let copies: Vec<Vec<u8>> = files_below(&ws.path().join("cache/objects"))
+        .into_iter()
+        .map(|(_, b)| b)
+        .filter(|b| holds(b))
+        .collect();
+    assert_eq!(copies.len(), 2);
+    for b in copies {
+        assert!(b == mass().into_bytes() || b == stiffness(2.0e6).into_bytes());
+    }
+    // identify read the matrices through the reference: its updated model
+    // carries the very bytes beside its model.yaml.
+    let updated = "results/byref/fit/updated_model";
+    assert_eq!(ws.read(&format!("{updated}/se/k.mtx")), stiffness(2.0e6));
+    assert!(ws
+        .read(&format!("{updated}/model.yaml"))
+        .contains("se/m.mtx"));
+}
+
+#[test]
+fn a_matrix_edited_after_synthesize_is_refused_then_rerun() {
+    let ws = workspace();
+    ws.run(&[], 0);
+    let path = ws.path().join("results/byref/truth/model.json");
+    let json = ModelJson::read(&path, "model").unwrap();
+    let name = json.file_name("model.yaml");
+    // As identify builds it: from the files beside the model file.
+    let model = Model::from_yaml(&json.yaml, name, &json.resolver(ws.path())).unwrap();
+    assert_eq!(model.n_dofs(), 6);
+    ws.write("models/se/k.mtx", &stiffness(2.5e6));
+    let e = Model::from_yaml(&json.yaml, name, &json.resolver(ws.path()))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("se/k.mtx")
+            && e.contains("changed since the synthesize stage ran")
+            && e.contains("rerun the synthesize stage"),
+        "{e}"
+    );
+    let e = json.referenced(ws.path(), "model").unwrap_err().to_string();
+    assert!(
+        e.contains("input `model`") && e.contains("changed since"),
+        "{e}"
+    );
+    // The file is part of the synthesize key: a run reruns it and the new
+    // model.json refers to the new content.
+    ws.run(&[], 0);
+    let again = ModelJson::read(&path, "model").unwrap();
+    let k = again.files.iter().find(|f| f.path == "se/k.mtx").unwrap();
+    let now = blake3::hash(stiffness(2.5e6).as_bytes())
+        .to_hex()
+        .to_string();
+    assert_eq!(k.blake3, now);
+    Model::from_yaml(&again.yaml, name, &again.resolver(ws.path())).unwrap();
+}
