@@ -51,13 +51,13 @@ pub fn cholesky_factor_nnz_by_nodes(K: &Csc, M: &Csc) -> Result<usize, String> {
     let mut node = vec![0usize; n];
     let (mut prev, mut cur) = (Vec::new(), Vec::new());
     let mut count = 0;
-    for j in 0..n {
+    for (j, node_j) in node.iter_mut().enumerate() {
         cur.clear();
         merge_sorted(column(K, j), column(M, j), &mut cur);
         if j > 0 && cur != prev {
             count += 1;
         }
-        node[j] = count;
+        *node_j = count;
         std::mem::swap(&mut prev, &mut cur);
     }
     let nodes = if n == 0 { 0 } else { count + 1 };
