@@ -258,6 +258,56 @@ pub struct SuperelementSpec {
     /// iron ~0.002–0.005.
     #[serde(default)]
     pub loss_factor: f64,
+    /// DOFs held fixed (clamped node sets), removed from M and K before
+    /// anything else ([`crate::dynamics::constraints`]); node rows are
+    /// given in the files' numbering, before the constraint.
+    #[serde(default)]
+    pub constraints: Vec<ConstraintSpec>,
+}
+
+/// One constraint of a super-element: the listed directions of every
+/// selected node are fixed (u = 0). The selection is the union of `nodes`,
+/// `plane` and `box`; at least one must be given and it must select a node.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConstraintSpec {
+    /// A name for messages (optional).
+    pub name: Option<String>,
+    /// Fixed directions (default: every DOF the node has, a clamp).
+    pub dofs: Option<Vec<Direction>>,
+    /// Node ids: listed in `nodes:`, or labelled in the matrix files.
+    #[serde(default)]
+    pub nodes: Vec<u64>,
+    /// Every node of `nodes:` on a coordinate plane.
+    pub plane: Option<PlaneSpec>,
+    /// Every node of `nodes:` inside an axis-aligned box.
+    #[serde(rename = "box")]
+    pub inside: Option<BoxSpec>,
+}
+
+/// The nodes with |x_axis − value| ≤ tol (m).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlaneSpec {
+    pub axis: Axis,
+    /// m.
+    pub value: f64,
+    /// m, ≥ 0 (default 1e-6: a micrometre, far below any element size and
+    /// far above the rounding of exported coordinates).
+    #[serde(default = "default_plane_tol")]
+    pub tol: f64,
+}
+
+fn default_plane_tol() -> f64 {
+    1e-6
+}
+
+/// The nodes with min ≤ x ≤ max in every coordinate (m, bounds included).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoxSpec {
+    pub min: [f64; 3],
+    pub max: [f64; 3],
 }
 
 /// Formats of FE matrix exports ([`crate::io::fe`]).

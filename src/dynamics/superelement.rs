@@ -2,11 +2,13 @@
 //! software (Matrix Market, Harwell–Boeing, Abaqus and Nastran DMIG, read
 //! by [`crate::io::fe`]), plus a node map from node ids to
 //! matrix rows (6 DOFs x, y, z, rx, ry, rz, or 3 translations), given or
-//! taken from the files' node/DOF labels.
+//! taken from the files' node/DOF labels; constrained DOFs removed first
+//! ([`super::constraints`]).
 //! File paths are relative to the model file; the caller supplies a resolver
 //! that turns such a path into bytes, so the core never guesses directories.
 #![allow(non_snake_case)]
 
+use super::constraints;
 use super::error::DynamicsError;
 use super::fe_body::{FeBody, FeNode};
 use super::model_file::{FeFormat, SuperelementSpec};
@@ -263,10 +265,25 @@ pub fn load_superelement(
         DynamicsError::invalid(file, field, format!("{m} ({files})"))
     };
     check_rows(&tm, &tk, n).map_err(invalid)?;
+    let mut nodes = node_map(spec, labels.as_deref(), n, file, field)?;
+    // Constraints first: every later step sees K_ff and M_ff only.
+    let (n, tm, tk) = if spec.constraints.is_empty() {
+        (n, tm, tk)
+    } else {
+        let l = labels.as_deref();
+        let fixed = constraints::fixed_dofs(&spec.constraints, &nodes, l, n, file, field)?;
+        constraints::check_points(&spec.points, &nodes, &fixed, file, field)?;
+        let (map, free) = constraints::renumbering(&fixed);
+        constraints::renumber_nodes(&mut nodes, &map);
+        let (tm, tk) = (
+            constraints::remove_dofs(tm, &map),
+            constraints::remove_dofs(tk, &map),
+        );
+        (free, tm, tk)
+    };
     check_memory(n, tm.len() + tk.len(), spec.reduction.is_some()).map_err(invalid)?;
     let M = symmetric(tm, n, |m| matrix_error(file, &fm, &spec.mass, m))?;
     let K = symmetric(tk, n, |m| matrix_error(file, &fk, &spec.stiffness, m))?;
-    let nodes = node_map(spec, labels.as_deref(), M.n, file, field)?;
     Ok(FeBody { M, K, nodes })
 }
 
@@ -375,6 +392,7 @@ mod tests {
             points: Default::default(),
             reduction: None,
             loss_factor: 0.0,
+            constraints: vec![],
         }
     }
 
