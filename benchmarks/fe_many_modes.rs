@@ -64,7 +64,10 @@ fn main() {
     let values: Vec<f64> = pm.parameters.iter().map(|p| p.value).collect();
     let c = pm.config(0).expect("config 0");
     let options = LanczosOptions {
-        block: model.solver.block.unwrap_or(LanczosOptions::default().block),
+        block: model
+            .solver
+            .block
+            .unwrap_or(LanczosOptions::default().block),
         ..LanczosOptions::default()
     };
     let mut ws = Workspace::default();
@@ -73,8 +76,14 @@ fn main() {
     let mut bytes = Vec::new();
     for _ in 0..reps.max(1) {
         let (t, r) = timed(|| {
-            pm.storage
-                .factor(0, &c.stiffness, &values, choice.sigma, &mut ws, &pm.dof_labels)
+            pm.storage.factor(
+                0,
+                &c.stiffness,
+                &values,
+                choice.sigma,
+                &mut ws,
+                &pm.dof_labels,
+            )
         });
         r.expect("factor");
         t_fac = t_fac.min(t);

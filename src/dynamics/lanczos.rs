@@ -385,7 +385,10 @@ fn run<O: ShiftInvertOperator + ?Sized>(
     // The first block after the start or a restart couples to all of
     // V[0..k] (a carried state is a restart).
     // The caller leaves room for a block step ([`locking`]).
-    debug_assert!(start + p <= m, "carried state of {start} too large for a basis of {m}");
+    debug_assert!(
+        start + p <= m,
+        "carried state of {start} too large for a basis of {m}"
+    );
     let (mut k, mut restarts, mut lo) = (start, 0, 0);
     loop {
         while k + p <= m {

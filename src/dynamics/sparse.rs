@@ -430,7 +430,9 @@ mod tests {
         }
         let A = Csc::from_triplets(n, t);
         // Dense symbolic elimination in the natural order.
-        let mut P: Vec<Vec<bool>> = (0..n).map(|i| (0..n).map(|j| A.get(i, j) != 0.0).collect()).collect();
+        let mut P: Vec<Vec<bool>> = (0..n)
+            .map(|i| (0..n).map(|j| A.get(i, j) != 0.0).collect())
+            .collect();
         for k in 0..n {
             let below: Vec<usize> = (k + 1..n).filter(|&i| P[i][k]).collect();
             for &i in &below {
@@ -439,7 +441,9 @@ mod tests {
                 }
             }
         }
-        let dense_count = (0..n).map(|j| (j..n).filter(|&i| P[i][j]).count()).sum::<usize>();
+        let dense_count = (0..n)
+            .map(|j| (j..n).filter(|&i| P[i][j]).count())
+            .sum::<usize>();
         assert_eq!(natural_fill(&A), dense_count);
         let amd = factorize_symbolic_cholesky(
             A.symbolic(),
@@ -465,7 +469,13 @@ mod tests {
     fn triplets_sum_in_stable_sort_order() {
         let n = 30;
         let t: Vec<(usize, usize, f64)> = (0..2000)
-            .map(|k| ((k * 7919) % n, (k * 104_729) % n, 1.0 / (k + 1) as f64 - 0.3))
+            .map(|k| {
+                (
+                    (k * 7919) % n,
+                    (k * 104_729) % n,
+                    1.0 / (k + 1) as f64 - 0.3,
+                )
+            })
             .collect();
         let A = Csc::from_triplets(n, t.clone());
         let mut r = t.clone();
