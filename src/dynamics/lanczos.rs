@@ -119,12 +119,6 @@ pub struct KrylovWorkspace {
     tmp: Mat<f64>,
 }
 
-fn ensure(A: &mut Mat<f64>, rows: usize, cols: usize) {
-    if A.nrows() != rows || A.ncols() < cols {
-        *A = Mat::zeros(rows, cols);
-    }
-}
-
 impl Default for KrylovWorkspace {
     fn default() -> Self {
         KrylovWorkspace {
@@ -233,17 +227,21 @@ fn rayleigh_ritz(
     Some((theta, Y, worst))
 }
 
-/// Thick restart: keep the `kk` largest Ritz vectors and the pending block
-/// V[:, k..k+p], with the residual coupling as an arrow in H.
+/// Thick restart: keep the `kk` largest Ritz vectors after the `skip`
+/// largest (0 at a restart; the converged count when a chunk's pairs are
+/// locked and the rest carried to the next chunk, [`locking`]) and the
+/// pending block V[:, k..k+p], with the residual coupling as an arrow in H.
+#[allow(clippy::too_many_arguments)]
 fn thick_restart(
     ws: &mut KrylovWorkspace,
     k: usize,
     p: usize,
     kk: usize,
+    skip: usize,
     theta: &[f64],
     Y: &Mat<f64>,
 ) {
-    let Ykeep = Mat::from_fn(k, kk, |i, r| Y[(i, k - 1 - r)]);
+    let Ykeep = Mat::from_fn(k, kk, |i, r| Y[(i, k - 1 - skip - r)]);
     let coupling = Mat::from_fn(p, k, |i, j| ws.H[(k + i, j)]);
     for A in [&mut ws.V, &mut ws.MV] {
         let pending = A.subcols(k, p).to_owned();
@@ -272,12 +270,69 @@ fn thick_restart(
     let H = &mut ws.H;
     H.fill(0.0);
     for r in 0..kk {
-        H[(r, r)] = theta[k - 1 - r];
+        H[(r, r)] = theta[k - 1 - skip - r];
         for i in 0..p {
             H[(kk + i, r)] = arrow[(i, r)];
             H[(r, kk + i)] = arrow[(i, r)];
         }
     }
+}
+
+/// Basis size m for `nev` wanted pairs with blocks of `p` in dimension n:
+/// [`LanczosOptions::basis`], or ⌈halves · nev / 2⌉ (5 halves for one
+/// run, [`locking::CHUNK_BASIS_HALVES`] for a locked chunk); below nev + p
+/// the problem is too small.
+fn basis_size(options: &LanczosOptions, nev: usize, p: usize, n: usize, halves: usize) -> usize {
+    let m = options
+        .basis
+        .unwrap_or((halves * nev).div_ceil(2).max(nev + 2 * p));
+    m.min(n.saturating_sub(p))
+}
+
+/// Grow `A` to `rows` × at least `cols`, keeping its columns (a carried
+/// thick-restart state lives in the leading ones).
+fn grow(A: &mut Mat<f64>, rows: usize, cols: usize) {
+    if A.nrows() != rows {
+        *A = Mat::zeros(rows, cols);
+    } else if A.ncols() < cols {
+        A.resize_with(rows, cols, |_, _| 0.0);
+    }
+}
+
+/// The start block V₀ = K_σ⁻¹ M R, M-orthonormal, in V[:, 0..p]; returns
+/// the operator applications spent.
+fn start_block<O: ShiftInvertOperator + ?Sized>(
+    op: &mut O,
+    ws: &mut KrylovWorkspace,
+    p: usize,
+) -> Result<usize, LanczosError> {
+    let n = op.dim();
+    for j in 0..p {
+        for i in 0..n {
+            ws.V[(i, j)] = start_value(i, j);
+        }
+    }
+    // Start in the range of the operator, V₀ = K_σ⁻¹ M R: with a singular
+    // M (massless DOFs) the M-inner product is definite only there, and a
+    // start vector's null-space part would otherwise stay in every Ritz
+    // vector (Nour-Omid, Parlett, Ericsson & Jensen 1987, "How to implement
+    // the spectral transformation", Math. Comp. 48, sec. 3).
+    op.mass(
+        ws.V.as_ref().subcols(0, p),
+        ws.MV.as_mut().subcols_mut(0, p),
+    );
+    ws.V.as_mut()
+        .subcols_mut(0, p)
+        .copy_from(ws.MV.subcols(0, p));
+    op.solve(ws.V.as_mut().subcols_mut(0, p));
+    op.mass(
+        ws.V.as_ref().subcols(0, p),
+        ws.MV.as_mut().subcols_mut(0, p),
+    );
+    let ones = vec![1.0; p];
+    orthonormalize_block(&*op, &mut ws.V, &mut ws.MV, 0, p, &ones, 1000)
+        .ok_or(LanczosError::TooSmall)?;
+    Ok(p)
 }
 
 /// The `nev` largest eigenpairs of the operator (see module docs).
@@ -287,52 +342,54 @@ pub fn largest_eigenpairs<O: ShiftInvertOperator + ?Sized>(
     options: &LanczosOptions,
     ws: &mut KrylovWorkspace,
 ) -> Result<LanczosResult, LanczosError> {
+    let m = basis_size(options, nev, options.block.max(1), op.dim(), 5);
+    run(op, nev, m, options, ws, 0, 0).map(|(r, _)| r)
+}
+
+/// [`largest_eigenpairs`] with a basis of `m` vectors, starting from the thick-restart state of
+/// `start` Ritz vectors and a pending block left in `ws` by the previous
+/// call (0: a fresh start block), and leaving up to `carry` of the next
+/// Ritz vectors (after the `nev` returned) in `ws` as such a state for a
+/// following call on the operator deflated by the returned pairs
+/// ([`locking`]). Returns the count carried.
+fn run<O: ShiftInvertOperator + ?Sized>(
+    op: &mut O,
+    nev: usize,
+    m: usize,
+    options: &LanczosOptions,
+    ws: &mut KrylovWorkspace,
+    start: usize,
+    carry: usize,
+) -> Result<(LanczosResult, usize), LanczosError> {
     let n = op.dim();
     let p = options.block.max(1);
-    let mut m = options
-        .basis
-        .unwrap_or((5 * nev).div_ceil(2).max(nev + 2 * p));
-    if m + p > n {
-        m = n.saturating_sub(p);
-    }
     if nev == 0 || m < nev + p {
         return Err(LanczosError::TooSmall);
     }
-    ensure(&mut ws.V, n, m + p);
-    ensure(&mut ws.MV, n, m + p);
-    ensure(&mut ws.tmp, n, m);
-    ws.H = Mat::zeros(m + p, m + p);
-    for j in 0..p {
-        for i in 0..n {
-            ws.V[(i, j)] = start_value(i, j);
-        }
+    grow(&mut ws.V, n, m + p);
+    grow(&mut ws.MV, n, m + p);
+    grow(&mut ws.tmp, n, m);
+    let mut H = Mat::zeros(m + p, m + p);
+    if start > 0 {
+        let s = start + p;
+        H.as_mut()
+            .submatrix_mut(0, 0, s, s)
+            .copy_from(ws.H.submatrix(0, 0, s, s));
     }
-    let mut applications = 0;
-    // Start in the range of the operator, V₀ = K_σ⁻¹ M R: with a singular
-    // M (massless DOFs) the M-inner product is definite only there, and a
-    // start vector's null-space part would otherwise stay in every Ritz
-    // vector (Nour-Omid, Parlett, Ericsson & Jensen 1987, "How to implement
-    // the spectral transformation", Math. Comp. 48, sec. 3).
-    for _ in 0..2 {
-        op.mass(
-            ws.V.as_ref().subcols(0, p),
-            ws.MV.as_mut().subcols_mut(0, p),
-        );
-        if applications > 0 {
-            break;
-        }
-        ws.V.as_mut()
-            .subcols_mut(0, p)
-            .copy_from(ws.MV.subcols(0, p));
-        op.solve(ws.V.as_mut().subcols_mut(0, p));
-        applications += p;
-    }
-    let ones = vec![1.0; p];
-    orthonormalize_block(&*op, &mut ws.V, &mut ws.MV, 0, p, &ones, 1000)
-        .ok_or(LanczosError::TooSmall)?;
-    let (mut k, mut restarts) = (0, 0);
-    // The first block after the start or a restart couples to all of V[0..k].
-    let mut lo = 0;
+    ws.H = H;
+    let mut applications = if start == 0 {
+        start_block(op, ws, p)?
+    } else {
+        0
+    };
+    // The first block after the start or a restart couples to all of
+    // V[0..k] (a carried state is a restart).
+    // The caller leaves room for a block step ([`locking`]).
+    debug_assert!(
+        start + p <= m,
+        "carried state of {start} too large for a basis of {m}"
+    );
+    let (mut k, mut restarts, mut lo) = (start, 0, 0);
     loop {
         while k + p <= m {
             block_step(op, ws, k, p, lo, 31 * (k + p + restarts))?;
@@ -357,12 +414,18 @@ pub fn largest_eigenpairs<O: ShiftInvertOperator + ?Sized>(
                 1.0,
                 Par::Seq,
             );
-            return Ok(LanczosResult {
-                mu: (0..nev).map(|r| theta[k - 1 - r]).collect(),
+            let carried = carry.min(k - nev);
+            if carried > 0 {
+                thick_restart(ws, k, p, carried, nev, &theta, &Y);
+            }
+            let mu = (0..nev).map(|r| theta[k - 1 - r]).collect();
+            let r = LanczosResult {
+                mu,
                 X,
                 restarts,
                 applications,
-            });
+            };
+            return Ok((r, carried));
         }
         if restarts >= options.max_restarts || !worst.is_finite() {
             return Err(LanczosError::NotConverged {
@@ -371,7 +434,7 @@ pub fn largest_eigenpairs<O: ShiftInvertOperator + ?Sized>(
             });
         }
         let kk = (nev + (k - nev) / 2).min(m - p).max(nev);
-        thick_restart(ws, k, p, kk, &theta, &Y);
+        thick_restart(ws, k, p, kk, 0, &theta, &Y);
         k = kk;
         lo = 0;
         restarts += 1;

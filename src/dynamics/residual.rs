@@ -43,7 +43,7 @@ impl PreparedModel {
     /// Check η of every mode (module docs): the worst η, or an error naming
     /// the first mode above its allowance [`allowance`]. `ws` holds the
     /// factor of K_σ.
-    pub(crate) fn check_residuals(
+    pub fn check_residuals(
         &self,
         c: &Configuration,
         values: &[f64],

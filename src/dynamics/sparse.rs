@@ -12,7 +12,7 @@ use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::llt::factor::LltError;
 use faer::reborrow::ReborrowMut;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LltRef, SymbolicCholesky,
+    factorize_symbolic_cholesky, simplicial, CholeskySymbolicParams, LltRef, SymbolicCholesky,
     SymmetricOrdering,
 };
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
@@ -31,26 +31,45 @@ pub struct Csc {
 impl Csc {
     /// Build from (row, column, value) triplets; duplicates are summed in a
     /// fixed order (sorted by position, then by input order).
-    pub fn from_triplets(n: usize, mut t: Vec<(usize, usize, f64)>) -> Csc {
-        t.sort_by_key(|a| (a.1, a.0));
-        let mut col_ptr = vec![0usize; n + 1];
-        let mut row_idx = Vec::with_capacity(t.len());
-        let mut values: Vec<f64> = Vec::with_capacity(t.len());
-        let mut last = None;
-        for (i, j, v) in t {
-            if last == Some((i, j)) {
-                if let Some(x) = values.last_mut() {
-                    *x += v;
-                }
-                continue;
-            }
-            last = Some((i, j));
-            row_idx.push(i);
-            values.push(v);
-            col_ptr[j + 1] += 1;
+    ///
+    /// A stable counting sort by column, then a stable sort of each column
+    /// by row: the same order as one stable sort by (column, row), so the
+    /// same sums bit for bit, in O(nnz) plus short sorts (the one sort of
+    /// up to 1.4 M triplets was ~5 % of a 30-mode run at 9,963 DOF,
+    /// `benchmarks/fe_many_modes.rs`).
+    pub fn from_triplets(n: usize, t: Vec<(usize, usize, f64)>) -> Csc {
+        let mut start = vec![0usize; n + 1];
+        for &(_, j, _) in &t {
+            start[j + 1] += 1;
         }
         for j in 0..n {
-            col_ptr[j + 1] += col_ptr[j];
+            start[j + 1] += start[j];
+        }
+        let mut next = start.clone();
+        let mut sorted = vec![(0usize, 0.0f64); t.len()];
+        for (i, j, v) in t {
+            sorted[next[j]] = (i, v);
+            next[j] += 1;
+        }
+        let mut col_ptr = vec![0usize; n + 1];
+        let mut row_idx = Vec::with_capacity(sorted.len());
+        let mut values: Vec<f64> = Vec::with_capacity(sorted.len());
+        for j in 0..n {
+            let column = &mut sorted[start[j]..start[j + 1]];
+            column.sort_by_key(|e| e.0);
+            let mut last = None;
+            for &(i, v) in column.iter() {
+                if last == Some(i) {
+                    if let Some(x) = values.last_mut() {
+                        *x += v;
+                    }
+                    continue;
+                }
+                last = Some(i);
+                row_idx.push(i);
+                values.push(v);
+            }
+            col_ptr[j + 1] = row_idx.len();
         }
         Csc {
             n,
@@ -103,9 +122,16 @@ impl Csc {
             values: vec![0.0; pattern.nnz()],
             ..pattern.clone()
         };
+        // Rows are sorted in both: one merge per column.
         for j in 0..self.n {
+            let mut q = pattern.col_ptr[j];
+            let end = pattern.col_ptr[j + 1];
             for p in self.col_ptr[j]..self.col_ptr[j + 1] {
-                if let Some(q) = pattern.position(self.row_idx[p], j) {
+                let i = self.row_idx[p];
+                while q < end && pattern.row_idx[q] < i {
+                    q += 1;
+                }
+                if q < end && pattern.row_idx[q] == i {
                     out.values[q] += self.values[p];
                 }
             }
@@ -201,7 +227,28 @@ impl Csc {
     }
 }
 
-/// Symbolic Cholesky analysis of one sparsity pattern (AMD ordering,
+/// Non-zeros of the Cholesky factor of `A` in its own ordering: the column
+/// counts from the elimination tree (Gilbert, Ng & Peyton 1994, as in
+/// faer's simplicial analysis), without building the factor's pattern.
+fn natural_fill(A: &Csc) -> usize {
+    let n = A.n;
+    let mut etree = vec![0isize; n];
+    let mut counts = vec![0usize; n];
+    let mut mem = MemBuffer::new(simplicial::prefactorize_symbolic_cholesky_scratch::<usize>(
+        n,
+        A.nnz(),
+    ));
+    simplicial::prefactorize_symbolic_cholesky(
+        &mut etree,
+        &mut counts,
+        A.symbolic(),
+        MemStack::new(&mut mem),
+    );
+    counts.iter().sum()
+}
+
+/// Symbolic Cholesky analysis of one sparsity pattern (fill-reducing
+/// ordering, [`SparseCholesky::analyse`];
 /// elimination tree, supernodes), shared by every numeric factorization.
 #[derive(Debug)]
 pub struct SparseCholesky {
@@ -241,16 +288,36 @@ impl FactorWorkspace {
 }
 
 impl SparseCholesky {
-    /// Analyse the pattern of `A` (lower triangle used).
+    /// Analyse the pattern of `A` (lower triangle used): the AMD ordering,
+    /// or the matrix's own when its factor has fewer non-zeros.
+    ///
+    /// Why both: FE exports are often numbered along the part (mesh
+    /// generators sweep it), which is a banded ordering; for the elongated
+    /// solids of issue 32 it fills less than AMD, and the solves of the
+    /// Lanczos, bound by reading L, cost in proportion (hex8 column at
+    /// 9,963 DOF: see `benchmarks/fe_many_modes.md`). The natural fill is
+    /// counted first from the elimination tree (O(nnz) time, O(n)
+    /// memory), so a badly numbered model never builds its dense symbolic
+    /// factor. Both candidates are deterministic: the choice depends only
+    /// on the pattern.
     pub fn analyse(A: &Csc) -> Result<SparseCholesky, String> {
-        let symbolic = factorize_symbolic_cholesky(
-            A.symbolic(),
-            Side::Lower,
-            SymmetricOrdering::Amd,
-            CholeskySymbolicParams::default(),
-        )
-        .map_err(|e| format!("symbolic Cholesky analysis failed: {e:?}"))?;
-        Ok(SparseCholesky { symbolic })
+        let symbolic = |ordering| {
+            factorize_symbolic_cholesky(
+                A.symbolic(),
+                Side::Lower,
+                ordering,
+                CholeskySymbolicParams::default(),
+            )
+            .map_err(|e| format!("symbolic Cholesky analysis failed: {e:?}"))
+        };
+        let amd = symbolic(SymmetricOrdering::Amd)?;
+        if natural_fill(A) < amd.len_val() {
+            let natural = symbolic(SymmetricOrdering::Identity)?;
+            if natural.len_val() < amd.len_val() {
+                return Ok(SparseCholesky { symbolic: natural });
+            }
+        }
+        Ok(SparseCholesky { symbolic: amd })
     }
 
     /// Non-zeros of the factor L.
@@ -342,6 +409,95 @@ mod tests {
         assert_eq!(A.asymmetry(1e-12), None);
         let skew = Csc::from_triplets(2, vec![(0, 1, 1.0), (1, 0, 2.0)]);
         assert!(skew.asymmetry(1e-12).is_some());
+    }
+
+    /// A 7 × 7 grid Laplacian numbered row by row (bandwidth 7): the
+    /// natural fill from the elimination tree equals an independent count
+    /// by dense symbolic elimination, the chosen ordering never fills more
+    /// than AMD, and its factor solves.
+    #[test]
+    fn the_ordering_with_less_fill_is_chosen_and_solves() {
+        let (w, n) = (7, 49);
+        let mut t = Vec::new();
+        for i in 0..n {
+            t.push((i, i, 4.5));
+            for j in [i + 1, i + w] {
+                if j < n && (j != i + 1 || (i + 1) % w != 0) {
+                    t.push((i, j, -1.0));
+                    t.push((j, i, -1.0));
+                }
+            }
+        }
+        let A = Csc::from_triplets(n, t);
+        // Dense symbolic elimination in the natural order.
+        let mut P: Vec<Vec<bool>> = (0..n)
+            .map(|i| (0..n).map(|j| A.get(i, j) != 0.0).collect())
+            .collect();
+        for k in 0..n {
+            let below: Vec<usize> = (k + 1..n).filter(|&i| P[i][k]).collect();
+            for &i in &below {
+                for &j in &below {
+                    P[i][j] = true;
+                }
+            }
+        }
+        let dense_count = (0..n)
+            .map(|j| (j..n).filter(|&i| P[i][j]).count())
+            .sum::<usize>();
+        assert_eq!(natural_fill(&A), dense_count);
+        let amd = factorize_symbolic_cholesky(
+            A.symbolic(),
+            Side::Lower,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams::default(),
+        )
+        .unwrap();
+        let chol = SparseCholesky::analyse(&A).unwrap();
+        assert!(chol.factor_nnz() <= amd.len_val());
+        let mut ws = FactorWorkspace::default();
+        chol.factor(&A, &A.values, &mut ws).unwrap();
+        let X = Mat::from_fn(n, 2, |i, j| (i * (j + 2)) as f64 / 10.0 - 1.0);
+        let mut Y = Mat::zeros(n, 2);
+        A.mul(X.as_ref(), Y.as_mut());
+        chol.solve(Y.as_mut(), &mut ws);
+        assert!((&Y - &X).norm_max() < 1e-13);
+    }
+
+    /// The counting sort sums duplicates in the order of one stable sort by
+    /// (column, row), bit for bit; `on_pattern` by merge equals lookups.
+    #[test]
+    fn triplets_sum_in_stable_sort_order() {
+        let n = 30;
+        let t: Vec<(usize, usize, f64)> = (0..2000)
+            .map(|k| {
+                (
+                    (k * 7919) % n,
+                    (k * 104_729) % n,
+                    1.0 / (k + 1) as f64 - 0.3,
+                )
+            })
+            .collect();
+        let A = Csc::from_triplets(n, t.clone());
+        let mut r = t.clone();
+        r.sort_by_key(|a| (a.1, a.0));
+        let mut expected: Vec<((usize, usize), f64)> = Vec::new();
+        for (i, j, v) in r {
+            match expected.last_mut() {
+                Some((pos, x)) if *pos == (i, j) => *x += v,
+                _ => expected.push(((i, j), v)),
+            }
+        }
+        assert_eq!(A.nnz(), expected.len());
+        for ((i, j), v) in expected {
+            assert_eq!(A.get(i, j).to_bits(), v.to_bits());
+        }
+        let sub = Csc::from_triplets(n, t.iter().step_by(7).copied().collect());
+        let on = sub.on_pattern(&A);
+        for j in 0..n {
+            for p in A.col_ptr[j]..A.col_ptr[j + 1] {
+                assert_eq!(on.values[p], sub.get(A.row_idx[p], j));
+            }
+        }
     }
 
     /// Products of column groups (8, 3) equal one-column products bit for

@@ -101,8 +101,11 @@ impl Kind for Gsa {
     /// 11: the estimators' notes (an output constant over every sample) are
     ///    stage warnings too, not only in subproblems.json (issue 29); the
     ///    outputs are unchanged.
+    /// 12: eigenpairs of sparse models from the sparse factor's own ordering
+    ///    when it fills less than AMD, and of free-free or > 40-mode solves
+    ///    from the faster shift choice and locking (issue 32): last bits.
     fn version(&self) -> u32 {
-        11
+        12
     }
 
     fn summary(&self) -> &'static str {

@@ -107,7 +107,9 @@ impl Kind for Identify {
     /// damping ratios are judged (cause `damping`) (issue 26); the verdict's
     /// warnings are stage warnings (issue 29).
     /// 18: a refit of implicated parameters that fits only slightly better
-    /// (less than 10 % lower RMS) is not taken (issue 26).
+    /// (less than 10 % lower RMS) is not taken (issue 26); eigenpairs of
+    /// sparse models change in the last bits (the factor's ordering, issue
+    /// 32).
     fn version(&self) -> u32 {
         18
     }
