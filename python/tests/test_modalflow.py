@@ -133,7 +133,9 @@ def test_quickstart_loads_every_artifact(quickstart):
          and abs(frf.values[0, k]) > abs(frf.values[0, k + 1])]
     ]
     np.testing.assert_allclose(peaks, modes.modes["frequency_hz"], rtol=0.005)
-    assert truth["model"]["schema_version"] == 2
+    # model.json names referenced files by path, size and hash, never their text
+    assert truth["model"]["schema_version"] == 3
+    assert "external" not in truth["model"]
     assert quickstart["hammer"]["frf"][0].coherence is not None
     ema = quickstart["ema[measurement=noisy]"]
     assert ema["modes"].uncertainty is not None
