@@ -25,6 +25,12 @@ use std::sync::{Arc, Mutex};
 /// long-running process.
 const MEMO_ENTRIES: usize = 4;
 
+/// Referenced-file bytes the memo keeps besides its newest model: matrix
+/// text is about the size of the built matrices (a 190k-DOF hex8 export:
+/// 534 MB of text, ~0.4 GB of matrices), so older large models are dropped
+/// rather than held for the life of the process next to the one in use.
+const MEMO_BYTES: u64 = 1 << 30;
+
 /// One memoized model: the absolute model file path, the content key, the
 /// built model and its referenced files.
 struct Loaded {
@@ -124,10 +130,18 @@ fn memo_get(path: &Path, key: &blake3::Hash) -> Option<Arc<Model>> {
 fn memo_put(loaded: Loaded) {
     let mut memo = MEMO.lock().unwrap_or_else(|e| e.into_inner());
     memo.retain(|l| l.path != loaded.path);
-    if memo.len() >= MEMO_ENTRIES {
+    memo.push(loaded);
+    let bytes = |l: &Loaded| l.files.iter().map(|f| f.bytes).sum();
+    drop_oldest(&mut memo, bytes, MEMO_ENTRIES, MEMO_BYTES);
+}
+
+/// Drop the oldest (first) entries of `memo` until at most `entries` are
+/// left and their `bytes` sum to at most `limit`; the newest always stays.
+fn drop_oldest<T>(memo: &mut Vec<T>, bytes: impl Fn(&T) -> u64, entries: usize, limit: u64) {
+    let total = |m: &[T]| m.iter().map(&bytes).sum::<u64>();
+    while memo.len() > entries || (memo.len() > 1 && total(memo) > limit) {
         memo.remove(0);
     }
-    memo.push(loaded);
 }
 
 /// The files the model file `rel` references (path as written, size,
@@ -199,6 +213,22 @@ mod tests {
         format!(
             "%%MatrixMarket matrix coordinate real symmetric\n3 3 3\n1 1 {v}\n2 2 {v}\n3 3 {v}\n"
         )
+    }
+
+    /// The memo keeps the newest entries within its count and bytes, and
+    /// always the newest one, however large.
+    #[test]
+    fn the_memo_drops_its_oldest_entries_first() {
+        let keep = |sizes: &[u64], entries: usize, limit: u64| {
+            let mut m = sizes.to_vec();
+            drop_oldest(&mut m, |&b| b, entries, limit);
+            m
+        };
+        assert_eq!(keep(&[1, 2, 3, 4, 5], 4, 100), [2, 3, 4, 5]);
+        assert_eq!(keep(&[50, 30, 20], 4, 100), [50, 30, 20]);
+        assert_eq!(keep(&[60, 30, 20], 4, 100), [30, 20]);
+        assert_eq!(keep(&[60, 30, 20, 40], 4, 100), [30, 20, 40]);
+        assert_eq!(keep(&[10, 500], 4, 100), [500]);
     }
 
     /// The same files give the same (shared) model; an edited matrix gives
