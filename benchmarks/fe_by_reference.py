@@ -8,12 +8,12 @@ compare): DOF, matrix text MB, `modalflow validate` CPU s, a fully cached
 `modalflow run` CPU s (best of ROUNDS, user+sys of the whole process),
 model.json bytes, cache bytes after the first run; and the Matrix Market
 reader alone against scipy.io.mmread on the same two files (CPU s and wall
-s; modalflow's through the ignored lib test `reads_the_file_in_mtx_env`, whose
-test binary LIBTEST is printed by `cargo test --release --lib --no-run`).
+s; modalflow's through `fe_setup_costs read`, the bench binary READER that
+`cargo bench --bench fe_setup_costs --no-run` prints).
 
-    cargo build --release && cargo test --release --lib --no-run
+    cargo build --release && cargo bench --bench fe_setup_costs --no-run
     /tmp/aeenv/bin/python benchmarks/fe_by_reference.py target/release/modalflow \\
-        target/release/deps/modalflow-HASH [--before OLD_BIN] [--rounds 3] 8,8,40 20,20,145
+        target/release/deps/fe_setup_costs-HASH [--before OLD_BIN] [--rounds 3] 8,8,40 20,20,145
 """
 import argparse
 import os
@@ -30,7 +30,7 @@ import scipy.sparse as sp  # noqa: E402
 
 ap = argparse.ArgumentParser()
 ap.add_argument("bin")
-ap.add_argument("libtest")
+ap.add_argument("reader")
 ap.add_argument("sizes", nargs="+")
 ap.add_argument("--before")
 ap.add_argument("--rounds", type=int, default=3)
@@ -83,9 +83,7 @@ def reader(d):
         for _ in range(args.rounds):
             cpu = wall = 0.0
             for f in files:
-                env["MODALFLOW_MTX"] = f
-                c, w = cpu_of([args.libtest, "--ignored", "--exact",
-                               "io::fe::matrix_market::tests::reads_the_file_in_mtx_env"], d, env)
+                c, w = cpu_of([args.reader, "read", f], d, env)
                 cpu, wall = cpu + c, wall + w
             runs.append((cpu, wall))
         out[f"modalflow {threads} thread(s)"] = min(runs)

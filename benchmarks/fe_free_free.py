@@ -38,9 +38,22 @@ CORNERS = np.array([[-1, -1, -1], [1, -1, -1], [1, 1, -1], [-1, 1, -1],
                     [-1, -1, 1], [1, -1, 1], [1, 1, 1], [-1, 1, 1]], float)
 
 
-def element(a, b, c):
+def add_gauss_point(Ke, Me, N, dN, det):
+    """Add one Gauss point's isotropic stiffness and consistent mass
+    (shape values N, physical derivatives dN: nodes x 3, weight det) to the
+    element matrices (DOFs node-major x, y, z)."""
     lam = E * NU / ((1 + NU) * (1 - 2 * NU))
     mu = E / (2 * (1 + NU))
+    for i in range(3):
+        Me[i::3, i::3] += RHO * np.outer(N, N) * det
+        for j in range(3):
+            k = lam * np.outer(dN[:, i], dN[:, j]) + mu * np.outer(dN[:, j], dN[:, i])
+            if i == j:
+                k += mu * dN @ dN.T
+            Ke[i::3, j::3] += k * det
+
+
+def element(a, b, c):
     g = 1 / np.sqrt(3)
     det = a * b * c / 8
     Ke, Me = np.zeros((24, 24)), np.zeros((24, 24))
@@ -54,13 +67,7 @@ def element(a, b, c):
                 dN = np.stack([CORNERS[:, 0] * v * w / 8 * 2 / a,
                                CORNERS[:, 1] * u * w / 8 * 2 / b,
                                CORNERS[:, 2] * u * v / 8 * 2 / c], axis=1)
-                for i in range(3):
-                    Me[i::3, i::3] += RHO * np.outer(N, N) * det
-                    for j in range(3):
-                        k = lam * np.outer(dN[:, i], dN[:, j]) + mu * np.outer(dN[:, j], dN[:, i])
-                        if i == j:
-                            k += mu * dN @ dN.T
-                        Ke[i::3, j::3] += k * det
+                add_gauss_point(Ke, Me, N, dN, det)
     return Ke, Me
 
 

@@ -234,43 +234,9 @@ mod tests {
         Csc::from_triplets(3 * gx * gy * gz, t)
     }
 
-    /// CPU seconds of this thread so far (/proc/thread-self/schedstat, ns).
-    fn cpu() -> f64 {
-        std::fs::read_to_string("/proc/thread-self/schedstat")
-            .ok()
-            .and_then(|s| s.split_whitespace().next()?.parse::<f64>().ok())
-            .map_or(0.0, |ns| ns * 1e-9)
-    }
-
-    /// Measurement, not a check (docs/fe-models.md, "Memory"): exact and
-    /// by-node symbolic analyses of hex8 columns and cubes of ~50k and
-    /// ~190k DOF, CPU seconds of this thread.
-    /// `cargo test --release --lib symbolic_analysis_cost -- --ignored --nocapture`
-    #[test]
-    #[ignore]
-    fn symbolic_analysis_cost_on_hex8_solids() {
-        for e in [[12, 12, 100], [20, 20, 150], [24, 24, 24], [39, 39, 39]] {
-            let K = hex8_pattern(e);
-            let t = cpu();
-            let nnz = cholesky_factor_nnz(&K, &K).unwrap();
-            let exact = cpu() - t;
-            let t = cpu();
-            let by_nodes = cholesky_factor_nnz_by_nodes(&K, &K).unwrap();
-            let quick = cpu() - t;
-            eprintln!(
-                "hex8 {e:?}: n = {}, nnz(K) = {}, nnz(L) = {nnz} (fill {:.2}) in {exact:.3} CPU-s; \
-                 by nodes {by_nodes} ({:+.2} %) in {quick:.3} CPU-s",
-                K.n,
-                K.nnz(),
-                nnz as f64 / K.nnz() as f64,
-                100.0 * (by_nodes as f64 / nnz as f64 - 1.0)
-            );
-        }
-    }
-
     /// The by-node count against the exact one on a solid of 22k DOF (an
     /// elongated hex8 block, fill genuine): measured +2.6 % here, +0.5 to
-    /// +1.8 % at 47k–200k DOF (`symbolic_analysis_cost_on_hex8_solids`),
+    /// +1.8 % at 47k–200k DOF (`cargo bench --bench fe_setup_costs -- fill`),
     /// +8 % at 4.6k and −28 % at 1k DOF, where supernode padding differs;
     /// hence [`factor_nnz`] counts exactly below 4e6 non-zeros.
     #[test]

@@ -157,17 +157,3 @@ fn many_chunks_read_in_file_order_with_lines_right() {
     let e = read_matrix_market(&format!("{short}\n\n")).unwrap_err();
     assert!(e.message.contains("after 600000 of the 600001"), "{e}");
 }
-
-/// Not a test: reads the file named by `MODALFLOW_MTX` so that
-/// `benchmarks/fe_by_reference.py` can time the reader alone (file read
-/// and parse, one process) against scipy's `mmread`.
-#[test]
-#[ignore]
-fn reads_the_file_in_mtx_env() {
-    let Ok(path) = std::env::var("MODALFLOW_MTX") else {
-        return;
-    };
-    let text = std::fs::read_to_string(&path).unwrap();
-    let m = read_matrix_market(&text).unwrap();
-    println!("{path}: {} rows, {} entries", m.n, m.entries.len());
-}
