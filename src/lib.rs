@@ -9,6 +9,7 @@ pub mod artifacts;
 pub mod dense;
 pub mod dynamics;
 pub mod ema;
+pub mod file_hash;
 pub mod frf;
 pub mod geometry;
 pub mod heap;

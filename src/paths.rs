@@ -195,6 +195,13 @@ pub fn confined_reader(
     base: PathBuf,
     allowed: Vec<PathBuf>,
 ) -> impl Fn(&str) -> io::Result<Vec<u8>> {
+    let path = confined_path(base, allowed);
+    move |rel: &str| std::fs::read(path(rel)?)
+}
+
+/// [`confined_reader`]'s check alone: the absolute path of `rel` below
+/// `base` when it lies below one of `allowed`, else a located refusal.
+pub fn confined_path(base: PathBuf, allowed: Vec<PathBuf>) -> impl Fn(&str) -> io::Result<PathBuf> {
     let allowed: Vec<PathBuf> = allowed.iter().map(|p| absolute(p)).collect();
     move |rel: &str| {
         let full = absolute(&base.join(rel));
@@ -208,7 +215,7 @@ pub fn confined_reader(
                 ),
             ));
         }
-        std::fs::read(full)
+        Ok(full)
     }
 }
 

@@ -185,3 +185,80 @@ fn a_matrix_edited_after_synthesize_is_refused_then_rerun() {
     assert_eq!(k.blake3, now);
     Model::from_yaml(&again.yaml, name, &again.resolver(ws.path())).unwrap();
 }
+
+/// The facts files of model files in the workspace's cache (name, JSON).
+fn model_facts(ws: &Workspace) -> Vec<(String, serde_json::Value)> {
+    let dir = ws.path().join("cache/models");
+    let mut out: Vec<(String, serde_json::Value)> = files_below(&dir)
+        .into_iter()
+        .filter(|(name, _)| name.ends_with(".json"))
+        .map(|(name, b)| (name, serde_json::from_slice(&b).unwrap()))
+        .collect();
+    out.sort_by(|a, b| a.0.cmp(&b.0));
+    out
+}
+
+/// Validation of a model that built before reads its facts from the cache
+/// instead of building it again (a 190k-DOF export: 0.2 instead of 7 CPU-s);
+/// the facts are keyed by content, so an edited matrix is built and
+/// checked again, and `validate` on a project without a cache creates none.
+#[test]
+fn validation_reads_the_facts_of_a_model_that_built_before() {
+    let ws = workspace();
+    let out = ws.cmd(&["validate", "p.yaml"]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        crate::util::text(&out.stderr)
+    );
+    assert!(!ws.path().join("cache").exists());
+    ws.run(&[], 0);
+    let facts = model_facts(&ws);
+    assert_eq!(facts.len(), 1, "{facts:?}");
+    let (name, json) = &facts[0];
+    assert_eq!(json["n_dofs"], 6);
+    assert_eq!(json["finite_modes"], 6);
+    assert_eq!(json["parameters"][0]["name"], "k");
+    assert_eq!(format!("{}.json", json["key"].as_str().unwrap()), *name);
+    // Facts that say the model is too large for memory: validation believes
+    // them (it did not build the model), and says what to do.
+    let mut big = json.clone();
+    big["memory_bytes"] = serde_json::json!(1.0e15);
+    let path = ws.path().join("cache/models").join(name);
+    std::fs::write(&path, serde_json::to_vec(&big).unwrap()).unwrap();
+    let out = ws.cmd(&["validate", "p.yaml"]);
+    let err = crate::util::text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("memory"), "{err}");
+    // The same facts under another content: an edited matrix is built
+    // again (valid), and its own facts join the first.
+    ws.write("models/se/k.mtx", &stiffness(2.5e6));
+    let out = ws.cmd(&["validate", "p.yaml"]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        crate::util::text(&out.stderr)
+    );
+    assert_eq!(model_facts(&ws).len(), 2);
+    // A model that does not build has no facts; its error stays.
+    ws.write(
+        "models/se/k.mtx",
+        "%%MatrixMarket matrix coordinate real symmetric\n6 6 1\n9 9 1.0\n",
+    );
+    let out = ws.cmd(&["validate", "p.yaml"]);
+    let err = crate::util::text(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(err.contains("k.mtx"), "{err}");
+    assert_eq!(model_facts(&ws).len(), 2);
+    // `gc` collects them (found again by building).
+    let out = ws.cmd(&["gc"]);
+    assert_eq!(
+        out.status.code(),
+        Some(0),
+        "{}",
+        crate::util::text(&out.stderr)
+    );
+    assert!(model_facts(&ws).is_empty());
+}

@@ -27,6 +27,22 @@ pub struct Resolved {
     pub results: PathBuf,
 }
 
+impl Resolved {
+    /// Serve model files' facts from this cache while planning, so
+    /// validation does not build a large model whose content built before
+    /// (`modalflow::stages::params::model_facts`).
+    pub fn serve_model_facts(&self) -> &Self {
+        modalflow::stages::params::model_facts::read_from(&self.cache);
+        self
+    }
+
+    /// Keep the model facts this process learned in the cache, when it
+    /// exists; call after the locations were checked.
+    pub fn keep_model_facts(&self) {
+        modalflow::stages::params::model_facts::save(&self.cache);
+    }
+}
+
 impl Locations {
     /// The cache and results root for a pipeline file (`None`: no file,
     /// the search starts in the current directory).

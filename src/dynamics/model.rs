@@ -15,7 +15,7 @@ use crate::parameter::{ParameterError, Scale};
 
 /// An identifiable model parameter: a bounded [`crate::parameter::Parameter`]
 /// with its physical kind and the true value synthesis uses.
-#[derive(Debug, Clone, PartialEq)]
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Parameter {
     pub name: String,
     /// True value (used for synthesis).

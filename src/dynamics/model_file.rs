@@ -103,7 +103,7 @@ impl ModelFile {
 }
 
 /// Physical meaning of a parameter.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ParameterKind {
     /// Spring stiffness, N/m (translation) or N·m/rad (rotation).

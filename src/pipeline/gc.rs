@@ -54,7 +54,9 @@ pub fn collect(store: &Store, dry_run: bool) -> Result<GcReport, StoreError> {
     // of runs that failed or were interrupted; no run holds the cache now,
     // but jobs a killed or detached run submitted may still be queued: their
     // directories (and shared batch directories) stay for the next run.
-    for sub in ["runs", "tmp", "locks", "jobs"] {
+    // `models/` holds facts of model files (`stages::params::model_facts`),
+    // found again by building the model: collected like temporary files.
+    for sub in ["runs", "tmp", "locks", "jobs", "models"] {
         let Ok(dir) = fs::read_dir(store.root().join(sub)) else {
             continue;
         };
@@ -70,7 +72,7 @@ pub fn collect(store: &Store, dry_run: bool) -> Result<GcReport, StoreError> {
             }
             match sub {
                 "runs" => report.removed_records += 1,
-                "tmp" | "jobs" => report.removed_temp += 1,
+                "tmp" | "jobs" | "models" => report.removed_temp += 1,
                 _ => {}
             }
             if !dry_run {

@@ -511,8 +511,11 @@ pub fn hash_file(path: &Path) -> io::Result<String> {
 }
 
 /// Content hash of a workspace path as the store would name it: a file's
-/// blob hash, or for a directory the hash of its tree listing.
+/// blob hash, or for a directory the hash of its tree listing. Files are
+/// hashed through [`crate::file_hash`], so a large input hashed once in
+/// this process (a model's matrices at validation) is not read again.
 pub fn hash_path(path: &Path) -> io::Result<String> {
+    let hash_file = |p: &Path| crate::file_hash::hash(p).map(|h| h.to_hex().to_string());
     if !path.is_dir() {
         return hash_file(path);
     }

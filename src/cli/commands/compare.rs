@@ -171,12 +171,10 @@ fn columns<'a>(rows: &'a [Row], of: fn(&'a Row) -> Vec<&'a String>) -> Vec<Strin
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
+    let locations = args.locations.resolve(Some(&args.file));
+    locations.serve_model_facts();
     let plan = plan::load(&args.file)?;
-    let results = args
-        .locations
-        .resolve(Some(&args.file))
-        .results
-        .join(&plan.name);
+    let results = locations.results.join(&plan.name);
     let mut rows = collect(&plan, &results, args.pattern.as_deref())?;
     if rows.is_empty() {
         anyhow::bail!("no stage results with metrics under {} (run `modalflow run {}` first, or check the pattern)", results.display(), args.file.display());

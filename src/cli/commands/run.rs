@@ -104,8 +104,9 @@ fn heartbeat() -> std::time::Duration {
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
-    let plan = plan::load_with(&args.file, &args.overrides.set)?;
     let locations = args.locations.resolve(Some(&args.file));
+    locations.serve_model_facts();
+    let plan = plan::load_with(&args.file, &args.overrides.set)?;
     if args.detach {
         return detach(&args, &locations, &plan.results_name);
     }
@@ -132,6 +133,7 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
     } else {
         scheduler::run(&plan, &opts)?
     };
+    locations.keep_model_facts();
     if args.json {
         print_json(&report)?;
     } else {

@@ -21,6 +21,8 @@ pub struct Args {
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
+    let locations = args.locations.resolve(Some(&args.file));
+    locations.serve_model_facts();
     let plan = plan::load(&args.file)?;
     let Some(node) = plan.nodes.iter().find(|n| n.name == args.stage) else {
         let names: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
@@ -32,7 +34,6 @@ pub fn exec(args: Args) -> anyhow::Result<u8> {
         ))
         .into());
     };
-    let locations = args.locations.resolve(Some(&args.file));
     let dir = locations.results.join(&plan.name).join(&node.name);
     let manifest = match read_manifest(&dir) {
         Some(m) => m,

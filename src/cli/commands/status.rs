@@ -23,15 +23,12 @@ pub struct Args {
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
+    let locations = args.locations.resolve(Some(&args.file));
+    locations.serve_model_facts();
     let plan = plan::load_with(&args.file, &args.overrides.set)?;
-    let opts = super::run::options(
-        &args.locations.resolve(Some(&args.file)),
-        Some(1),
-        false,
-        Vec::new(),
-        ProgressMode::Quiet,
-    );
+    let opts = super::run::options(&locations, Some(1), false, Vec::new(), ProgressMode::Quiet);
     let report = scheduler::status(&plan, &opts)?;
+    locations.keep_model_facts();
     if args.json {
         print_json(&report)?;
     } else {

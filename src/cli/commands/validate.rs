@@ -13,8 +13,9 @@ pub struct Args {
     #[arg(long)]
     pub json: bool,
     /// Accepted like on every command that takes them, so one command line
-    /// works for `validate`, `status` and `run`; validation reads no cache
-    /// but refuses locations that overlap the project or each other.
+    /// works for `validate`, `status` and `run`; validation reads only the
+    /// facts of model files that built before from the cache, and refuses
+    /// locations that overlap the project or each other.
     #[command(flatten)]
     locations: Locations,
     #[command(flatten)]
@@ -22,10 +23,12 @@ pub struct Args {
 }
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
-    let plan = plan::load_with(&args.file, &args.overrides.set)?;
     let locations = args.locations.resolve(Some(&args.file));
+    locations.serve_model_facts();
+    let plan = plan::load_with(&args.file, &args.overrides.set)?;
     modalflow::pipeline::roots::check(&plan, &locations.cache, &locations.results)
         .map_err(modalflow::pipeline::scheduler::RunError::from)?;
+    locations.keep_model_facts();
     let edges: usize = plan.upstream.iter().map(Vec::len).sum();
     if args.json {
         print_json(&serde_json::json!({

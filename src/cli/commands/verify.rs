@@ -29,6 +29,7 @@ pub struct Args {
 
 pub fn exec(args: Args) -> anyhow::Result<u8> {
     let locations = args.locations.resolve(args.file.as_deref());
+    locations.serve_model_facts();
     // Verification only reads; a cache that is not there is not created.
     let store = if locations.cache.join("runs").is_dir() {
         Some(Store::open(&locations.cache)?)

@@ -16,6 +16,7 @@
 //! ([`super::Kind::check`]) run on the typed value.
 
 pub mod limits;
+pub mod model_facts;
 pub mod model_files;
 mod range;
 

@@ -9,9 +9,11 @@
 //! export takes seconds to parse and assemble. Loaded models are memoized
 //! per process, keyed by the model file's path and a blake3 hash over its
 //! text and every referenced file's content, so an edited file is never
-//! served stale and an unchanged one is built once.
+//! served stale and an unchanged one is built once. Across processes,
+//! validation asks for the model's [`facts`](super::model_facts), which a
+//! model of the same content that built before answers without building.
 
-use super::ParamProblem;
+use super::model_facts::{self, ModelFacts};
 use crate::artifacts::model::ReferencedFile;
 use crate::dynamics::model_file;
 use crate::dynamics::Model;
@@ -67,18 +69,11 @@ pub fn load(dir: &Path, rel: &str) -> Result<(Arc<Model>, String, Vec<Referenced
             .err()
             .unwrap_or_else(|| format!("model file {rel}: a referenced file could not be read")));
     };
-    let mut h = blake3::Hasher::new();
-    h.update(text.as_bytes());
     let files: Vec<ReferencedFile> = bytes
         .iter()
         .map(|(p, b)| ReferencedFile::of(p, b))
         .collect();
-    for f in &files {
-        h.update(&(f.path.len() as u64).to_le_bytes());
-        h.update(f.path.as_bytes());
-        h.update(f.blake3.as_bytes());
-    }
-    let key = h.finalize();
+    let key = content_key(&text, &files);
     let abs = crate::paths::absolute(&path);
     if let Some(m) = memo_get(&abs, &key) {
         return Ok((m, text, files));
@@ -99,6 +94,65 @@ pub fn load(dir: &Path, rel: &str) -> Result<(Arc<Model>, String, Vec<Referenced
         files: files.clone(),
     });
     Ok((model, text, files))
+}
+
+/// What the memo and the facts are keyed by: the model file's text and the
+/// path (as written) and blake3 of every file it references.
+fn content_key(text: &str, files: &[ReferencedFile]) -> blake3::Hash {
+    let mut h = blake3::Hasher::new();
+    h.update(text.as_bytes());
+    for f in files {
+        h.update(&(f.path.len() as u64).to_le_bytes());
+        h.update(f.path.as_bytes());
+        h.update(f.blake3.as_bytes());
+    }
+    h.finalize()
+}
+
+/// What validation needs of the model file `rel` below `dir` (its
+/// [`ModelFacts`]) and the model file's text: from the facts of a model of
+/// the same content that built before — the referenced files are then
+/// hashed, not parsed — otherwise by building the model ([`load`]) and
+/// learning its facts.
+pub fn facts(dir: &Path, rel: &str) -> Result<(ModelFacts, String), String> {
+    let path = dir.join(rel);
+    let text =
+        std::fs::read_to_string(&path).map_err(|e| format!("cannot read model file {rel}: {e}"))?;
+    if let Some(files) = hashed_files(&text, rel, dir, &path) {
+        let key = model_facts::key(&content_key(&text, &files));
+        if let Some(f) = model_facts::lookup(&key) {
+            return Ok((f, text));
+        }
+    }
+    let (model, text, files) = load(dir, rel)?;
+    let facts = ModelFacts::of(&model, &model_facts::key(&content_key(&text, &files)));
+    model_facts::learn(facts.clone());
+    Ok((facts, text))
+}
+
+/// The files the model file `text` (at `path`, `rel` below `dir`)
+/// references, hashed without being read into memory; `None` when the spec
+/// does not parse or a file cannot be read (building the model says why).
+fn hashed_files(text: &str, rel: &str, dir: &Path, path: &Path) -> Option<Vec<ReferencedFile>> {
+    let spec = model_file::parse(text, rel).ok()?;
+    let base = path.parent().unwrap_or(dir).to_path_buf();
+    let locate = crate::paths::confined_path(base.clone(), vec![dir.to_path_buf(), base]);
+    let mut out: Vec<ReferencedFile> = Vec::new();
+    for f in spec.external_files() {
+        if out.iter().any(|r| r.path == f) {
+            continue;
+        }
+        let full = locate(&f).ok()?;
+        let bytes = std::fs::metadata(&full).ok()?.len();
+        let hash = crate::file_hash::hash(&full).ok()?;
+        out.push(ReferencedFile {
+            path: f,
+            bytes,
+            blake3: hash.to_hex().to_string(),
+        });
+    }
+    out.sort_by(|a, b| a.path.cmp(&b.path));
+    Some(out)
 }
 
 /// Every file the model file `text` references (as written, deduplicated)
@@ -185,22 +239,15 @@ pub fn model_file_dependencies(dir: &Path, rel: &str) -> Result<Vec<String>, Str
     Ok(checked_model_file(dir, rel)?.1)
 }
 
-/// [`model_file_dependencies`] and the model itself, for checks that need
-/// it at validation (e.g. a budget against its parameter count).
-pub fn checked_model_file(dir: &Path, rel: &str) -> Result<(Arc<Model>, Vec<String>), String> {
-    let (model, text) = load_model(dir, rel)?;
-    if let Some(p) = model_memory(&model) {
+/// [`model_file_dependencies`] and the model's facts, for checks that need
+/// them at validation (e.g. a budget against its parameter count).
+pub fn checked_model_file(dir: &Path, rel: &str) -> Result<(ModelFacts, Vec<String>), String> {
+    let (facts, text) = facts(dir, rel)?;
+    if let Some(p) = facts.memory_problem() {
         return Err(p.message);
     }
     let spec = model_file::parse(&text, rel).map_err(|e| e.to_string())?;
-    Ok((model, external_files(&spec, rel)))
-}
-
-/// The eigenproblem of a model against the memory limit
-/// ([`Model::memory_estimate`]: dense n × n matrices or a sparse factor).
-pub fn model_memory(model: &Model) -> Option<ParamProblem> {
-    let (bytes, what) = model.memory_estimate();
-    super::limits::memory_problem(&["model"], &what, bytes)
+    Ok((facts, external_files(&spec, rel)))
 }
 
 #[cfg(test)]

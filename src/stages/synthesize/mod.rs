@@ -13,7 +13,7 @@ use crate::artifacts;
 mod params;
 mod values;
 
-use super::params::model_files::{external_files, load_model, model_memory, referenced_files};
+use super::params::model_files::{external_files, facts, load_model, referenced_files};
 use super::{
     Artifact, FileRef, InputSpec, Kind, ParamProblem, StageContext, StageError, StageOutputs,
 };
@@ -181,31 +181,31 @@ impl Kind for Synthesize {
     }
 
     fn file_dependencies(&self, p: &Params, dir: &Path) -> Result<Vec<String>, ParamProblem> {
-        let (model, text) = load_model(dir, &p.model).map_err(|m| {
+        let (model, text) = facts(dir, &p.model).map_err(|m| {
             problem(
                 &["model"],
                 m,
                 "fix the model file; see pipelines/models/ for examples",
             )
         })?;
-        values(&model, p.values.as_ref(), None).map_err(|m| {
+        values(&model.parameters, p.values.as_ref(), None).map_err(|m| {
             problem(
                 &["values"],
                 m,
                 "use the model's parameter names and stay within bounds",
             )
         })?;
-        if let Some(problem) = model_memory(&model) {
+        if let Some(problem) = model.memory_problem() {
             return Err(problem);
         }
-        let finite = model.finite_modes();
+        let finite = model.finite_modes;
         if let Some(Modes::Count(k)) = p.modes {
             if k > finite {
                 return Err(problem(
                     &["modes"],
                     format!(
                         "{k} modes asked, but the model has only {finite} DOFs with mass ({} massless DOFs, such as rotations or constraint nodes of a lumped-mass export, have no finite frequency)",
-                        model.n_dofs() - finite
+                        model.n_dofs - finite
                     ),
                     "ask for fewer modes, or `modes: {below: <Hz>}`",
                 ));
@@ -235,7 +235,7 @@ impl Kind for Synthesize {
             return Err(problem);
         }
         if let Some(imp) = &p.impact_test {
-            let model = Some((model.n_dofs(), spec.sensors.len()));
+            let model = Some((model.n_dofs, spec.sensors.len()));
             if let Some(problem) = sp::impact_resources(p, imp, model).into_iter().next() {
                 return Err(problem);
             }
@@ -254,8 +254,8 @@ impl Kind for Synthesize {
             Some(_) => Some(significant_parameters(ctx.input("significant")?, p)?),
             None => None,
         };
-        let mut x =
-            values(&model, p.values.as_ref(), only.as_deref()).map_err(|m| invalid("values", m))?;
+        let mut x = values(&model.parameters, p.values.as_ref(), only.as_deref())
+            .map_err(|m| invalid("values", m))?;
         if ctx.inputs.contains_key("values") {
             override_from_table(&model, &mut x, ctx.input("values")?)?;
         }

@@ -5,7 +5,7 @@
 
 use super::params::{Params, Values};
 use crate::dynamics::measurement::GaussianStream;
-use crate::dynamics::Model;
+use crate::dynamics::{Model, Parameter};
 use crate::stages::StageError;
 use std::path::Path;
 
@@ -70,24 +70,26 @@ pub(super) fn significant_parameters(path: &Path, p: &Params) -> Result<Vec<Stri
 /// Parameter values to use, in model order; `only` (from the `significant`
 /// input) names the parameters a `perturb` moves.
 pub(super) fn values(
-    model: &Model,
+    parameters: &[Parameter],
     spec: Option<&Values>,
     only: Option<&[String]>,
 ) -> Result<Vec<f64>, String> {
-    let mut v = model.true_values();
+    let mut v: Vec<f64> = parameters.iter().map(|p| p.value).collect();
     match spec {
         None | Some(Values::Named(_)) => {}
         Some(Values::Overrides(map)) => {
             for (name, &x) in map {
-                let i = model.parameter_index(name).ok_or_else(|| {
-                    let names: Vec<&str> =
-                        model.parameters.iter().map(|p| p.name.as_str()).collect();
-                    format!(
-                        "values: the model has no parameter `{name}` (parameters: {})",
-                        names.join(", ")
-                    )
-                })?;
-                let p = &model.parameters[i];
+                let i = parameters
+                    .iter()
+                    .position(|p| &p.name == name)
+                    .ok_or_else(|| {
+                        let names: Vec<&str> = parameters.iter().map(|p| p.name.as_str()).collect();
+                        format!(
+                            "values: the model has no parameter `{name}` (parameters: {})",
+                            names.join(", ")
+                        )
+                    })?;
+                let p = &parameters[i];
                 if !(x.is_finite() && p.lower <= x && x <= p.upper) {
                     return Err(format!(
                         "values: `{name}` = {x} is outside its bounds [{}, {}]",
@@ -102,7 +104,7 @@ pub(super) fn values(
                 let glob = glob::Pattern::new(pattern)
                     .map_err(|e| format!("values.scale: `{pattern}`: {e}"))?;
                 let mut matched = false;
-                for (i, p) in model.parameters.iter().enumerate() {
+                for (i, p) in parameters.iter().enumerate() {
                     if glob.matches(&p.name) {
                         matched = true;
                         let x = v[i] * f;
@@ -125,7 +127,7 @@ pub(super) fn values(
         Some(Values::Perturb { perturb }) => {
             let only = only.or(perturb.parameters.as_deref());
             if let Some(only) = only {
-                let names: Vec<&str> = model.parameters.iter().map(|p| p.name.as_str()).collect();
+                let names: Vec<&str> = parameters.iter().map(|p| p.name.as_str()).collect();
                 if let Some(name) = only.iter().find(|n| !names.contains(&n.as_str())) {
                     return Err(format!(
                         "values.perturb.parameters: the model has no parameter `{name}` (parameters: {})",
@@ -135,7 +137,7 @@ pub(super) fn values(
             }
             // One Gaussian stream per parameter index: adding a parameter
             // leaves the others' perturbations unchanged.
-            for (i, p) in model.parameters.iter().enumerate() {
+            for (i, p) in parameters.iter().enumerate() {
                 if only.is_some_and(|only| !only.contains(&p.name)) {
                     continue;
                 }
