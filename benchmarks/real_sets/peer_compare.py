@@ -144,6 +144,24 @@ SETS = {
                 "end of the record. Both peers return nothing: their LSCF poles at 192.40-192.55 Hz have negative damping "
                 "(-0.03 to -0.07 %) at every order, and both keep only 0 < zeta.",
     },
+    "psv_line": {
+        "files": [os.path.join(HERE, "pycfs_psv", "line_h2_accelerance.unv")],
+        "band": (100.0, 8900.0),
+        "published": None,
+        "source": "none published: consensus of the two tools",
+        "note": "Polytec PSV 10 export (pyCFS 0.2.1 test data, MIT): 10 laser-vibrometer points along a line on a "
+                "specimen ('Messpunkt5_einspannung_probe.svd'), H2 accelerance (m/s^2)/N against one force sensor, 93.75-9000 Hz at 15.625 Hz; the "
+                "coarse lines make each resonance a few lines wide. 919.7 and 933.9 Hz are 0.9 line apart: both peers fit that "
+                "one peak with a broad (zeta ~6 %) and a narrow (~0.7 %) pole, so the consensus may count it twice.",
+    },
+    "psv_surface": {
+        "files": [os.path.join(HERE, "pycfs_psv", "surface_h1_receptance.unv")],
+        "band": (100.0, 8900.0),
+        "published": None,
+        "source": "none published: consensus of the two tools",
+        "note": "Polytec PSV 10 export (pyCFS 0.2.1 test data, MIT): 25 laser-vibrometer points on a surface grid of "
+                "a second specimen (probe1), H1 receptance m/N against one force sensor, 93.75-9000 Hz at 15.625 Hz.",
+    },
 }
 
 
