@@ -120,6 +120,48 @@ SETS = {
                 "3-5 % damping the published list is probably incomplete. A further mode near 3890 Hz lies "
                 "outside the band. No licence in the repository: local benchmark only.",
     },
+    "vtb_case1": {
+        "files": [os.path.join(HERE, "vibration_toolbox_cases", "case1.uff")],
+        "band": (10.0, 490.0),
+        "import": {"calibrated": False},
+        "published": [212.0925],
+        "source": "vibration-toolbox 0.6.10 (PyPI, MIT) docstring of `sdof_cf`/`ema.sdof_cf`: nf 212.092530551 Hz "
+                  "from its SDOF curve fit of lines 500-1000 (156-312 Hz); no other mode published",
+        "note": "One measured impact FRF (channel 2 over channel 1, H1, 0-500 Hz at 0.3125 Hz, units not stored, "
+                "coherence 0.2-0.4 over most of the band, above 1 on 5 lines below 18 Hz); a one-line spike at 34.1 Hz, "
+                "a weak bump near 160 Hz, an anti-resonance near 400 Hz and a rising flank to 500 Hz (a mode above the "
+                "span). The test is not documented beyond the docstrings.",
+    },
+    "vtb_case2": {
+        "files": [os.path.join(HERE, "vibration_toolbox_cases", "case2.uff")],
+        "band": (10.0, 490.0),
+        "import": {"calibrated": False},
+        "published": [192.5938],
+        "source": "vibration-toolbox 0.6.10 (PyPI, MIT) docstring of `ema.mdof_cf`: nf 192.59382330 Hz from its "
+                  "curve fit of lines 500-1000 (156-312 Hz); no other mode published",
+        "note": "One measured FRF (same analyser and settings as vtb_case1, a different structure or configuration), "
+                "noisy above 200 Hz (coherence mostly below 0.5); one clear resonance at 192.5 Hz, still ringing at the "
+                "end of the record. Both peers return nothing: their LSCF poles at 192.40-192.55 Hz have negative damping "
+                "(-0.03 to -0.07 %) at every order, and both keep only 0 < zeta.",
+    },
+    "psv_line": {
+        "files": [os.path.join(HERE, "pycfs_psv", "line_h2_accelerance.unv")],
+        "band": (100.0, 8900.0),
+        "published": None,
+        "source": "none published: consensus of the two tools",
+        "note": "Polytec PSV 10 export (pyCFS 0.2.1 test data, MIT): 10 laser-vibrometer points along a line on a "
+                "specimen ('Messpunkt5_einspannung_probe.svd'), H2 accelerance (m/s^2)/N against one force sensor, 93.75-9000 Hz at 15.625 Hz; the "
+                "coarse lines make each resonance a few lines wide. 919.7 and 933.9 Hz are 0.9 line apart: both peers fit that "
+                "one peak with a broad (zeta ~6 %) and a narrow (~0.7 %) pole, so the consensus may count it twice.",
+    },
+    "psv_surface": {
+        "files": [os.path.join(HERE, "pycfs_psv", "surface_h1_receptance.unv")],
+        "band": (100.0, 8900.0),
+        "published": None,
+        "source": "none published: consensus of the two tools",
+        "note": "Polytec PSV 10 export (pyCFS 0.2.1 test data, MIT): 25 laser-vibrometer points on a surface grid of "
+                "a second specimen (probe1), H1 receptance m/N against one force sensor, 93.75-9000 Hz at 15.625 Hz.",
+    },
 }
 
 
@@ -250,7 +292,8 @@ def reference(name, rr):
 
 
 def run_modalflow(binary, name, workdir):
-    """modalflow on one set: a two-stage pipeline (import with `band`, autoema with `band`) in a
+    """modalflow on one set: a two-stage pipeline (import with `band` and the set's `import`
+    params, e.g. `calibrated: false` for FRFs without units; autoema with `band` only) in a
     fresh folder with a fresh cache; CPU and peak RSS of the `modalflow run` process."""
     import shutil
     d = os.path.join(workdir, name)
@@ -261,9 +304,10 @@ def run_modalflow(binary, name, workdir):
     lo, hi = SETS[name]["band"]
     files = [os.path.basename(f) for f in SETS[name]["files"]]
     path = "data/" + files[0] if len(files) == 1 else "data/*.uff"
+    extra = "".join(f", {k}: {json.dumps(v)}" for k, v in SETS[name].get("import", {}).items())
     with open(os.path.join(d, "p.yaml"), "w") as f:
         f.write(f"name: {name}\nstages:\n  imp:\n    kind: import\n"
-                f"    params: {{path: \"{path}\", band: [{lo}, {hi}]}}\n"
+                f"    params: {{path: \"{path}\", band: [{lo}, {hi}]{extra}}}\n"
                 f"  ema:\n    kind: autoema\n    params: {{band: [{lo}, {hi}]}}\n"
                 f"    inputs: {{frf: imp.frf}}\n")
     cpu, rss = measured([os.path.abspath(binary), "run", "p.yaml"], cwd=d)
