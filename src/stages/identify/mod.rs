@@ -110,8 +110,11 @@ impl Kind for Identify {
     /// (less than 10 % lower RMS) is not taken (issue 26); eigenpairs of
     /// sparse models change in the last bits (the factor's ordering, issue
     /// 32).
+    /// 19: `updated_model` refers to the input's super-element matrices
+    /// (named with size and blake3 in its header) instead of copying them
+    /// (issue 32).
     fn version(&self) -> u32 {
-        18
+        19
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"

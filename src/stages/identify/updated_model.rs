@@ -1,21 +1,29 @@
 //! The `updated_model` output of `identify`: a directory with the updated
-//! model file (`model.yaml`, see [`crate::dynamics::model_writer`]), the
-//! files it references (super-element matrices, same relative paths) and
+//! model file (`model.yaml`, see [`crate::dynamics::model_writer`]) and
 //! `changes.csv` ([`ChangeRow`]: `parameter,kind,initial,value,change_rel,
 //! identified,identifiable,std_error_rel,ci_low,ci_high,lower,upper`, the
 //! table of the update).
+//!
+//! Files the model references (super-element matrices) are **not copied**:
+//! no parameter changes them, and an FE export is up to ~0.5 GB of text
+//! (issue 32: no stage artifact holds matrix text). model.yaml names them
+//! as the input model file does (relative to its directory) and its header
+//! lists each with size and blake3, where it is and how to run the updated
+//! model (beside the input model file, or the input model synthesized with
+//! `inputs: {values: <stage>.parameters}`).
 //!
 //! Built from what identify already wrote (its parameters.csv) and the
 //! model it read (the `model` param or the model.json input), so the
 //! identification itself is untouched.
 
-use crate::artifacts::model::ModelJson;
+use crate::artifacts::model::{ModelJson, ReferencedFile};
 use crate::artifacts::parameters::{read_identified, ParameterRow};
 use crate::dynamics::model_writer::{updated_model_file, ParameterUpdate};
+use crate::stages::params::model_files;
 use crate::stages::{StageContext, StageError};
 use serde::Serialize;
 use std::collections::BTreeMap;
-use std::path::{Component, Path};
+use std::path::Path;
 
 /// One row of changes.csv: a parameter's start and identified value, in
 /// its unit; the relative change; whether it moved and whether the data
@@ -37,40 +45,73 @@ struct ChangeRow<'a> {
     upper: f64,
 }
 
-/// Referenced files by path as the model file writes them: their bytes.
-type Referenced = BTreeMap<String, Vec<u8>>;
+/// The input model as identify read it: the model file's text, its name,
+/// its path below the pipeline directory and the files it references.
+struct Source {
+    text: String,
+    name: String,
+    path: Option<String>,
+    files: Vec<ReferencedFile>,
+}
 
-/// The model file's text, name and referenced files, as identify read them.
-fn model_source(
-    ctx: &StageContext,
-    param: Option<&str>,
-) -> Result<(String, String, Referenced), StageError> {
+/// The model file's text, name, path and referenced files, as identify read them.
+fn model_source(ctx: &StageContext, param: Option<&str>) -> Result<Source, StageError> {
     if let Some(rel) = param {
         let file = ctx.pipeline_dir.join(rel);
         let text = std::fs::read_to_string(&file)
             .map_err(|e| StageError::io(format!("cannot read model file `{rel}`"), e))?;
-        let spec = crate::dynamics::model_file::parse(&text, rel).map_err(|e| {
+        let files = model_files::referenced_files(ctx.pipeline_dir, rel).map_err(|m| {
             StageError::InvalidParam {
                 param: "model".into(),
-                message: e.to_string(),
+                message: m,
             }
         })?;
-        let base = file.parent().unwrap_or(ctx.pipeline_dir).to_path_buf();
-        let read =
-            crate::paths::confined_reader(base.clone(), vec![ctx.pipeline_dir.to_path_buf(), base]);
-        let mut external = BTreeMap::new();
-        for f in spec.external_files() {
-            let bytes = read(&f).map_err(|e| StageError::io(format!("cannot read {f}"), e))?;
-            external.insert(f, bytes);
-        }
-        return Ok((text, rel.to_string(), external));
+        return Ok(Source {
+            text,
+            name: rel.to_string(),
+            path: Some(rel.to_string()),
+            files,
+        });
     }
-    // model.json refers to the files (version 3) or embeds them (1–2);
-    // referenced ones are read beside the model file and hash-checked.
+    // model.json refers to the files (version 3) or embedded them (1–2,
+    // written by builds before the references: hashed from the text).
     let json = ModelJson::read(ctx.input("model")?, "model")?;
-    let name = json.file_name("model.yaml").to_string();
-    let external = json.referenced(ctx.pipeline_dir, "model")?;
-    Ok((json.yaml, name, external))
+    let mut files = json.files.clone();
+    files.extend(
+        json.external
+            .iter()
+            .map(|(p, text)| ReferencedFile::of(p, text.as_bytes())),
+    );
+    Ok(Source {
+        name: json.file_name("model.yaml").to_string(),
+        path: json.path.clone(),
+        text: json.yaml,
+        files,
+    })
+}
+
+/// Header lines naming the referenced files the updated model uses from
+/// where the input model file names them, and how to run it.
+fn reference_lines(source: &Source, stage: &str) -> Vec<String> {
+    if source.files.is_empty() {
+        return Vec::new();
+    }
+    let input = source.path.as_deref().unwrap_or(&source.name);
+    let mut out = vec![format!(
+        "Referenced files are the input's, by reference (not copied), relative to the directory of {input}:"
+    )];
+    out.extend(source.files.iter().map(|f| {
+        format!(
+            "  {} ({} bytes, blake3 {})",
+            f.path,
+            f.bytes,
+            &f.blake3[..f.blake3.len().min(16)]
+        )
+    }));
+    out.push(format!(
+        "To run this model, place it beside {input}, or synthesize {input} with `inputs: {{values: {stage}.parameters}}`."
+    ));
+    out
 }
 
 /// Write the `updated_model` directory `dir` from identify's
@@ -83,7 +124,8 @@ pub fn write(
 ) -> Result<(), StageError> {
     let failed = |m: String| StageError::Failed(format!("updated model: {m}"));
     let rows: Vec<ParameterRow> = read_identified(parameters).map_err(|e| failed(e.to_string()))?;
-    let (text, name, external) = model_source(ctx, model_param)?;
+    let source = model_source(ctx, model_param)?;
+    let (text, name) = (&source.text, &source.name);
     let updates: Vec<ParameterUpdate> = rows
         .iter()
         .map(|r| ParameterUpdate {
@@ -97,7 +139,7 @@ pub fn write(
         })
         .collect();
     let moved = rows.iter().filter(|r| r.identified).count();
-    let header = [
+    let mut header = vec![
         format!(
             "Updated model: {name} with the values identified by stage `{}` ({moved} of {} parameters moved).",
             ctx.stage,
@@ -105,7 +147,8 @@ pub fn write(
         ),
         "Bounds and everything else as in the input; a comment above each parameter gives its start value, identified value and confidence.".into(),
     ];
-    let yaml = updated_model_file(&text, &updates, &header).map_err(failed)?;
+    header.extend(reference_lines(&source, ctx.stage));
+    let yaml = updated_model_file(text, &updates, &header).map_err(failed)?;
     std::fs::create_dir_all(dir).map_err(|e| StageError::io("cannot create updated_model", e))?;
     let put = |rel: &str, content: &[u8]| -> Result<(), StageError> {
         let p = dir.join(rel);
@@ -116,19 +159,7 @@ pub fn write(
         std::fs::write(&p, content).map_err(|e| StageError::io(format!("cannot write {rel}"), e))
     };
     put("model.yaml", yaml.as_bytes())?;
-    for (rel, content) in &external {
-        // Only paths inside the directory; others are named in the error.
-        if Path::new(rel)
-            .components()
-            .any(|c| !matches!(c, Component::Normal(_)))
-        {
-            return Err(failed(format!(
-                "the model references `{rel}` outside its directory; copy it beside model.yaml by hand"
-            )));
-        }
-        put(rel, content)?;
-    }
-    let kinds: BTreeMap<String, String> = crate::dynamics::model_file::parse(&text, &name)
+    let kinds: BTreeMap<String, String> = crate::dynamics::model_file::parse(text, name)
         .map(|spec| {
             spec.parameters
                 .iter()
