@@ -569,3 +569,43 @@ fn real_beam_warnings_are_few_and_none_at_an_identified_mode() {
         assert!(!at_mode, "{w} — a mode was identified there: {modes:?}");
     }
 }
+
+/// Measured (vibration-toolbox case 1, MIT, `benchmarks/real_sets`): the
+/// stable PolyMAX column at 162 Hz (orders 15–72, ζ ≈ 3.7 %) ends as a mode
+/// or as a rejection with its reason, never without trace (issue 31).
+#[test]
+fn a_stable_column_ends_as_a_mode_or_a_rejection() {
+    let ws = Workspace::new();
+    let set = "benchmarks/real_sets/vibration_toolbox_cases/case1.uff";
+    std::fs::copy(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(set),
+        ws.path().join("case1.uff"),
+    )
+    .unwrap();
+    ws.write(
+        "p.yaml",
+        "name: ema\nstages:\n  imp: {kind: import, params: {path: case1.uff, band: [10, 490], calibrated: false}}\n  ema: {kind: autoema, inputs: {frf: imp.frf}, params: {band: [10, 490]}}\n",
+    );
+    ws.run(&[], 0);
+    let m: serde_json::Value =
+        serde_json::from_str(&ws.read("results/ema/ema/metrics.json")).unwrap();
+    let pos = &m["positions"][0];
+    let near = |v: &&serde_json::Value| (v["frequency_hz"].as_f64().unwrap() - 162.0).abs() <= 2.0;
+    let modes: Vec<_> = pos["modes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(near)
+        .collect();
+    let rejected: Vec<_> = pos["rejected"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(near)
+        .collect();
+    let tall = |r: &&&serde_json::Value| r["n_orders"].as_u64().unwrap() >= 40;
+    assert!(
+        !modes.is_empty() || rejected.iter().any(|r| tall(&r) && r["reason"].is_string()),
+        "162 Hz is neither a mode nor rejected: {rejected:?}"
+    );
+}

@@ -18,7 +18,7 @@
 //! most of a 40-point search with empty selections.
 //! | damping_weight | [0, 1] | — |
 //! | mac_weight | [0, 1] | fixed at 0 with one reference |
-//! | max_order | [n_lo, n_hi] | from the number N of CMIF peaks and n_ref: n_lo = clamp(⌈2 N/n_ref⌉ + 4, 8, 60), n_hi = min(max(n_lo + 24, ⌈6 N/n_ref⌉ + 30), 100, n_f − 2). N counts the prominent peaks of the first CMIF curve above the noise ([`super::noise::cmif_mode_peaks`]) and the peaks of the further curves: a lower bound of the modes (a close pair shares a peak, heavily damped modes merge), hence the margins; a wide band needs several poles per mode before the low modes converge, and the second pole of a repeated root often stabilizes only at high orders |
+//! | max_order | [n_lo, n_hi] | from the number N of CMIF peaks and n_ref: n_lo = clamp(⌈2 N/n_ref⌉ + 4, 8, 60), n_hi = min(max(n_lo + 24, ⌈6 N/n_ref⌉ + 30), 100, n_f − 2). N counts the prominent peaks of the first CMIF curve above the noise ([`super::noise::cmif_mode_peaks`]) and the peaks of the further curves: a lower bound of the modes (a close pair shares a peak, heavily damped modes merge), hence the margins; a wide band needs several poles per mode before the low modes converge, and the second pole of a repeated root often stabilizes only at high orders. With ≤ [`FEW_REFERENCES`] references the FRF peaks are counted too and reported ([`frf_peak_count`]), not used (see [`DataSummary::frf_peaks`]) |
 //!
 //! A chosen value within 2 % (of the searched range) of a bound is "at the
 //! bound"; the search then evaluates the selection a quarter of the range
@@ -42,6 +42,69 @@ pub struct DataSummary {
     /// prominent peaks of the first curve above the noise, and peaks of
     /// the further ones (repeated roots).
     pub cmif_peaks: usize,
+    /// With ≤ [`FEW_REFERENCES`] references: the peaks of the individual
+    /// FRFs, clustered across channels ([`frf_peak_count`]); 0 otherwise.
+    /// Reported beside `cmif_peaks` (which alone sizes the order range):
+    /// sizing the range from the larger count (tried in issue 31: PSV
+    /// surface scan 14 FRF peaks against 3 CMIF peaks) found one more mode
+    /// there and lost modes on the UFSC beam hammer test (707 Hz) and the
+    /// PSV line scan (920, 6924, 7582 Hz), the order rising to 100: a higher
+    /// order feeds the significance test more spurious columns, and that
+    /// test, not the order, rejects the modes missed on these sets.
+    pub frf_peaks: usize,
+}
+
+/// Reference count up to which the FRF peaks are counted as well: with one
+/// reference the first CMIF curve is the root-sum-square of the responses,
+/// σ₁(f) = (Σ_o |H_o(f)|²)^½, where a mode strong at a few points is lost
+/// under the flanks of modes strong at most of them (the PSV surface scan
+/// of issue 31: 3 CMIF peaks, a dozen in its 25 FRFs); with two the same
+/// holds for the modes neither reference excites well.
+pub const FEW_REFERENCES: usize = 2;
+
+/// Peaks of the individual FRFs, clustered across channels: the prominent
+/// peaks of every |H_c| above its noise floor
+/// ([`cmif_mode_peaks`] with the channel's noise variance) are sorted by
+/// frequency and chained while neighbours lie within two line spacings (a
+/// mode's peak moves by a line between channels with leakage and noise);
+/// a chain counts when at least two channels (one, if there is only one)
+/// hold it, so a spike of one channel does not. A lower bound of the
+/// modes, like the CMIF count (close modes share a peak).
+pub fn frf_peak_count(data: &FrfData, noise: &[f64], step_hz: f64) -> usize {
+    let nf = data.n_lines();
+    let n_ch = data.n_out() * data.n_ref();
+    let mut peaks: Vec<(f64, usize)> = (0..n_ch)
+        .flat_map(|c| {
+            let mag: Vec<f64> = data.h[c * nf..(c + 1) * nf]
+                .iter()
+                .map(|v| v.norm())
+                .collect();
+            let noise_c = noise.get(c).copied().unwrap_or(0.0);
+            cmif_mode_peaks(&mag, noise_c)
+                .into_iter()
+                .map(move |k| (data.frequencies_hz[k], c))
+        })
+        .collect();
+    peaks.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+    let support = 2.min(n_ch.max(1));
+    let mut count = 0;
+    let mut chain: Vec<usize> = Vec::new();
+    let mut last = f64::NEG_INFINITY;
+    for &(f, c) in &peaks {
+        if f - last > 2.0 * step_hz + 1e-9 * f.abs() {
+            count += usize::from(distinct(&mut chain) >= support);
+            chain.clear();
+        }
+        chain.push(c);
+        last = f;
+    }
+    count + usize::from(distinct(&mut chain) >= support)
+}
+
+fn distinct(v: &mut Vec<usize>) -> usize {
+    v.sort_unstable();
+    v.dedup();
+    v.len()
 }
 
 impl DataSummary {
@@ -66,15 +129,22 @@ impl DataSummary {
                 }
             })
             .sum();
+        let line_spacing_hz = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
+        let frf_peaks = if data.n_ref() <= FEW_REFERENCES {
+            frf_peak_count(data, noise, line_spacing_hz)
+        } else {
+            0
+        };
         DataSummary {
             band_hz: (
                 f.first().copied().unwrap_or(0.0),
                 f.last().copied().unwrap_or(0.0),
             ),
-            line_spacing_hz: steps.get(steps.len() / 2).copied().unwrap_or(0.0),
+            line_spacing_hz,
             n_ref: data.n_ref(),
             n_lines: data.n_lines(),
             cmif_peaks,
+            frf_peaks,
         }
     }
 
@@ -176,6 +246,7 @@ mod tests {
             n_ref: 2,
             n_lines: 961,
             cmif_peaks: 8,
+            frf_peaks: 0,
         };
         assert_eq!(s.max_order_range(), (12, 54));
         let b = s.bounds((12, 54));
@@ -190,5 +261,61 @@ mod tests {
         assert_eq!(one.implied(), vec![(2, 0.2), (7, 0.0)]);
         let short = DataSummary { n_lines: 30, ..one };
         assert_eq!(short.max_order_range(), (28, 28));
+    }
+
+    /// One reference, `n_out` responses: H_o(f) = Σ_k a_ko / (ω_k² − ω² + 2jζ_k ω_k ω).
+    fn one_reference(freqs: &[f64], n_out: usize, modes: &[(f64, f64, Vec<f64>)]) -> FrfData {
+        use num_complex::Complex64;
+        let nf = freqs.len();
+        let mut h = Vec::with_capacity(n_out * nf);
+        for o in 0..n_out {
+            h.extend(freqs.iter().map(|&f| {
+                let w = 2.0 * std::f64::consts::PI * f;
+                modes
+                    .iter()
+                    .map(|(fr, z, a)| {
+                        let wr = 2.0 * std::f64::consts::PI * fr;
+                        a[o] / Complex64::new(wr * wr - w * w, 2.0 * z * wr * w)
+                    })
+                    .sum::<Complex64>()
+            }));
+        }
+        FrfData {
+            frequencies_hz: freqs.to_vec(),
+            responses: (0..n_out).map(crate::ema::synthetic::dof).collect(),
+            references: vec![crate::ema::synthetic::dof(99)],
+            h,
+            weight: vec![1.0; n_out * nf],
+            coherence: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn frf_peaks_count_modes_the_cmif_of_one_reference_hides() {
+        use crate::ema::noise::cmif;
+        // Ten responses; modes at 100, 130 and 160 Hz (ζ 0.5 %) each seen
+        // at two responses only, under a broad mode at 115 Hz (ζ 5 %) ten
+        // times stronger at all ten: σ₁, the root-sum-square over the
+        // responses, hides the local modes; the FRFs show all four.
+        let freqs: Vec<f64> = (0..=800).map(|k| 60.0 + 0.2 * k as f64).collect();
+        let local = |a: usize| (0..10).map(|o| f64::from(o / 2 == a)).collect::<Vec<f64>>();
+        let modes = [
+            (100.0, 0.005, local(0)),
+            (130.0, 0.005, local(1)),
+            (160.0, 0.005, local(2)),
+            (115.0, 0.05, vec![10.0; 10]),
+        ];
+        let data = one_reference(&freqs, 10, &modes);
+        let noise = vec![1e-30; 10];
+        let s = DataSummary::of(&data, &cmif(&data), &noise);
+        assert_eq!(s.frf_peaks, 4, "{s:?}");
+        assert!(s.cmif_peaks < s.frf_peaks, "{s:?}");
+        // A peak at one response alone does not count (two channels needed).
+        let lone = [
+            (100.0, 0.005, (0..10).map(|o| f64::from(o == 0)).collect()),
+            (160.0, 0.005, vec![1.0; 10]),
+        ];
+        let data = one_reference(&freqs, 10, &lone);
+        assert_eq!(frf_peak_count(&data, &noise, 0.2), 1);
     }
 }

@@ -23,14 +23,16 @@ mod refinement;
 
 pub use refinement::refine_selection;
 
-use super::clustering::{cluster_poles, Cluster, ClusterParams};
+use super::clustering::{
+    cluster_poles_with_dropped, Cluster, ClusterParams, Dropped, DroppedColumn,
+};
 use super::lsfd::{lsfd_roots, LsfdFit};
 use super::noise::{cmif, noise_variance};
 use super::peak_evidence::PeakEvidence;
 use super::polymax::PoleOrder;
 use super::projection::Projector;
-use super::roots::{roots_from_clusters, Root};
-use super::significance::{Acceptance, Rejection, Validated, Validation};
+use super::roots::{roots_from_clusters, Root, COINCIDENT};
+use super::significance::{Acceptance, Reason, Rejection, Validated, Validation};
 use super::stabilization::{stabilize, PoleFlags, StabilizationParams};
 use super::{EmaError, FrfData};
 
@@ -232,7 +234,7 @@ pub fn select_modes(
     let n_orders = orders.iter().take_while(|o| o.order <= h.max_order).count();
     let flags = stabilize(orders, n_orders, &stabilization_params(h, data));
     let candidates = stable_poles(&flags);
-    let clusters = cluster_poles(
+    let (clusters, dropped) = cluster_poles_with_dropped(
         orders,
         &candidates,
         &ClusterParams {
@@ -244,7 +246,9 @@ pub fn select_modes(
         },
     );
     let roots = roots_from_clusters(orders, &clusters, &candidates, data.n_ref());
+    let mut rejected = dropped_columns(orders, &dropped, &roots, h.cluster_distance);
     let validated = screening.validate(orders, roots);
+    rejected.extend(validated.rejected);
     let mean_frac = validated.fit.mean_frac();
     let n_modes: usize = validated.roots.iter().map(|r| r.multiplicity).sum();
     Selection {
@@ -254,9 +258,55 @@ pub fn select_modes(
         objective: mean_frac - screening.params.penalty * n_modes as f64,
         roots: validated.roots,
         accepted: validated.accepted,
-        rejected: validated.rejected,
+        rejected,
         mean_frac,
     }
+}
+
+/// The stable columns the clustering dropped ([`DroppedColumn`]) that are
+/// not part of a root (none of their poles joined one and their median
+/// pole coincides with none, [`COINCIDENT`]), as rejections: every stable
+/// column ends as a root or with its reason in metrics.json.
+fn dropped_columns(
+    orders: &[PoleOrder],
+    dropped: &[DroppedColumn],
+    roots: &[Root],
+    cluster_distance: f64,
+) -> Vec<Rejection> {
+    let pole = |m: &(usize, usize)| &orders[m.0].poles[m.1];
+    let median = |mut v: Vec<f64>| {
+        v.sort_by(f64::total_cmp);
+        v[v.len() / 2]
+    };
+    dropped
+        .iter()
+        .filter(|c| !c.members.is_empty())
+        .filter_map(|c| {
+            let f = median(c.members.iter().map(|m| pole(m).frequency_hz).collect());
+            let z = median(c.members.iter().map(|m| pole(m).damping_ratio).collect());
+            let l = crate::metrics::pole(f, z);
+            let joined = roots.iter().any(|r| {
+                let s = r.pole(orders).s;
+                (s - l).norm() <= COINCIDENT * s.re.abs().min(l.re.abs())
+                    || c.members.iter().any(|m| r.members.contains(m))
+            });
+            let mut distinct: Vec<usize> = c.members.iter().map(|m| m.0).collect();
+            distinct.sort_unstable();
+            distinct.dedup();
+            (!joined).then_some(Rejection {
+                frequency_hz: f,
+                damping_ratio: z,
+                n_orders: distinct.len(),
+                reason: match c.why {
+                    Dropped::Sparse { min_orders } => Reason::SparseColumn { min_orders },
+                    Dropped::Wide { spread } => Reason::WideColumn {
+                        spread,
+                        cluster_distance,
+                    },
+                },
+            })
+        })
+        .collect()
 }
 
 /// The final LSFD fit (Householder QR) of a selection: shapes and the

@@ -78,6 +78,14 @@ pub enum Reason {
     /// column shorter than 0.3 of the median column (`peak_median_orders`)
     /// of the roots that hold a CMIF peak ([`super::selection`]).
     ShortColumn { peak_median_orders: usize },
+    /// A stable column (≥ 5 orders) that holds poles of fewer than
+    /// `min_orders` model orders (`min_cluster_fraction` of the orders
+    /// considered): no mode candidate ([`super::clustering`]).
+    SparseColumn { min_orders: usize },
+    /// A stable column whose poles lie up to `spread` (relative frequency)
+    /// from its median, beyond the cut `cluster_distance`: no mode
+    /// candidate at this cut ([`super::clustering`]).
+    WideColumn { spread: f64, cluster_distance: f64 },
 }
 
 /// One decision about a root.

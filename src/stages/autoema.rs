@@ -229,8 +229,14 @@ impl Kind for AutoEma {
     /// 9: the positions' warnings (metrics.json `warnings`) are the stage's
     /// warnings too — `warning:` lines, the run's count, reports — cached or
     /// not; the outputs are unchanged (issue 29).
+    /// 10: every stable column (≥ 5 orders) ends as a root or in
+    /// `rejected` — the clustering's dropped columns are recorded as
+    /// `sparse_column` or `wide_column` (the vibration-toolbox case 1's
+    /// 162 Hz column vanished without trace); metrics.json `data` reports
+    /// `frf_peaks` (the FRFs' own peaks with ≤ 2 references) beside
+    /// `cmif_peaks`; the modes are unchanged (issue 31).
     fn version(&self) -> u32 {
-        9
+        10
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"
