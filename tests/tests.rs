@@ -6,6 +6,7 @@
 mod util;
 
 mod autoema;
+mod autoema_real;
 mod cli;
 mod docs;
 mod dynamics;
