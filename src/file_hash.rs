@@ -60,16 +60,7 @@ pub fn hash(path: &Path) -> io::Result<blake3::Hash> {
     if let Some(h) = lookup(&key, before) {
         return Ok(h);
     }
-    let mut hasher = blake3::Hasher::new();
-    let mut buf = vec![0u8; 1 << 16];
-    loop {
-        let n = f.read(&mut buf)?;
-        if n == 0 {
-            break;
-        }
-        hasher.update(&buf[..n]);
-    }
-    let h = hasher.finalize();
+    let h = hash_content(&mut f)?;
     // A file written while it was read, or too recently to tell the next
     // write from this one by its stamp, is not remembered.
     let after = f.metadata()?;
@@ -82,6 +73,20 @@ pub fn hash(path: &Path) -> io::Result<blake3::Hash> {
         remember(key, before, h);
     }
     Ok(h)
+}
+
+/// blake3 of everything `r` yields, read in 64 KiB blocks (no memo).
+pub fn hash_content(mut r: impl Read) -> io::Result<blake3::Hash> {
+    let mut hasher = blake3::Hasher::new();
+    let mut buf = vec![0u8; 1 << 16];
+    loop {
+        let n = r.read(&mut buf)?;
+        if n == 0 {
+            break;
+        }
+        hasher.update(&buf[..n]);
+    }
+    Ok(hasher.finalize())
 }
 
 fn lookup(key: &Path, now: Stamp) -> Option<blake3::Hash> {

@@ -152,16 +152,9 @@ fn model_json_refers_to_the_matrices_and_holds_none_of_their_text() {
         "name: again\nstages:\n  again:\n    kind: synthesize\n    params: {model: models/se_updated.yaml, frequency: {min: 0, max: 600, step: 0.5}}\n",
     );
     ws.run(&[], 0);
-    let freqs = |path: &str| -> Vec<f64> {
-        ws.read(path)
-            .lines()
-            .skip(1)
-            .map(|l| l.split(',').nth(3).unwrap().parse().unwrap())
-            .collect()
-    };
     let (fit, again) = (
-        freqs("results/byref/fit/modes/modes.csv"),
-        freqs("results/again/again/modes/modes.csv"),
+        ws.frequencies("results/byref/fit/modes/modes.csv"),
+        ws.frequencies("results/again/again/modes/modes.csv"),
     );
     assert_eq!(fit.len(), 6, "{fit:?}");
     assert_eq!(again.len(), fit.len());

@@ -346,16 +346,9 @@ fn the_updated_model_file_reproduces_the_updated_modes() {
         &format!("name: um2\nstages:\n  again:\n    kind: synthesize\n    params: {{model: {dir}/model.yaml, frequency: {{min: 0, max: 400, step: 0.5}}}}\n"),
     );
     ws.run(&[], 0);
-    let freqs = |path: &str| -> Vec<f64> {
-        ws.read(path)
-            .lines()
-            .skip(1)
-            .map(|l| l.split(',').nth(3).unwrap().parse().unwrap())
-            .collect()
-    };
     let (updated, again) = (
-        freqs("results/um/fit/modes/modes.csv"),
-        freqs("results/um2/again/modes/modes.csv"),
+        ws.frequencies("results/um/fit/modes/modes.csv"),
+        ws.frequencies("results/um2/again/modes/modes.csv"),
     );
     assert_eq!(updated.len(), 3, "{updated:?}");
     assert_eq!(again.len(), updated.len());

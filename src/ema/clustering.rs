@@ -215,6 +215,15 @@ mod tests {
     use crate::ema::Pole;
     use num_complex::Complex64;
 
+    /// Every pole of every order as a candidate (order index, pole index).
+    fn every_pole(orders: &[PoleOrder]) -> Vec<(usize, usize)> {
+        orders
+            .iter()
+            .enumerate()
+            .flat_map(|(j, o)| (0..o.poles.len()).map(move |k| (j, k)))
+            .collect()
+    }
+
     #[test]
     fn separates_two_modes_and_drops_a_sparse_cluster() {
         let mk = |f: f64, z: f64| Pole {
@@ -237,11 +246,7 @@ mod tests {
                 }
             })
             .collect();
-        let candidates: Vec<(usize, usize)> = orders
-            .iter()
-            .enumerate()
-            .flat_map(|(j, o)| (0..o.poles.len()).map(move |k| (j, k)))
-            .collect();
+        let candidates = every_pole(&orders);
         let p = ClusterParams {
             distance_threshold: 0.01,
             min_fraction: 0.5,
@@ -300,11 +305,7 @@ mod tests {
                 }
             })
             .collect();
-        let candidates: Vec<(usize, usize)> = orders
-            .iter()
-            .enumerate()
-            .flat_map(|(j, o)| (0..o.poles.len()).map(move |k| (j, k)))
-            .collect();
+        let candidates = every_pole(&orders);
         let p = ClusterParams {
             distance_threshold: 0.005,
             min_fraction: 0.8,

@@ -85,16 +85,26 @@ impl Owners {
             let Some(owner) = owner else {
                 continue;
             };
+            // An announcement being made is unlocked between its creation
+            // and its lock: a `.new` file whose process runs is that
+            // moment, not a leftover (taking it for dead removed a
+            // concurrent run's announcement under it).
+            let making = name.ends_with(".new")
+                && owner
+                    .split('-')
+                    .next()
+                    .and_then(|p| p.parse::<u32>().ok())
+                    .is_some_and(pid_runs_here);
             let alive = match File::open(entry.path()) {
                 // Taken: nobody holds it. Any other failure: assume alive.
-                Ok(f) => match f.try_lock() {
+                Ok(f) if !making => match f.try_lock() {
                     Ok(()) => {
                         owners.dead_locks.push((entry.path(), f));
                         false
                     }
                     Err(_) => true,
                 },
-                Err(_) => true,
+                _ => true,
             };
             owners.announced.insert(owner.to_string(), alive);
         }
@@ -226,6 +236,10 @@ mod tests {
         fs::write(tmp.join("obj-4194398-0123456789ab-0"), "x").unwrap();
         // Killed while announcing itself.
         fs::write(tmp.join(".live-4194396-dddddddddddd.new"), "").unwrap();
+        // Announcing itself now (a running process between creating and
+        // locking its file).
+        let making = tmp.join(format!(".live-{}-eeeeeeeeeeee.new", std::process::id()));
+        fs::write(&making, "").unwrap();
         // Unannounced, pid not running.
         fs::create_dir_all(tmp.join("stage-4194397-bbbbbbbbbbbb-1")).unwrap();
         // This process, announced.
@@ -249,6 +263,7 @@ mod tests {
         assert!(mine.exists() && running.exists() && results.join("a").exists());
         assert!(!tmp.join("live-4194398-0123456789ab.lock").exists());
         assert!(!tmp.join(".live-4194396-dddddddddddd.new").exists());
+        assert!(making.exists());
         assert!(tmp.join(format!("live-{}.lock", process_nonce())).exists());
     }
 }

@@ -497,17 +497,8 @@ fn symlink_refused() -> io::Error {
 
 /// blake3 of a file's content, hex.
 pub fn hash_file(path: &Path) -> io::Result<String> {
-    let mut hasher = blake3::Hasher::new();
-    let mut f = File::open(path)?;
-    let mut buf = vec![0u8; 1 << 16];
-    loop {
-        let n = f.read(&mut buf)?;
-        if n == 0 {
-            break;
-        }
-        hasher.update(&buf[..n]);
-    }
-    Ok(hasher.finalize().to_hex().to_string())
+    let h = crate::file_hash::hash_content(File::open(path)?)?;
+    Ok(h.to_hex().to_string())
 }
 
 /// Content hash of a workspace path as the store would name it: a file's
@@ -515,15 +506,15 @@ pub fn hash_file(path: &Path) -> io::Result<String> {
 /// hashed through [`crate::file_hash`], so a large input hashed once in
 /// this process (a model's matrices at validation) is not read again.
 pub fn hash_path(path: &Path) -> io::Result<String> {
-    let hash_file = |p: &Path| crate::file_hash::hash(p).map(|h| h.to_hex().to_string());
+    let remembered = |p: &Path| crate::file_hash::hash(p).map(|h| h.to_hex().to_string());
     if !path.is_dir() {
-        return hash_file(path);
+        return remembered(path);
     }
     let mut entries = Vec::new();
     for rel in walk(path)? {
         let p = path.join(&rel);
         entries.push(TreeEntry {
-            hash: hash_file(&p)?,
+            hash: remembered(&p)?,
             bytes: fs::metadata(&p)?.len(),
             path: rel,
         });

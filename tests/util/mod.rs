@@ -90,6 +90,16 @@ impl Workspace {
             .count()
     }
 
+    /// The frequencies (Hz, fourth column) of a `modes.csv` below the
+    /// workspace, in file order.
+    pub fn frequencies(&self, rel: &str) -> Vec<f64> {
+        self.read(rel)
+            .lines()
+            .skip(1)
+            .map(|l| l.split(',').nth(3).unwrap().parse().unwrap())
+            .collect()
+    }
+
     pub fn runs_in_cache(&self) -> usize {
         std::fs::read_dir(self.path().join("cache/runs"))
             .map(|d| d.count())
