@@ -152,15 +152,11 @@ fn model_json_refers_to_the_matrices_and_holds_none_of_their_text() {
         "name: again\nstages:\n  again:\n    kind: synthesize\n    params: {model: models/se_updated.yaml, frequency: {min: 0, max: 600, step: 0.5}}\n",
     );
     ws.run(&[], 0);
-    let (fit, again) = (
-        ws.frequencies("results/byref/fit/modes/modes.csv"),
-        ws.frequencies("results/again/again/modes/modes.csv"),
+    crate::util::assert_same_frequencies(
+        &ws.frequencies("results/byref/fit/modes/modes.csv"),
+        &ws.frequencies("results/again/again/modes/modes.csv"),
+        6,
     );
-    assert_eq!(fit.len(), 6, "{fit:?}");
-    assert_eq!(again.len(), fit.len());
-    for (a, b) in fit.iter().zip(&again) {
-        assert!((a - b).abs() <= 1e-12 * a, "{a} vs {b}");
-    }
 }
 
 #[test]
@@ -219,13 +215,7 @@ fn model_facts(ws: &Workspace) -> Vec<(String, serde_json::Value)> {
 #[test]
 fn validation_reads_the_facts_of_a_model_that_built_before() {
     let ws = workspace();
-    let out = ws.cmd(&["validate", "p.yaml"]);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        crate::util::text(&out.stderr)
-    );
+    ws.cmd_exit(&["validate", "p.yaml"], 0);
     assert!(!ws.path().join("cache").exists());
     ws.run(&[], 0);
     let facts = model_facts(&ws);
@@ -241,38 +231,22 @@ fn validation_reads_the_facts_of_a_model_that_built_before() {
     big["memory_bytes"] = serde_json::json!(1.0e15);
     let path = ws.path().join("cache/models").join(name);
     std::fs::write(&path, serde_json::to_vec(&big).unwrap()).unwrap();
-    let out = ws.cmd(&["validate", "p.yaml"]);
-    let err = crate::util::text(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
+    let err = ws.cmd_exit(&["validate", "p.yaml"], 2);
     assert!(err.contains("memory"), "{err}");
     // The same facts under another content: an edited matrix is built
     // again (valid), and its own facts join the first.
     ws.write("models/se/k.mtx", &stiffness(2.5e6));
-    let out = ws.cmd(&["validate", "p.yaml"]);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        crate::util::text(&out.stderr)
-    );
+    ws.cmd_exit(&["validate", "p.yaml"], 0);
     assert_eq!(model_facts(&ws).len(), 2);
     // A model that does not build has no facts; its error stays.
     ws.write(
         "models/se/k.mtx",
         "%%MatrixMarket matrix coordinate real symmetric\n6 6 1\n9 9 1.0\n",
     );
-    let out = ws.cmd(&["validate", "p.yaml"]);
-    let err = crate::util::text(&out.stderr);
-    assert_eq!(out.status.code(), Some(2), "{err}");
+    let err = ws.cmd_exit(&["validate", "p.yaml"], 2);
     assert!(err.contains("k.mtx"), "{err}");
     assert_eq!(model_facts(&ws).len(), 2);
     // `gc` collects them (found again by building).
-    let out = ws.cmd(&["gc"]);
-    assert_eq!(
-        out.status.code(),
-        Some(0),
-        "{}",
-        crate::util::text(&out.stderr)
-    );
+    ws.cmd_exit(&["gc"], 0);
     assert!(model_facts(&ws).is_empty());
 }

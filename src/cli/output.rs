@@ -31,9 +31,8 @@ impl Resolved {
     /// Serve model files' facts from this cache while planning, so
     /// validation does not build a large model whose content built before
     /// (`modalflow::stages::params::model_facts`).
-    pub fn serve_model_facts(&self) -> &Self {
+    pub fn serve_model_facts(&self) {
         modalflow::stages::params::model_facts::read_from(&self.cache);
-        self
     }
 
     /// Keep the model facts this process learned in the cache, when it

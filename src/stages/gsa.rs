@@ -28,7 +28,6 @@ use super::{
     StageOutputs,
 };
 use crate::artifacts;
-use crate::dynamics;
 use crate::simulator::{BandOptions, FrfBands, Model, StructuralModel, StructuralOptions};
 use model_spec::{ModelParam, ModelSpec};
 pub use spec::Params;
@@ -272,14 +271,9 @@ pub(super) fn build_model(
             .build(ctx.pipeline_dir)
             .map_err(|e| invalid(e.to_string()));
     };
-    let file = ctx.pipeline_dir.join(path);
-    let text = std::fs::read_to_string(&file)
-        .map_err(|e| StageError::io(format!("cannot read model file `{path}`"), e))?;
-    let base = file.parent().unwrap_or(ctx.pipeline_dir).to_path_buf();
-    let resolver =
-        crate::paths::confined_reader(base.clone(), vec![ctx.pipeline_dir.to_path_buf(), base]);
-    let model =
-        dynamics::Model::from_yaml(&text, path, &resolver).map_err(|e| invalid(e.to_string()))?;
+    // Built once per process: validation of the same content shares it.
+    let (model, _) =
+        super::params::model_files::load_model(ctx.pipeline_dir, path).map_err(invalid)?;
     let reference = match ctx.inputs.get("reference") {
         Some(_) => Some(artifacts::modes::read_modes(
             ctx.input("reference")?,

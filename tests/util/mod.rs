@@ -57,6 +57,15 @@ impl Workspace {
         c
     }
 
+    /// `modalflow ARGS` in the workspace, asserting its exit code; its
+    /// stderr.
+    pub fn cmd_exit(&self, args: &[&str], code: i32) -> String {
+        let out = self.cmd(args);
+        let err = text(&out.stderr);
+        assert_eq!(out.status.code(), Some(code), "{err}");
+        err
+    }
+
     /// `modalflow run p.yaml --json`, asserting the exit code.
     pub fn run(&self, extra: &[&str], expect_code: i32) -> Report {
         let mut args = vec!["run", "p.yaml", "--json", "--progress", "none"];
@@ -104,6 +113,15 @@ impl Workspace {
         std::fs::read_dir(self.path().join("cache/runs"))
             .map(|d| d.count())
             .unwrap_or(0)
+    }
+}
+
+/// Two runs' mode frequencies (Hz), `count` of them, equal to 1e-12.
+pub fn assert_same_frequencies(a: &[f64], b: &[f64], count: usize) {
+    assert_eq!(a.len(), count, "{a:?}");
+    assert_eq!(b.len(), count, "{b:?}");
+    for (x, y) in a.iter().zip(b) {
+        assert!((x - y).abs() <= 1e-12 * x, "{x} vs {y}");
     }
 }
 

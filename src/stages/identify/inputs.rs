@@ -10,6 +10,7 @@ use crate::identify::frf_objective::{FrfNoise, FrfReference};
 use crate::identify::{ModalObjective, NamedMode, SubproblemSpec};
 use crate::stages::{StageContext, StageError};
 use std::path::Path;
+use std::sync::Arc;
 
 /// The objective J over the `reference` modes: `model` paired with them
 /// as the spec weighs and pairs, each mode's uncertainty raised to the
@@ -104,24 +105,19 @@ pub(super) struct ScreeningInput {
     pub(super) modes: Vec<NamedMode>,
 }
 
-/// The model from the `model` input (model.json) or the `model` param.
+/// The model from the `model` input (model.json) or the `model` param
+/// (built once per process: validation of the same content shares it).
 pub(super) fn load_model(
     ctx: &StageContext,
     param: Option<&str>,
-) -> Result<dynamics::Model, StageError> {
+) -> Result<Arc<dynamics::Model>, StageError> {
     if let Some(rel) = param {
-        let file = ctx.pipeline_dir.join(rel);
-        let text = std::fs::read_to_string(&file)
-            .map_err(|e| StageError::io(format!("cannot read model file `{rel}`"), e))?;
-        let base = file.parent().unwrap_or(ctx.pipeline_dir).to_path_buf();
-        let resolver =
-            crate::paths::confined_reader(base.clone(), vec![ctx.pipeline_dir.to_path_buf(), base]);
-        return dynamics::Model::from_yaml(&text, rel, &resolver).map_err(|e| {
-            StageError::InvalidParam {
+        let (model, _) = super::super::params::model_files::load_model(ctx.pipeline_dir, rel)
+            .map_err(|message| StageError::InvalidParam {
                 param: "model".into(),
-                message: e.to_string(),
-            }
-        });
+                message,
+            })?;
+        return Ok(model);
     }
     let Some(path) = ctx.inputs.get("model").and_then(|v| v.first()) else {
         return Err(StageError::InvalidInput {
@@ -136,7 +132,7 @@ pub(super) fn load_model(
         json.file_name(crate::artifacts::model::FILE),
         &resolve,
     );
-    model.map_err(|e| StageError::InvalidInput {
+    model.map(Arc::new).map_err(|e| StageError::InvalidInput {
         input: "model".into(),
         message: e.to_string(),
     })

@@ -57,8 +57,7 @@ pub fn load(dir: &Path, rel: &str) -> Result<(Arc<Model>, String, Vec<Referenced
     let path = dir.join(rel);
     let text =
         std::fs::read_to_string(&path).map_err(|e| format!("cannot read model file {rel}: {e}"))?;
-    let base = path.parent().unwrap_or(dir).to_path_buf();
-    let resolver = crate::paths::confined_reader(base.clone(), vec![dir.to_path_buf(), base]);
+    let resolver = reader(dir, &path);
     let build = |resolve: &dyn Fn(&str) -> std::io::Result<Vec<u8>>| {
         Model::from_yaml(&text, rel, resolve).map_err(|e| e.to_string())
     };
@@ -94,6 +93,20 @@ pub fn load(dir: &Path, rel: &str) -> Result<(Arc<Model>, String, Vec<Referenced
         files: files.clone(),
     });
     Ok((model, text, files))
+}
+
+/// Where the files a model file at `path` (below the pipeline directory
+/// `dir`) references are found: against the model file's directory, and
+/// only below it or `dir`.
+fn locator(dir: &Path, path: &Path) -> impl Fn(&str) -> std::io::Result<PathBuf> {
+    let base = path.parent().unwrap_or(dir).to_path_buf();
+    crate::paths::confined_path(base.clone(), vec![dir.to_path_buf(), base])
+}
+
+/// [`locator`]'s files, read.
+fn reader(dir: &Path, path: &Path) -> impl Fn(&str) -> std::io::Result<Vec<u8>> {
+    let locate = locator(dir, path);
+    move |rel: &str| std::fs::read(locate(rel)?)
 }
 
 /// What the memo and the facts are keyed by: the model file's text and the
@@ -135,8 +148,7 @@ pub fn facts(dir: &Path, rel: &str) -> Result<(ModelFacts, String), String> {
 /// does not parse or a file cannot be read (building the model says why).
 fn hashed_files(text: &str, rel: &str, dir: &Path, path: &Path) -> Option<Vec<ReferencedFile>> {
     let spec = model_file::parse(text, rel).ok()?;
-    let base = path.parent().unwrap_or(dir).to_path_buf();
-    let locate = crate::paths::confined_path(base.clone(), vec![dir.to_path_buf(), base]);
+    let locate = locator(dir, path);
     let mut out: Vec<ReferencedFile> = Vec::new();
     for f in spec.external_files() {
         if out.iter().any(|r| r.path == f) {
@@ -212,8 +224,7 @@ pub fn referenced_files(dir: &Path, rel: &str) -> Result<Vec<ReferencedFile>, St
     }
     let text =
         std::fs::read_to_string(&path).map_err(|e| format!("cannot read model file {rel}: {e}"))?;
-    let base = path.parent().unwrap_or(dir).to_path_buf();
-    let resolver = crate::paths::confined_reader(base.clone(), vec![dir.to_path_buf(), base]);
+    let resolver = reader(dir, &path);
     let bytes = referenced_bytes(&text, rel, &resolver)
         .ok_or_else(|| format!("model file {rel}: a referenced file could not be read"))?;
     Ok(bytes
