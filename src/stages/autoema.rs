@@ -235,8 +235,12 @@ impl Kind for AutoEma {
     /// 162 Hz column vanished without trace); metrics.json `data` reports
     /// `frf_peaks` (the FRFs' own peaks with ≤ 2 references) beside
     /// `cmif_peaks`; the modes are unchanged (issue 31).
+    /// 11: a stable column may scatter by a quarter of its median damping
+    /// ratio when that exceeds `cluster_distance` (a damped mode's pole
+    /// frequencies are known to a fraction of its half-power band); modes
+    /// change on the PSV line scan (issue 31).
     fn version(&self) -> u32 {
-        10
+        11
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"
