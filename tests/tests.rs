@@ -19,6 +19,7 @@ mod fe_solver;
 mod gsa;
 mod identify;
 mod import;
+mod import_coherence;
 mod import_modes;
 mod import_units;
 mod layering;

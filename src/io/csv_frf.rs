@@ -8,7 +8,7 @@ use crate::io::csv_table::{csv_err, fmt_f64, from_csv_error, metadata, quantity_
 use crate::io::dof_text::{format_channel, parse_channel};
 use crate::io::error::{IoError, Location, Place};
 use crate::io::limits::BYTES_PER_CSV_CELL;
-use crate::io::validity::{check_coherence, check_frequency};
+use crate::io::validity::{check_coherence_with, check_frequency, CoherencePolicy};
 use num_complex::Complex64;
 use std::collections::{HashMap, HashSet};
 
@@ -126,6 +126,18 @@ struct Rows {
 /// the table's size; frequencies (≥ 0, strictly increasing per position)
 /// and coherences (in [0, 1]) are checked as each row is read.
 pub fn read_frf_csv(bytes: &[u8], source: &str) -> Result<Vec<FrfSet>, IoError> {
+    read_frf_csv_with(bytes, source, CoherencePolicy::Check)
+}
+
+/// [`read_frf_csv`] with the `coh:` columns checked as `coherence` says:
+/// `Clamp` accepts values a little outside [0, 1] (the caller clamps them
+/// with [`clamp_coherence`](crate::io::clamp_coherence)); `Ignore` does
+/// not read them at all (no channel gets a coherence).
+pub fn read_frf_csv_with(
+    bytes: &[u8],
+    source: &str,
+    coherence: CoherencePolicy,
+) -> Result<Vec<FrfSet>, IoError> {
     let quantity = metadata(bytes, source)?;
     let mut rdr = csv::ReaderBuilder::new()
         .comment(Some(b'#'))
@@ -136,8 +148,12 @@ pub fn read_frf_csv(bytes: &[u8], source: &str) -> Result<Vec<FrfSet>, IoError> 
         .map_err(|e| from_csv_error(source, &e))?
         .clone();
     let header_line = rdr.position().line().max(1) as usize;
-    let cols = columns(&headers, source, header_line)?;
-    let groups = read_positions(&mut rdr, &headers, &cols, source)?;
+    let mut cols = columns(&headers, source, header_line)?;
+    if coherence == CoherencePolicy::Ignore {
+        // Not even parsed: a cell that is not a number cannot stop the import.
+        cols.channels.iter_mut().for_each(|c| c.4 = None);
+    }
+    let groups = read_positions(&mut rdr, &headers, &cols, source, coherence)?;
     frf_sets(groups, &cols, quantity, source)
 }
 
@@ -149,6 +165,7 @@ fn read_positions(
     headers: &csv::StringRecord,
     cols: &Columns,
     source: &str,
+    coherence: CoherencePolicy,
 ) -> Result<Vec<Rows>, IoError> {
     let mut groups: Vec<Rows> = Vec::new();
     let mut group_of: HashMap<u32, usize> = HashMap::new();
@@ -216,20 +233,21 @@ fn read_positions(
         })?;
         g.freqs.push(f);
         g.lines.push(line);
-        push_cells(g, &rec, headers, cols, source, line)?;
+        push_cells(g, &rec, headers, cols, (source, line), coherence)?;
     }
     Ok(groups)
 }
 
 /// Append record `rec`'s FRF and coherence cells (one per channel, `None`
-/// when empty) to position `g`, checking each value; `line` locates errors.
+/// when empty) to position `g`, checking each value (coherences as `policy`
+/// accepts them); `(source, line)` locates errors.
 fn push_cells(
     g: &mut Rows,
     rec: &csv::StringRecord,
     headers: &csv::StringRecord,
     cols: &Columns,
-    source: &str,
-    line: usize,
+    (source, line): (&str, usize),
+    policy: CoherencePolicy,
 ) -> Result<(), IoError> {
     let column = |i: usize| headers.get(i).unwrap_or("");
     let cell = |i: usize| rec.get(i).unwrap_or("");
@@ -253,7 +271,7 @@ fn push_cells(
         let c = match coh.map(|i| (i, cell(i))).filter(|(_, c)| !c.is_empty()) {
             Some((i, c)) => {
                 let v = real_cell(source, line, column(i), c)?;
-                check_coherence(v).map_err(|m| {
+                check_coherence_with(v, policy).map_err(|m| {
                     IoError::implausible(source, Place::Line(line), format!("{}: {m}", column(i)))
                 })?;
                 Some(v)
@@ -516,5 +534,40 @@ mod tests {
         assert!(e.to_string().contains("frequency_hz"), "{e}");
         let e = err("frequency_hz,re:1+X/1+X,im:1+X/1+X\n1,2\n");
         assert!(e.to_string().contains("bad.csv, line 2"), "{e}");
+    }
+
+    #[test]
+    fn coherence_policies_check_clamp_and_ignore() {
+        use crate::io::{clamp_coherence, CoherencePolicy as Policy};
+        let table = |c: &str| {
+            format!("frequency_hz,re:1+X/1+X,im:1+X/1+X,coh:1+X/1+X\n1,2,3,0.5\n2,2,3,{c}\n")
+        };
+        let read = |c: &str, p| read_frf_csv_with(table(c).as_bytes(), "c.csv", p);
+        let e = read("1.2", Policy::Check).unwrap_err();
+        assert_eq!(e.location().map(|l| l.place), Some(Place::Line(3)), "{e}");
+        assert!(e.to_string().contains("`coherence: clamp`"), "{e}");
+        for (c, want) in [("1.2", 1.0), ("-0.005", 0.0), ("2", 1.0)] {
+            let mut sets = read(c, Policy::Clamp).unwrap();
+            let clamps = clamp_coherence(&mut sets).unwrap();
+            assert_eq!((clamps.lines, clamps.band_hz), (1, [2.0, 2.0]));
+            let gamma = sets[0].channels[0].coherence.as_deref().unwrap();
+            assert_eq!(gamma, &[0.5, want][..], "{c}");
+        }
+        for c in ["2.5", "-0.5", "NaN", "inf"] {
+            let e = read(c, Policy::Clamp).unwrap_err();
+            assert_eq!(
+                e.location().map(|l| l.place),
+                Some(Place::Line(3)),
+                "{c}: {e}"
+            );
+        }
+        // Not even parsed: no coherence, whatever the cells hold.
+        for c in ["7", "NaN", "n/a"] {
+            let sets = read(c, Policy::Ignore).unwrap();
+            assert!(sets[0].channels[0].coherence.is_none(), "{c}");
+        }
+        assert!(read("1", Policy::Ignore).unwrap()[0].channels[0]
+            .coherence
+            .is_none());
     }
 }

@@ -17,10 +17,13 @@
 //! | CSV | [`read_frf_csv`], [`write_frf_csv`], [`read_modal_csv`], [`write_modal_csv`] |
 //! | choose channels and a band | [`Selection`], [`select_frf_sets`], [`select_functions`] |
 //! | physical validity (frequency axis, coherence) | [`check_abscissa`], [`check_frequency`], [`check_coherence`] |
+//! | coherence a little outside [0, 1] | [`read_uff_with`], [`read_frf_csv_with`] + [`clamp_coherence`] |
 //!
 //! Every reader refuses what no measurement can hold — a negative or
 //! non-increasing frequency line, a coherence outside [0, 1], NaN or inf —
-//! at the value's line ([`validity`]), and checks every count read from a
+//! at the value's line ([`validity`]); the `_with` readers take a
+//! [`CoherencePolicy`] that accepts coherences to be clamped or ignored
+//! (the import's `coherence` param). Every reader checks every count read from a
 //! file against the bytes that follow and the memory limit
 //! (`--max-memory`) before allocating for it.
 //!
@@ -86,7 +89,7 @@ pub mod select;
 pub mod uff;
 pub mod validity;
 
-pub use csv_frf::{read_frf_csv, write_frf_csv};
+pub use csv_frf::{read_frf_csv, read_frf_csv_with, write_frf_csv};
 pub use csv_modal::{read_modal_csv, write_modal_csv, ModalCsv};
 pub use dof_text::{format_channel, parse_channel, parse_dof};
 pub use error::{IoError, Location, Place};
@@ -104,5 +107,10 @@ pub use uff::ds58::{
 pub use uff::frf_sets::{frf_sets_from_uff, FrfImport, FrfImportOptions};
 pub use uff::modal_models::{modal_models_from_uff, uff55_from_modal_models, ModalImport};
 pub use uff::units::{check_override_labels, UnitsOverride, UNCALIBRATED_LABEL};
-pub use uff::{read_uff, write_uff55, write_uff58, UffBlock, UffDataset, UffFile, UffWarning};
-pub use validity::{check_abscissa, check_coherence, check_even_abscissa, check_frequency};
+pub use uff::{
+    read_uff, read_uff_with, write_uff55, write_uff58, UffBlock, UffDataset, UffFile, UffWarning,
+};
+pub use validity::{
+    check_abscissa, check_coherence, check_coherence_with, check_even_abscissa, check_frequency,
+    clamp_coherence, CoherenceClamps, CoherencePolicy,
+};

@@ -27,7 +27,9 @@ use super::ds58_records::{self, DataForm};
 use super::text::{self, Cursor};
 use crate::io::error::{IoError, Place};
 use crate::io::limits::BYTES_PER_UFF_VALUE;
-use crate::io::validity::{check_coherence, check_even_abscissa, check_frequency};
+use crate::io::validity::{
+    check_coherence_with, check_even_abscissa, check_frequency, CoherencePolicy,
+};
 use num_complex::Complex64;
 
 /// Record 6 field 1: what kind of function the dataset holds.
@@ -285,17 +287,19 @@ pub(crate) fn values_per_point(complex: bool, even: bool) -> usize {
 /// dataset number line. FRFs and coherences (the functions the import
 /// uses, whose abscissa is frequency) are checked as they are read: a
 /// negative or non-increasing frequency line and, for coherences, a value
-/// outside [0, 1] are errors at the value's line (58b: byte offset).
+/// that `coherence` does not accept (outside [0, 1] by default) are errors
+/// at the value's line (58b: byte offset).
 pub(crate) fn parse(
     cur: &mut Cursor<'_>,
     binary: Option<BinaryHeader>,
+    coherence: CoherencePolicy,
 ) -> Result<(Uff58, Option<ds58_binary::ByteCountMismatch>), IoError> {
     let src = cur.source;
     let (mut d, form, r7) = ds58_records::parse_header(cur)?;
     let n = form.points;
     let vpp = values_per_point(form.complex, form.even);
     let n_values = n.checked_mul(vpp).ok_or_else(|| too_many(src, r7, n))?;
-    let mut check = PointCheck::new(d.function, &form);
+    let mut check = PointCheck::new(d.function, &form, coherence);
     if check.frequency && form.even {
         check_even_abscissa(form.start, form.step, n).map_err(|m| {
             IoError::implausible(
@@ -368,17 +372,18 @@ struct PointCheck {
     frequency: bool,
     /// Uneven: every point carries its frequency as its first value.
     uneven: bool,
-    coherence: bool,
+    /// How a coherence value is checked; `None` for other functions.
+    coherence: Option<CoherencePolicy>,
     per_point: usize,
     previous: Option<f64>,
 }
 
 impl PointCheck {
-    fn new(function: FunctionType, form: &DataForm) -> Self {
+    fn new(function: FunctionType, form: &DataForm, policy: CoherencePolicy) -> Self {
         let (kind, frequency, coherence) = match function {
-            FunctionType::Frf => ("FRF", true, false),
-            FunctionType::Coherence => ("coherence", true, true),
-            _ => ("", false, false),
+            FunctionType::Frf => ("FRF", true, None),
+            FunctionType::Coherence => ("coherence", true, Some(policy)),
+            _ => ("", false, None),
         };
         PointCheck {
             kind,
@@ -408,8 +413,10 @@ impl PointCheck {
             self.previous = Some(x);
         }
         // The real part of the ordinate: right after an uneven abscissa.
-        if self.coherence && k == usize::from(self.uneven) {
-            check_coherence(x).map_err(bad)?;
+        if let Some(policy) = self.coherence {
+            if k == usize::from(self.uneven) {
+                check_coherence_with(x, policy).map_err(bad)?;
+            }
         }
         Ok(())
     }

@@ -22,6 +22,7 @@ pub(crate) mod text;
 pub mod units;
 
 use crate::io::error::{IoError, Place};
+use crate::io::validity::CoherencePolicy;
 use ds15_2411::NodeTable;
 use ds55::Uff55;
 use ds58::{NumberText, Uff58, Uff58Format};
@@ -188,8 +189,21 @@ impl UffFile {
 
 /// Reads every dataset of a universal file. `source` names the bytes in
 /// errors (pass the file name). Unsupported datasets are skipped, with one
-/// [`UffWarning::SkippedDatasets`] per dataset number.
+/// [`UffWarning::SkippedDatasets`] per dataset number. Coherences outside
+/// [0, 1] are errors ([`read_uff_with`] accepts more).
 pub fn read_uff(bytes: &[u8], source: &str) -> Result<UffFile, IoError> {
+    read_uff_with(bytes, source, CoherencePolicy::Check)
+}
+
+/// [`read_uff`] with the coherences (datasets 58 of function type 6)
+/// checked as `coherence` says: the import's `coherence: clamp` accepts
+/// values a little outside [0, 1] (it clamps them on the FRF sets), and
+/// `ignore` does not check them (it drops them).
+pub fn read_uff_with(
+    bytes: &[u8],
+    source: &str,
+    coherence: CoherencePolicy,
+) -> Result<UffFile, IoError> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let mut cur = Cursor::new(bytes, source);
     let mut file = UffFile::default();
@@ -225,10 +239,12 @@ pub fn read_uff(bytes: &[u8], source: &str) -> Result<UffFile, IoError> {
         let record1 = Place::Line(number_line.number + 1);
         let after_b = t.get(digits + 1..).unwrap_or(&[]);
         let dataset = match (number, binary) {
-            (58, false) => UffDataset::Function(Box::new(ds58::parse(&mut cur, None)?.0)),
+            (58, false) => {
+                UffDataset::Function(Box::new(ds58::parse(&mut cur, None, coherence)?.0))
+            }
             (58, true) => {
                 let h = ds58_binary::parse_binary_header(source, &number_line, after_b)?;
-                let (d, mismatch) = ds58::parse(&mut cur, Some(h))?;
+                let (d, mismatch) = ds58::parse(&mut cur, Some(h), coherence)?;
                 if let Some(m) = mismatch {
                     note_byte_count(&mut file.warnings, m);
                 }
@@ -342,5 +358,7 @@ pub fn write_uff55(datasets: &[Uff55], digits: NumberText) -> Vec<u8> {
     out
 }
 
+#[cfg(test)]
+mod coherence_tests;
 #[cfg(test)]
 mod tests;

@@ -6,13 +6,16 @@
 //! position per UFF load case (as the `frf` artifact itself encodes them);
 //! with several files (a glob), one position per file in sorted order,
 //! labelled by the file name — the usual layout of one measurement run per
-//! axis position. Measured coherences (UFF function type 6) are kept with
-//! their FRFs. UFF units (the axes' labels, dataset 164) are converted to SI
-//! and each conversion is listed under `units` in import.json (a file in g/N
-//! becomes m/s²/N, × 9.80665); an unknown unit is an error naming the file
-//! and the record. The first UFF file's node coordinates (15/2411) and
-//! trace lines (82) become the `geometry` output (geometry.json, empty
-//! without nodes), which `evaluate` draws mode shapes on.
+//! axis position. Measured coherences (UFF function type 6, CSV `coh:`)
+//! are kept with their FRFs; a γ² outside [0, 1] is an error unless
+//! `coherence: clamp` (a little outside: clamped, one warning, listed in
+//! import.json) or `coherence: ignore` (coherence dropped). UFF units (the
+//! axes' labels, dataset 164) are converted to SI and each conversion is
+//! listed under `units` in import.json (a file in g/N becomes m/s²/N,
+//! × 9.80665); an unknown unit is an error naming the file and the record.
+//! The first UFF file's node coordinates (15/2411) and trace lines (82)
+//! become the `geometry` output (geometry.json, empty without nodes), which
+//! `evaluate` draws mode shapes on.
 //!
 //! Voltage or uncalibrated FRFs (`V/V`, no scale) import with `calibrated:
 //! false` or `units: {response: V, reference: V}`: values as measured, the
@@ -28,7 +31,7 @@ use super::{
     Artifact, FileRef, InputSpec, Kind, ParamProblem, Range, StageContext, StageError, StageOutputs,
 };
 use crate::frf::{FrfSet, Position};
-use crate::io::{self, DofPattern, FrfImportOptions, Selection, UnitsOverride};
+use crate::io::{self, CoherencePolicy, DofPattern, FrfImportOptions, Selection, UnitsOverride};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -47,6 +50,15 @@ crate::string_enum! {
     pub enum Content {
         Frf = "frf",
         Modes = "modes",
+    }
+}
+
+crate::string_enum! {
+    /// What happens to coherence values outside [0, 1].
+    pub enum Coherence {
+        Check = "check",
+        Clamp = "clamp",
+        Ignore = "ignore",
     }
 }
 
@@ -124,6 +136,12 @@ crate::params! {
         /// with content modes and a CSV table: the mode_shapes.csv table
         /// (position,mode,node,direction,real,imag); optional
         pub shapes: Option<String> = None,
+        /// coherence γ² outside [0, 1]: check = an error at the value's
+        /// line; clamp = values in [-0.01, 2] become 0 or 1 (one warning,
+        /// listed in import.json), beyond that or NaN still an error;
+        /// ignore = coherence not read (AutoEMA then estimates noise
+        /// without it)
+        pub coherence: Coherence = Coherence::Check,
     }
 }
 
@@ -137,6 +155,15 @@ impl Params {
             },
             (None, false) => UnitsOverride::Uncalibrated,
             (None, true) => UnitsOverride::FromFile,
+        }
+    }
+
+    /// What the readers accept as coherence.
+    pub fn coherence_policy(&self) -> CoherencePolicy {
+        match self.coherence {
+            Coherence::Check => CoherencePolicy::Check,
+            Coherence::Clamp => CoherencePolicy::Clamp,
+            Coherence::Ignore => CoherencePolicy::Ignore,
         }
     }
 }
@@ -164,6 +191,7 @@ fn check_units_and_content(p: &Params) -> Vec<ParamProblem> {
             ("select", p.select.is_some()),
             ("units", p.units.is_some()),
             ("calibrated", !p.calibrated),
+            ("coherence", p.coherence != Coherence::Check),
         ];
         for (name, set) in frf_only {
             if set {
@@ -320,6 +348,7 @@ impl Kind for Import {
         let mut units = Vec::new();
         let mut calibrated = true;
         let mut geometry = crate::geometry::Geometry::default();
+        let policy = params.coherence_policy();
         for (k, (rel, path)) in files.iter().enumerate() {
             let format = params.format.unwrap_or_else(|| by_extension(path));
             let options = FrfImportOptions {
@@ -331,9 +360,9 @@ impl Kind for Import {
                 units: &mut units,
                 calibrated: &mut calibrated,
             };
-            let mut file_sets = read_one(path, rel, format, &options, &mut log)?;
+            let mut file_sets = read_one(path, rel, format, &options, policy, &mut log)?;
             if geometry.nodes.is_empty() && format == Format::Uff {
-                geometry = read_geometry(path, rel)?;
+                geometry = read_geometry(path, rel, policy)?;
             }
             if per_file {
                 for s in &mut file_sets {
@@ -346,7 +375,11 @@ impl Kind for Import {
             sets.extend(file_sets);
             ctx.progress.inc(1);
         }
-        let sets = merge_positions(sets)?;
+        let mut sets = merge_positions(sets)?;
+        let clamped = apply_coherence(params.coherence, &mut sets);
+        if let Some(c) = &clamped {
+            warnings.push(c.warning());
+        }
         let sets = io::select_frf_sets(&sets, &sel).map_err(|e| StageError::InvalidParam {
             param: "select".into(),
             message: e.to_string(),
@@ -361,7 +394,7 @@ impl Kind for Import {
         let out = ctx.scratch.join("frf.uff");
         std::fs::write(&out, io::write_frf_artifact_scaled(&sets, calibrated))
             .map_err(|e| StageError::io("write frf.uff", e))?;
-        let summary = serde_json::json!({
+        let mut summary = serde_json::json!({
             "files": files.iter().map(|(r, _)| r).collect::<Vec<_>>(),
             "positions": sets.iter().map(|s| serde_json::json!({
                 "index": s.position.index,
@@ -376,6 +409,14 @@ impl Kind for Import {
             "units": units,
             "warnings": warnings,
         });
+        // Only when asked for: a `check` import writes the import.json it
+        // always wrote, so cached results of version 3 stay what a rerun gives.
+        if params.coherence != Coherence::Check {
+            summary["coherence"] = serde_json::json!({
+                "policy": params.coherence.as_str(),
+                "clamped": clamped,
+            });
+        }
         let summary_path = write_json(ctx, "import.json", &summary)?;
         let geometry_path = write_json(ctx, "geometry.json", &geometry)?;
         let channels: usize = sets.iter().map(|s| s.channels.len()).sum();
@@ -420,6 +461,24 @@ fn file_label(rel: &str) -> String {
         .map_or_else(|| rel.to_string(), |s| s.to_string_lossy().into_owned())
 }
 
+/// `coherence: clamp | ignore` on the FRF sets as read, before `band` and
+/// `select` (so the count is the files' own, as `check` refuses a value
+/// anywhere in them): clamped lines summarized for one warning, or every
+/// coherence dropped. The readers have already refused what clamping may
+/// not excuse, at its line.
+fn apply_coherence(policy: Coherence, sets: &mut [FrfSet]) -> Option<io::CoherenceClamps> {
+    match policy {
+        Coherence::Check => None,
+        Coherence::Clamp => io::clamp_coherence(sets),
+        Coherence::Ignore => {
+            for c in sets.iter_mut().flat_map(|s| s.channels.iter_mut()) {
+                c.coherence = None;
+            }
+            None
+        }
+    }
+}
+
 /// What reading the files tells the summary and the stage's warnings.
 struct Log<'a> {
     warnings: &'a mut Vec<String>,
@@ -433,6 +492,7 @@ fn read_one(
     rel: &str,
     format: Format,
     options: &FrfImportOptions,
+    coherence: CoherencePolicy,
     log: &mut Log<'_>,
 ) -> Result<Vec<FrfSet>, StageError> {
     let bytes = std::fs::read(path).map_err(|e| StageError::io(format!("cannot read {rel}"), e))?;
@@ -457,9 +517,9 @@ fn read_one(
             }
             _ => *log.calibrated = false,
         }
-        return io::read_frf_csv(&bytes, rel).map_err(invalid);
+        return io::read_frf_csv_with(&bytes, rel, coherence).map_err(invalid);
     }
-    let file = io::read_uff(&bytes, rel).map_err(invalid)?;
+    let file = io::read_uff_with(&bytes, rel, coherence).map_err(invalid)?;
     log.warnings
         .extend(file.warnings.iter().map(|w| format!("{rel}: {w}")));
     let imported = io::frf_sets_from_uff(&file, rel, options).map_err(invalid)?;
@@ -490,10 +550,15 @@ fn read_one(
 }
 
 /// The test geometry of a universal file (nodes 15/2411, trace lines 82);
-/// empty when it has none.
-fn read_geometry(path: &Path, rel: &str) -> Result<crate::geometry::Geometry, StageError> {
+/// empty when it has none. `coherence` as the FRFs were read (the file is
+/// read again, and must pass the same way).
+fn read_geometry(
+    path: &Path,
+    rel: &str,
+    coherence: CoherencePolicy,
+) -> Result<crate::geometry::Geometry, StageError> {
     let bytes = std::fs::read(path).map_err(|e| StageError::io(format!("cannot read {rel}"), e))?;
-    let file = io::read_uff(&bytes, rel).map_err(|e| StageError::InvalidInput {
+    let file = io::read_uff_with(&bytes, rel, coherence).map_err(|e| StageError::InvalidInput {
         input: rel.to_string(),
         message: e.to_string(),
     })?;
