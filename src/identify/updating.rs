@@ -154,9 +154,13 @@ pub fn update(
         material,
         ..
     } = standing;
-    let mut verdict = judged.verdict.clone();
-    verdict.refitted = material;
-    let verdict = verdict.classified(outcome.evidence).explained();
+    let values = judging::refit_values(o, plan, &start, &outcome, &judged, &material);
+    let verdict = judged
+        .verdict
+        .clone()
+        .with_refitted(values)
+        .classified(outcome.evidence)
+        .explained();
     let objective = o.cost(&outcome.x);
     progress(1);
     assessment_evaluations += 1 + 1;

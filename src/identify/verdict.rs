@@ -29,7 +29,10 @@
 //! error), not noise.
 
 use super::frf_objective::FrfFit;
+pub use refit::{Implausible, RefitValue};
 use serde::{Deserialize, Serialize};
+
+mod refit;
 
 /// Lag-1 correlation above which an FRF residual is called smooth.
 pub const SMOOTH_LAG1: f64 = 0.5;
@@ -128,6 +131,10 @@ pub struct Verdict {
     /// identified too ([`super::follow_up`]).
     #[serde(default)]
     pub refitted: Vec<String>,
+    /// The refitted parameters at the result, each judged for plausibility
+    /// against the range the screening held it in ([`refit`]).
+    #[serde(default)]
+    pub refit_values: Vec<RefitValue>,
     /// The damping ratios against the reference, when damping parameters
     /// were identified from modes alone.
     #[serde(default)]
@@ -150,6 +157,12 @@ pub enum Cause {
     None,
     /// The budget ran out before the fit converged.
     Budget,
+    /// A refit of implicated fixed parameters fitted materially better but
+    /// needs values the screening's range does not make plausible (at a
+    /// bound, or beyond the assumed `fixed_spread`; [`RefitValue`]): the
+    /// screening and a local minimum the refitted parameters compensate are
+    /// not told apart.
+    ScreeningOrLocalMinimum,
     /// The residual points at parameters the update held fixed (score
     /// test): the screening left out something these data see.
     ScreenedOut,
@@ -357,6 +370,7 @@ impl Verdict {
             frf: None,
             implicated: Vec::new(),
             refitted: Vec::new(),
+            refit_values: Vec::new(),
             damping: None,
             cause: Cause::None,
             message: parts.join("; "),
@@ -447,21 +461,32 @@ impl Verdict {
         self.classified(SearchEvidence::default())
     }
 
-    /// The verdict with the fixed parameters a refit identified too (see
-    /// [`Cause::ScreenedOut`]).
-    pub fn with_refitted(mut self, refitted: &[String]) -> Verdict {
-        self.refitted = refitted.to_vec();
+    /// The verdict with the fixed parameters a refit identified too, their
+    /// values judged (see [`Cause::ScreenedOut`],
+    /// [`Cause::ScreeningOrLocalMinimum`]); implausible ones are named in a
+    /// warning whatever the cause.
+    pub fn with_refitted(mut self, values: Vec<RefitValue>) -> Verdict {
+        self.refitted = values.iter().map(|v| v.parameter.clone()).collect();
+        self.warnings.extend(refit::warning(&values));
+        self.refit_values = values;
         self.classified(SearchEvidence::default())
     }
 
     /// The message with the cause named (once, at the end of an update).
     pub fn explained(mut self) -> Verdict {
-        let screened_out: String;
+        let line: String;
         let why: &str = match self.cause {
             Cause::None => return self,
             Cause::Budget => "cause: the budget ran out before the fit converged — give more",
+            Cause::ScreeningOrLocalMinimum => {
+                line = refit::cause_line(
+                    &self.refit_values,
+                    self.status == Status::BudgetExhausted,
+                );
+                &line
+            }
             Cause::ScreenedOut if self.implicated.is_empty() => {
-                screened_out = format!(
+                line = format!(
                     "cause: parameters the screening left fixed — {} refitted, and the fit is still above the noise{}",
                     self.refitted.join(", "),
                     if self.status == Status::BudgetExhausted {
@@ -470,7 +495,7 @@ impl Verdict {
                         ": more of them, or model error, remain"
                     }
                 );
-                &screened_out
+                &line
             }
             Cause::ScreenedOut => "cause: parameters the screening left fixed (named above)",
             Cause::LocalMinimum => "cause: a local minimum — a further search from other starts found a better fit (taken), so this one may not be the best either; more `restarts` or a larger budget",
@@ -493,11 +518,15 @@ impl Verdict {
         // for it is the remedy the message gives, not the diagnosis.
         // (A strategy cut by the budget runs no refit: its implicated
         // parameters come from an unconverged point, so the budget is named.)
+        // A refit whose gain needs implausible values is no evidence for the
+        // screening: it is named apart, before what is still implicated.
         let refit_short = !self.refitted.is_empty() && self.fit == Fit::AboveNoise;
         self.cause = if self.ok {
             Cause::None
         } else if self.status == Status::BudgetExhausted && !refit_short {
             Cause::Budget
+        } else if refit_short && refit::any_implausible(&self.refit_values) {
+            Cause::ScreeningOrLocalMinimum
         } else if !self.implicated.is_empty() || refit_short {
             Cause::ScreenedOut
         } else if self.fit == Fit::AboveNoise {

@@ -10,9 +10,10 @@ use super::super::follow_up::{escape, refit, Outcome, ESCAPED};
 use super::super::guided::GuidedResult;
 use super::super::identifiability::Identifiability;
 use super::super::objective::ModalObjective;
-use super::super::verdict::{Fit, FrfJudgement, Status, Verdict};
+use super::super::verdict::{Fit, FrfJudgement, RefitValue, Status, Verdict};
 use super::super::IdentifyError;
 use super::{FinalPair, Plan};
+use crate::numbers::sig;
 
 /// Where the judging of an update stands.
 pub(super) struct Standing {
@@ -76,7 +77,7 @@ impl FollowUps<'_> {
             };
             let Some((next, cost)) = step else { break };
             s.evaluations += cost;
-            let next_judged = self.judge(&next)?;
+            let mut next_judged = self.judge(&next)?;
             s.assessment_evaluations += next_judged.evaluations;
             let gain = Gain::of(fit_rms(&s.judged.verdict), fit_rms(&next_judged.verdict));
             if refitting && gain != Gain::Material {
@@ -89,12 +90,86 @@ impl FollowUps<'_> {
             }
             if refitting {
                 s.material.clone_from(&next.refitted);
+                let moved = largest_moves(o, &s.outcome, &next.x);
+                gained(&mut next_judged, &next.refitted, &s.judged, &moved);
             }
             s.outcome = next;
             s.judged = next_judged;
         }
         Ok(s)
     }
+}
+
+/// Record on the judgement of a refit of `names` that fitted materially
+/// better than `before` how much, and the identified parameters it `moved`
+/// most (in both its verdicts: a later refuted refit goes back to the
+/// untested one).
+fn gained(judged: &mut Judged, names: &[String], before: &Judged, moved: &str) {
+    let text = format!(
+        "identifying {} too fitted materially better ({:.2}σ against {:.2}σ): taken; the already identified parameters it moved most: {moved}",
+        names.join(", "),
+        fit_rms(&judged.verdict),
+        fit_rms(&before.verdict)
+    );
+    judged.verdict.warnings.push(text.clone());
+    judged.untested.warnings.push(text);
+}
+
+/// The [`MOVES_NAMED`] parameters identified at `before` that moved most (in
+/// ln p) to `x`, with their ratio: "nut.k_rz ×1.31, …".
+fn largest_moves(o: &ModalObjective, before: &Outcome, x: &[f64]) -> String {
+    let mut moves: Vec<(usize, f64)> = before
+        .identified
+        .iter()
+        .map(|&i| (i, x[i] / before.x[i]))
+        .filter(|(_, r)| r.is_finite() && *r > 0.0)
+        .collect();
+    moves.sort_by(|a, b| b.1.ln().abs().total_cmp(&a.1.ln().abs()));
+    moves
+        .iter()
+        .take(MOVES_NAMED)
+        .map(|&(i, r)| format!("{} ×{}", o.parameters()[i].name, sig(r, 3)))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Identified parameters a refit's gain warning names by their move.
+const MOVES_NAMED: usize = 3;
+
+/// The refitted parameters `names` at `outcome`'s point, each judged for
+/// plausibility ([`RefitValue`]): its ratio to the file value (`start`),
+/// where it lies in its bounds and whether the data determine it there.
+pub(super) fn refit_values(
+    o: &ModalObjective,
+    plan: &Plan,
+    start: &[f64],
+    outcome: &Outcome,
+    judged: &Judged,
+    names: &[String],
+) -> Vec<RefitValue> {
+    let Ok(bounds) = o.bounds() else {
+        return Vec::new();
+    };
+    let u = bounds.to_unit(&outcome.x);
+    names
+        .iter()
+        .filter_map(|name| {
+            let i = o.parameters().iter().position(|p| &p.name == name)?;
+            let determined = outcome
+                .identified
+                .iter()
+                .position(|&k| k == i)
+                .and_then(|j| judged.identifiability.parameters.get(j))
+                .is_some_and(|a| a.identifiable);
+            Some(RefitValue::judge(
+                name.clone(),
+                outcome.x[i] / start[i],
+                u[i],
+                determined,
+                plan.fixed_spread,
+            ))
+        })
+        .collect()
 }
 
 /// Refute the score test's implication after a refit (judged `refitted`)
@@ -261,7 +336,35 @@ fn judge(
 
 #[cfg(test)]
 mod tests {
-    use super::Gain;
+    use super::{largest_moves, Gain, Outcome, Status};
+    use crate::identify::verdict::SearchEvidence;
+
+    /// The gain warning names the identified parameters a refit moved most,
+    /// largest |ln ratio| first, a fall as much as a rise.
+    #[test]
+    fn the_largest_moves_of_a_refit_are_named() {
+        let o = crate::identify::black_box::tests::objective();
+        let names: Vec<&str> = o.parameters().iter().map(|p| p.name.as_str()).collect();
+        let before = Outcome {
+            x: o.nominal(),
+            identified: vec![0, 1, 2, 3],
+            status: Status::Converged,
+            frf: None,
+            evidence: SearchEvidence::default(),
+            searched: false,
+            refitted: Vec::new(),
+        };
+        let mut x = o.nominal();
+        x[0] *= 1.1;
+        x[1] *= 0.25;
+        x[2] *= 3.0;
+        // Not identified before the refit: not named, however far it moved.
+        x[5] *= 9.0;
+        assert_eq!(
+            largest_moves(&o, &before, &x),
+            format!("{} ×0.25, {} ×3, {} ×1.1", names[1], names[2], names[0])
+        );
+    }
 
     #[test]
     fn only_a_material_gain_is_one() {

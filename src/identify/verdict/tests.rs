@@ -117,14 +117,14 @@ fn the_cause_is_classified_on_small_cases() {
     // ... unless it was a refit of screened-out parameters that ran out,
     // with the fit still above the noise: the screening is the cause.
     let r = Verdict::judge(Status::BudgetExhausted, 9.0, 5.0, counts(), 5, 5, vec![])
-        .with_refitted(&["lb.k_y".into()]);
+        .with_refitted(vec![plausible("lb.k_y")]);
     assert_eq!(r.cause, Cause::ScreenedOut);
     let r = r.explained();
     assert!(r.message.contains("lb.k_y refitted"), "{}", r.message);
     assert!(r.message.contains("give more"), "{}", r.message);
     // Within the noise the refit's own budget is what is left to fix.
     let w = Verdict::judge(Status::BudgetExhausted, 9.0, 0.9, counts(), 5, 5, vec![])
-        .with_refitted(&["lb.k_y".into()]);
+        .with_refitted(vec![plausible("lb.k_y")]);
     assert_eq!(w.cause, Cause::Budget);
     // Above the noise: a further start that won names a local minimum;
     // one that did not, model error.
@@ -163,6 +163,116 @@ fn the_cause_is_classified_on_small_cases() {
     assert_eq!(w.cause, Cause::Optimizer);
     // An ok verdict's message gets no cause.
     assert_eq!(ok.clone().explained().message, ok.message);
+}
+
+/// A refitted value 30 % above its file value, mid-range and determined.
+fn plausible(name: &str) -> RefitValue {
+    RefitValue::judge(name.into(), 1.3, 0.59, true, None)
+}
+
+/// The vertical mill's seed 12 (identify 19): three coupling stiffnesses
+/// refitted for 11 % lower RMS, the truth at their file values.
+fn seed_12() -> Vec<RefitValue> {
+    vec![
+        RefitValue::judge("cpl.k_y".into(), 0.334, 0.105, true, None),
+        RefitValue::judge("cpl.k_x".into(), 2.566, 0.840, false, None),
+        RefitValue::judge("cpl.k_ry".into(), 4.0, 1.0, false, None),
+    ]
+}
+
+/// A refit whose values are plausible names the screening; one that needs a
+/// value at a bound names the screening and a local minimum as not told
+/// apart, with the parameter, its ratio to the file value and why.
+#[test]
+fn a_refit_is_evidence_for_the_screening_only_with_plausible_values() {
+    let above = Verdict::judge(Status::Stalled, 9.0, 4.9, counts(), 40, 25, vec![]);
+    let v = above
+        .clone()
+        .with_refitted(vec![plausible("lb.k_y"), plausible("fb.k_y")])
+        .explained();
+    assert_eq!(v.cause, Cause::ScreenedOut);
+    assert_eq!(v.refitted, ["lb.k_y", "fb.k_y"]);
+    assert!(
+        !v.warnings
+            .iter()
+            .any(|w| w.contains("not identified truths")),
+        "{:?}",
+        v.warnings
+    );
+    let values = seed_12();
+    assert_eq!(values[0].implausible, None);
+    assert_eq!(values[1].implausible, None);
+    assert_eq!(values[2].implausible, Some(Implausible::AtUpperBound));
+    let v = above.clone().with_refitted(values).explained();
+    assert!(!v.ok && v.cause == Cause::ScreeningOrLocalMinimum, "{v:?}");
+    assert_eq!(v.refitted, ["cpl.k_y", "cpl.k_x", "cpl.k_ry"]);
+    for text in [
+        "the screening or a local minimum, not told apart",
+        "cpl.k_ry 4× its file value, at its upper bound",
+        "refit of cpl.k_y, cpl.k_x, cpl.k_ry",
+        "not identified truths",
+    ] {
+        assert!(v.message.contains(text), "{text}: {}", v.message);
+    }
+    // Every refitted value is named in the warning, with its ratio.
+    let w = v
+        .warnings
+        .iter()
+        .find(|w| w.contains("not identified truths"));
+    let w = w.expect("a warning on the refitted values");
+    assert!(w.contains("cpl.k_y 0.334× its file value;"), "{w}");
+    assert!(
+        w.contains("cpl.k_x 2.57× its file value, not determined"),
+        "{w}"
+    );
+    // The cause survives the evidence of a further search.
+    let held = SearchEvidence {
+        escaped: Some(false),
+    };
+    assert_eq!(v.classified(held).cause, Cause::ScreeningOrLocalMinimum);
+    // A refit that stopped at the budget: the same cause, the budget said.
+    let b = Verdict::judge(Status::BudgetExhausted, 9.0, 4.9, counts(), 5, 5, vec![])
+        .with_refitted(seed_12())
+        .explained();
+    assert_eq!(b.cause, Cause::ScreeningOrLocalMinimum);
+    assert!(b.message.contains("stopped at the budget"), "{}", b.message);
+    // Within the noise the fit is not doubted, but the values still are.
+    let w = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+        .with_refitted(seed_12());
+    assert!(w.ok && w.cause == Cause::None, "{w:?}");
+    assert!(w.warnings.iter().any(|t| t.contains("cpl.k_ry 4×")));
+}
+
+/// The edges of the plausible range: the central 95 % of the bounds, and
+/// with `fixed_spread` σ, 1.96 σ of ln p about the file value.
+#[test]
+fn refitted_values_are_judged_against_the_screened_range() {
+    let judge = |ratio: f64, position: f64, spread: Option<f64>| {
+        RefitValue::judge("p".into(), ratio, position, true, spread).implausible
+    };
+    assert_eq!(judge(0.25, 0.0, None), Some(Implausible::AtLowerBound));
+    assert_eq!(judge(0.27, 0.02, None), Some(Implausible::AtLowerBound));
+    assert_eq!(judge(0.28, 0.03, None), None);
+    assert_eq!(judge(3.8, 0.97, None), None);
+    assert_eq!(judge(3.9, 0.98, None), Some(Implausible::AtUpperBound));
+    // A factor 1.5 is within 1.96 × 0.3 of ln p (0.41 < 0.59), a factor 2
+    // (0.69) and its inverse are not.
+    assert_eq!(judge(1.5, 0.65, Some(0.3)), None);
+    assert_eq!(judge(2.0, 0.75, Some(0.3)), Some(Implausible::BeyondSpread));
+    assert_eq!(judge(0.5, 0.25, Some(0.3)), Some(Implausible::BeyondSpread));
+    // A zero spread (fixed parameters exact) leaves the bounds alone to judge.
+    assert_eq!(judge(2.0, 0.75, Some(0.0)), None);
+    // The cause's name in cost.json, and the values read back.
+    let v =
+        Verdict::judge(Status::Stalled, 9.0, 4.9, counts(), 5, 5, vec![]).with_refitted(seed_12());
+    let json = serde_json::to_string(&v).unwrap();
+    assert!(
+        json.contains(r#""cause":"screening_or_local_minimum""#),
+        "{json}"
+    );
+    assert!(json.contains(r#""implausible":"at_upper_bound""#), "{json}");
+    let back: Verdict = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, v);
 }
 
 /// Identified damping that misses the reference's damping ratios: not ok,

@@ -113,8 +113,12 @@ impl Kind for Identify {
     /// 19: `updated_model` refers to the input's super-element matrices
     /// (named with size and blake3 in its header) instead of copying them
     /// (issue 32).
+    /// 20: a refit that fits materially better but needs a refitted value at
+    /// a bound (outer 2.5 % of its range, or beyond `fixed_spread`) is no
+    /// evidence for the screening: cause `screening_or_local_minimum`, the
+    /// values judged in the verdict's `refit_values` (issue 26).
     fn version(&self) -> u32 {
-        19
+        20
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
