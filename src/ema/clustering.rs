@@ -9,8 +9,7 @@
 //! cut at a threshold; a cluster is a mode candidate when it holds poles of
 //! at least a given fraction of the model orders, and of no fewer than
 //! [`MIN_COLUMN`] orders (a stable column, whatever the fraction), and its
-//! frequencies stay within max(threshold, [`DAMPED_SPREAD`] ζ) of their
-//! median (ζ the column's median damping ratio). Each mode is
+//! frequencies stay within the threshold of their median. Each mode is
 //! represented by the member nearest the cluster median (frequency and
 //! damping).
 //!
@@ -22,26 +21,13 @@
 //! poles scatter by 0.66 % about their median at a cut of 0.51 %).
 //! Keeping such a column's members within the cut instead (tried) gives
 //! more extras on the UFSC beam sets than it finds modes: the wide groups
-//! are mostly chains of spurious poles. A spread measured against the
-//! column's own half-power band ([`DAMPED_SPREAD`]) keeps the 162 Hz column
-//! (the significance test then rejects it: t 5.7 against 40.5, the whole
-//! band's misfit counted as noise) and leaves the beams unchanged.
+//! are mostly chains of spurious poles.
 
 use super::PoleOrder;
 use crate::metrics::mac;
 
 /// The fewest model orders a cluster must span to be a mode candidate.
 pub const MIN_COLUMN: usize = 5;
-
-/// Share of the half-power half-width ζ f within which a damped mode's
-/// column may scatter about its median: the spread test is
-/// max(cut, this × ζ). A pole's frequency is determined to a fraction of
-/// its half-power band (the error of a peak's centre scales with its width
-/// over √SNR), so a heavily damped mode's column scatters more than a
-/// sharp one's: vibration-toolbox case 1's 162 Hz mode (ζ 3.7 %, 54
-/// orders within 0.66 %) was dropped at the 0.51 % cut. For ζ below
-/// 4 × the cut (2 % at the search's median cut) nothing changes.
-pub const DAMPED_SPREAD: f64 = 0.25;
 
 /// Clustering hyperparameters (three of the eight of PUB5, plus the order count).
 #[derive(Clone, Debug, PartialEq)]
@@ -171,10 +157,9 @@ pub fn cluster_poles_with_dropped(
             .iter()
             .map(|&k| (pole(k).frequency_hz - f_med).abs() / f_med)
             .fold(0.0, f64::max);
-        let z_med = median(g.iter().map(|&k| pole(k).damping_ratio).collect());
         let why = if n_in < min_orders {
             Some(Dropped::Sparse { min_orders })
-        } else if spread > p.distance_threshold.max(DAMPED_SPREAD * z_med) {
+        } else if spread > p.distance_threshold {
             Some(Dropped::Wide { spread })
         } else {
             None
@@ -186,6 +171,7 @@ pub fn cluster_poles_with_dropped(
             }
             continue;
         }
+        let z_med = median(g.iter().map(|&k| pole(k).damping_ratio).collect());
         let score = |k: usize| {
             (pole(k).frequency_hz - f_med).abs() / f_med
                 + (pole(k).damping_ratio - z_med).abs() / z_med.max(1e-12)
@@ -290,13 +276,12 @@ mod tests {
 
     #[test]
     fn every_stable_column_is_a_cluster_or_dropped_with_its_reason() {
-        let mk_z = |f: f64, z: f64| Pole {
-            s: crate::metrics::pole(f, z),
+        let mk = |f: f64| Pole {
+            s: crate::metrics::pole(f, 0.03),
             frequency_hz: f,
-            damping_ratio: z,
+            damping_ratio: 0.03,
             participation: vec![Complex64::new(1.0, 0.0)],
         };
-        let mk = |f: f64| mk_z(f, 0.03);
         // Ten orders; a column at 100 Hz whose poles average within the cut
         // of 0.5 % (average linkage merges them) while 99.4 Hz lies 0.55 %
         // from the median 99.95 Hz: a wide column. A column at 200 Hz in 6
@@ -305,26 +290,21 @@ mod tests {
         let wide = [
             99.4, 99.6, 99.6, 99.8, 99.9, 100.0, 100.0, 100.0, 100.0, 100.0,
         ];
-        // The 100 Hz column is lightly damped (ζ 1 %: a quarter of its
-        // half-power half-width is 0.25 %, below the cut).
-        let column = |z: f64| -> Vec<PoleOrder> {
-            (0..10)
-                .map(|j| {
-                    let mut poles = vec![mk_z(wide[j], z)];
-                    if j < 6 {
-                        poles.push(mk(200.0 + 0.01 * j as f64));
-                    }
-                    if j < 3 {
-                        poles.push(mk(300.0));
-                    }
-                    PoleOrder {
-                        order: j + 1,
-                        poles,
-                    }
-                })
-                .collect()
-        };
-        let orders = column(0.01);
+        let orders: Vec<PoleOrder> = (0..10)
+            .map(|j| {
+                let mut poles = vec![mk(wide[j])];
+                if j < 6 {
+                    poles.push(mk(200.0 + 0.01 * j as f64));
+                }
+                if j < 3 {
+                    poles.push(mk(300.0));
+                }
+                PoleOrder {
+                    order: j + 1,
+                    poles,
+                }
+            })
+            .collect();
         let candidates = every_pole(&orders);
         let p = ClusterParams {
             distance_threshold: 0.005,
@@ -351,13 +331,5 @@ mod tests {
         let (clusters, dropped) = cluster_poles_with_dropped(&orders, &candidates, &loose);
         assert_eq!(clusters.len(), 1);
         assert_eq!(dropped.len(), 1);
-        // The same scatter at ζ 3 %: within a quarter of the half-power
-        // half-width (0.75 %), a mode candidate at the 0.5 % cut.
-        let damped = column(0.03);
-        let (clusters, dropped) = cluster_poles_with_dropped(&damped, &candidates, &p);
-        assert_eq!(clusters.len(), 1, "{dropped:?}");
-        assert_eq!(clusters[0].members.len(), 10);
-        assert_eq!(dropped.len(), 1);
-        assert_eq!(dropped[0].why, Dropped::Sparse { min_orders: 8 });
     }
 }
