@@ -237,7 +237,7 @@ impl Kind for AutoEma {
     /// `cmif_peaks`; the modes are unchanged (issue 31).
     /// (11, reverted: a stable column allowed to scatter by a quarter of
     /// its damping ratio admitted 6 spurious heavily damped modes on the
-    /// vertical mill family; the algorithm is 10's again, so is the key.)
+    /// vertical mill family's first position; the algorithm is 10's again, so is the key.)
     fn version(&self) -> u32 {
         10
     }
