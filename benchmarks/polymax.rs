@@ -6,7 +6,8 @@
 //!   cost of one Bayesian-optimization step (re-selection from the poles).
 //! - `families [seeds] [noise…]`: the synthetic families of
 //!   `modalflow::ema::families` (close pair 1 % apart, repeated root with 3
-//!   references, damping 5–8 %, 600 FRFs × 2001 lines with 20 modes) over
+//!   references, damping 5–8 %, 600 FRFs × 2001 lines with 20 modes, modes
+//!   beyond the band edges) over
 //!   many seeds and noise levels with default settings: success rate (every
 //!   visible mode found with NFD < 0.5 %, NDD < 20 %, MAC ≥ 0.9; no spurious
 //!   or duplicate mode; mean FRAC ≥ 1/(1 + r²) − 0.001), spurious and
