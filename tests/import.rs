@@ -452,3 +452,29 @@ fn a_point_count_over_the_memory_limit_is_refused_at_record_7() {
         "{err}"
     );
 }
+
+/// The `geometry` output is the test geometry (nodes 2411, trace lines 82)
+/// of the first universal file that has one, taken from the parse that
+/// reads its FRFs: the Polytec PSV line scan (10 points, 10 trace lines)
+/// before the surface scan (25 points) in a glob of both.
+#[test]
+fn geometry_comes_from_the_first_universal_file_with_nodes() {
+    let ws = Workspace::new();
+    let dir = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/benchmarks/real_sets/pycfs_psv"
+    );
+    for f in ["line_h2_accelerance.unv", "surface_h1_receptance.unv"] {
+        std::fs::copy(format!("{dir}/{f}"), ws.path().join(f)).unwrap();
+    }
+    ws.write(
+        "p.yaml",
+        "name: imp\nstages:\n  psv: {kind: import, params: {path: \"*.unv\"}}\n",
+    );
+    ws.run(&[], 0);
+    let g: serde_json::Value =
+        serde_json::from_str(&ws.read("results/imp/psv/geometry.json")).unwrap();
+    assert_eq!(g["nodes"].as_array().map(Vec::len), Some(10), "{g}");
+    assert_eq!(g["lines"].as_array().map(Vec::len), Some(10), "{g}");
+    assert_eq!(artifact(&ws, "psv").len(), 2, "one position per file");
+}

@@ -359,11 +359,9 @@ impl Kind for Import {
                 warnings: &mut warnings,
                 units: &mut units,
                 calibrated: &mut calibrated,
+                geometry: &mut geometry,
             };
             let mut file_sets = read_one(path, rel, format, &options, policy, &mut log)?;
-            if geometry.nodes.is_empty() && format == Format::Uff {
-                geometry = read_geometry(path, rel, policy)?;
-            }
             if per_file {
                 for s in &mut file_sets {
                     s.position = Position {
@@ -485,6 +483,9 @@ struct Log<'a> {
     units: &'a mut Vec<String>,
     /// Cleared when any file's FRFs are uncalibrated.
     calibrated: &'a mut bool,
+    /// The test geometry (nodes 15/2411, trace lines 82) of the first
+    /// universal file that has one, from the parse that reads its FRFs.
+    geometry: &'a mut crate::geometry::Geometry,
 }
 
 fn read_one(
@@ -520,6 +521,9 @@ fn read_one(
         return io::read_frf_csv_with(&bytes, rel, coherence).map_err(invalid);
     }
     let file = io::read_uff_with(&bytes, rel, coherence).map_err(invalid)?;
+    if log.geometry.nodes.is_empty() {
+        *log.geometry = crate::geometry::Geometry::from_uff(&file).unwrap_or_default();
+    }
     log.warnings
         .extend(file.warnings.iter().map(|w| format!("{rel}: {w}")));
     let imported = io::frf_sets_from_uff(&file, rel, options).map_err(invalid)?;
@@ -547,22 +551,6 @@ fn read_one(
         *log.calibrated = false;
     }
     Ok(imported.sets)
-}
-
-/// The test geometry of a universal file (nodes 15/2411, trace lines 82);
-/// empty when it has none. `coherence` as the FRFs were read (the file is
-/// read again, and must pass the same way).
-fn read_geometry(
-    path: &Path,
-    rel: &str,
-    coherence: CoherencePolicy,
-) -> Result<crate::geometry::Geometry, StageError> {
-    let bytes = std::fs::read(path).map_err(|e| StageError::io(format!("cannot read {rel}"), e))?;
-    let file = io::read_uff_with(&bytes, rel, coherence).map_err(|e| StageError::InvalidInput {
-        input: rel.to_string(),
-        message: e.to_string(),
-    })?;
-    Ok(crate::geometry::Geometry::from_uff(&file).unwrap_or_default())
 }
 
 /// One set per position, ordered by position index. Sets of one position
