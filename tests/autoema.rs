@@ -54,8 +54,7 @@ fn autoema_identifies_the_modes_of_a_synthetic_system() {
             > 1
     );
 
-    let metrics: serde_json::Value =
-        serde_json::from_str(&ws.read("results/ema/ema/metrics.json")).unwrap();
+    let metrics: serde_json::Value = ws.json("results/ema/ema/metrics.json");
     assert!(metrics["mean_frac"].as_f64().unwrap() > 0.99, "{metrics}");
     assert_eq!(metrics["n_modes"], 4);
     assert_eq!(
@@ -214,8 +213,7 @@ fn autoema_outputs_say_what_was_decided() {
         "name: ema\nseed: 3\nstages:\n  measured:\n    kind: import\n    params: {path: truth.uff}\n  ema:\n    kind: autoema\n    inputs: {frf: measured.frf}\n    params: {band: [20, 260]}\n",
     );
     ws.run(&[], 0);
-    let m: serde_json::Value =
-        serde_json::from_str(&ws.read("results/ema/ema/metrics.json")).unwrap();
+    let m: serde_json::Value = ws.json("results/ema/ema/metrics.json");
     let p = &m["positions"][0];
     assert_eq!(m["n_modes"], 6, "{m}");
     assert!(m["goal_reached"].is_boolean() && p["goal_reached"].is_boolean());
@@ -357,7 +355,7 @@ fn roving_hammer_layout_gives_the_modes_of_its_transpose() {
         0
     );
     let metrics = |stage: &str| -> serde_json::Value {
-        serde_json::from_str(&ws.read(&format!("results/ema/{stage}/metrics.json"))).unwrap()
+        ws.json(&format!("results/ema/{stage}/metrics.json"))
     };
     assert_eq!(
         metrics("hammer")["layout"],
@@ -371,8 +369,7 @@ fn roving_hammer_layout_gives_the_modes_of_its_transpose() {
         metrics("never")["layout"],
         "as measured (5 references × 1 response fitted as 1 output × 5 references)"
     );
-    let layout: serde_json::Value =
-        serde_json::from_str(&ws.read("results/ema/hammer/modes/layout.json")).unwrap();
+    let layout: serde_json::Value = ws.json("results/ema/hammer/modes/layout.json");
     assert_eq!(layout["positions"][0]["transposed"], true);
     assert_eq!(layout["positions"][0]["shape_dofs"], "measured references");
 
@@ -426,8 +423,7 @@ fn partial_matrices_are_completed_by_reciprocity_or_reduced() {
     std::fs::write(ws.path().join("truth.uff"), write_frf_artifact(&[set])).unwrap();
     ws.write("p.yaml", PIPELINE);
     ws.run(&[], 0);
-    let m: serde_json::Value =
-        serde_json::from_str(&ws.read("results/ema/ema/metrics.json")).unwrap();
+    let m: serde_json::Value = ws.json("results/ema/ema/metrics.json");
     let layout = &m["positions"][0]["layout"];
     assert_eq!(
         layout["filled_by_reciprocity"],

@@ -48,8 +48,7 @@ fn real_beam_modes_do_not_depend_on_the_seed() {
             );
         }
     }
-    let m: serde_json::Value =
-        serde_json::from_str(&ws.read("results/ema/s1/metrics.json")).unwrap();
+    let m: serde_json::Value = ws.json("results/ema/s1/metrics.json");
     assert_eq!(
         m["layout"],
         "transposed by reciprocity (30 references × 1 response fitted as 30 outputs × 1 reference)"
@@ -82,8 +81,7 @@ fn real_beam_warnings_are_few_and_none_at_an_identified_mode() {
         .filter(|f| modes.iter().any(|(x, _)| (x - *f).abs() <= 0.01 * *f))
         .count();
     assert!(found >= 12, "{found} of 14 published modes: {modes:?}");
-    let m: serde_json::Value =
-        serde_json::from_str(&ws.read("results/ema/full/metrics.json")).unwrap();
+    let m: serde_json::Value = ws.json("results/ema/full/metrics.json");
     let warnings: Vec<&str> = m["warnings"]
         .as_array()
         .unwrap()
@@ -121,8 +119,7 @@ fn a_stable_column_ends_as_a_mode_or_a_rejection() {
         "name: ema\nstages:\n  imp: {kind: import, params: {path: case1.uff, band: [10, 490], calibrated: false}}\n  ema: {kind: autoema, inputs: {frf: imp.frf}, params: {band: [10, 490]}}\n",
     );
     ws.run(&[], 0);
-    let m: serde_json::Value =
-        serde_json::from_str(&ws.read("results/ema/ema/metrics.json")).unwrap();
+    let m: serde_json::Value = ws.json("results/ema/ema/metrics.json");
     let pos = &m["positions"][0];
     let near = |v: &&serde_json::Value| (v["frequency_hz"].as_f64().unwrap() - 162.0).abs() <= 2.0;
     let modes: Vec<_> = pos["modes"]

@@ -104,8 +104,7 @@ fn a_corrupted_object_is_detected_and_recomputed() {
     ws.write("p.yaml", DIAMOND);
     let r = ws.run(&[], 0);
     let key = r.stage("right")["key"].as_str().unwrap().to_string();
-    let rec: serde_json::Value =
-        serde_json::from_str(&ws.read(&format!("cache/runs/{key}.json"))).unwrap();
+    let rec: serde_json::Value = ws.json(&format!("cache/runs/{key}.json"));
     let hash = rec["outputs"]["r.txt"]["hash"].as_str().unwrap();
     let obj = ws
         .path()

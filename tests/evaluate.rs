@@ -29,7 +29,7 @@ stages:
 "#;
 
 fn metrics(ws: &Workspace, stage: &str) -> serde_json::Value {
-    serde_json::from_str(&ws.read(&format!("results/ev/{stage}/metrics.json"))).unwrap()
+    ws.json(&format!("results/ev/{stage}/metrics.json"))
 }
 
 #[test]
@@ -216,9 +216,8 @@ fn missed_spurious_and_ambiguous_modes_are_listed() {
     ws.write("src/cand/mode_shapes.csv", CANDIDATE_SHAPES);
     ws.write("p.yaml", CRAFTED);
     ws.run(&[], 0);
-    let read = |stage: &str| -> Metrics {
-        serde_json::from_str(&ws.read(&format!("results/pairing/{stage}/metrics.json"))).unwrap()
-    };
+    let read =
+        |stage: &str| -> Metrics { ws.json(&format!("results/pairing/{stage}/metrics.json")) };
     let m = read("score");
     let modes = m.modes.as_ref().unwrap();
     assert_eq!(

@@ -44,7 +44,7 @@ fn sobol_on_ishigami_writes_indices_screening_and_heatmap() {
         assert!((v[2] - st[i]).abs() < 0.05, "ST {i}: {v:?}");
         assert!(v[1] > 0.0 && v[3] > 0.0);
     }
-    let sub: Value = serde_json::from_str(&ws.read("results/g/ishigami/subproblems.json")).unwrap();
+    let sub: Value = ws.json("results/g/ishigami/subproblems.json");
     assert_eq!(sub["significant"], serde_json::json!(["x1", "x2", "x3"]));
     assert_eq!(sub["subproblems"][0]["output"], "y");
     assert_eq!(sub["threshold"], 0.1);
@@ -117,7 +117,7 @@ stages:
             "{o} {p}: {v:?}"
         );
     }
-    let sub: Value = serde_json::from_str(&ws.read("results/c/sim/subproblems.json")).unwrap();
+    let sub: Value = ws.json("results/c/sim/subproblems.json");
     // Only y1 counts in the combination: ST(a) = 0.2 < 0.3.
     assert_eq!(sub["significant"], serde_json::json!(["b"]));
     assert_eq!(sub["non_significant"], serde_json::json!(["a"]));
@@ -168,11 +168,11 @@ stages:
         "{warnings}"
     );
     assert!(!warnings.contains("`y1`"), "{warnings}");
-    let sub: Value = serde_json::from_str(&ws.read("results/k/sim/subproblems.json")).unwrap();
+    let sub: Value = ws.json("results/k/sim/subproblems.json");
     assert!(sub["warnings"].to_string().contains("output `y2`"), "{sub}");
     // The warnings stay with the results: in the manifest and in `show`,
     // from the results folder and, once it is gone, from the cache.
-    let manifest: Value = serde_json::from_str(&ws.read("results/k/sim/manifest.json")).unwrap();
+    let manifest: Value = ws.json("results/k/sim/manifest.json");
     assert!(
         manifest["warnings"][0]
             .as_str()
@@ -325,7 +325,7 @@ fn sobol_on_a_structural_model_file() {
     // The damper cannot move an eigenfrequency, but sets the damping ratio.
     assert_eq!(get("p0.mode1.frequency", "c1")[2], 0.0);
     assert!(get("p0.mode1.damping", "c1")[2] > 0.3);
-    let sub: Value = serde_json::from_str(&ws.read("results/s/gsa/subproblems.json")).unwrap();
+    let sub: Value = ws.json("results/s/gsa/subproblems.json");
     assert_eq!(
         sub["subproblems"][0]["parameters"],
         serde_json::json!(["k1", "k2"])
@@ -456,7 +456,7 @@ stages:
     assert_eq!(significant.lines().count(), 4);
     // Without the damping outputs the damper falls below the threshold, so the
     // validation draws it at random: MAC cannot notice, FRAC and CSF do, a little.
-    let v: Value = serde_json::from_str(&ws.read("results/v/gsa/validation.json")).unwrap();
+    let v: Value = ws.json("results/v/gsa/validation.json");
     assert_eq!(v["random"], serde_json::json!(["c1"]));
     assert_eq!(v["headline"], "criterion");
     let (min, mean) = (v["min"].as_f64().unwrap(), v["mean"].as_f64().unwrap());

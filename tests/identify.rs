@@ -72,8 +72,7 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
     for rel in stiffness_errors("check") {
         assert!(rel < 0.01, "black-box SLSQP: {rel}");
     }
-    let metrics: serde_json::Value =
-        serde_json::from_str(&ws.read("results/id/check/metrics.json")).unwrap();
+    let metrics: serde_json::Value = ws.json("results/id/check/metrics.json");
     assert_eq!(metrics["modes"]["paired"], 3);
     assert!(metrics["modes"]["mean_mac"].as_f64().unwrap() > 0.9999);
     let cost = ws.cost("results/id/fit");
@@ -104,8 +103,7 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
         correlation.lines().skip(1).all(|l| l.contains(",true,")),
         "{correlation}"
     );
-    let id: serde_json::Value =
-        serde_json::from_str(&ws.read("results/id/fit/identifiability.json")).unwrap();
+    let id: serde_json::Value = ws.json("results/id/fit/identifiability.json");
     assert!(id["parameters"].as_array().unwrap().len() == 8, "{id}");
     let history = ws.read("results/id/fit/history.csv");
     assert!(
@@ -117,8 +115,7 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
     for rel in stiffness_errors("check_guided") {
         assert!(rel < 1e-6, "guided: {rel}");
     }
-    let detail: serde_json::Value =
-        serde_json::from_str(&ws.read("results/id/guided/subproblems.json")).unwrap();
+    let detail: serde_json::Value = ws.json("results/id/guided/subproblems.json");
     assert!(!detail["subproblems"].as_array().unwrap().is_empty());
     assert!(detail["refinement"][0]["end"].as_f64().unwrap() < 1e-12);
     let guided = ws.cost("results/id/guided");
@@ -232,8 +229,7 @@ fn parallel_springs_are_named_as_undetermined_and_the_rest_is_identified() {
         "name: par\nstages:\n  truth:\n    kind: synthesize\n    params: {model: parallel.yaml, frequency: {min: 0, max: 300, step: 0.5}, values: {ka.k_x: 1.3e6, kb.k_x: 0.6e6, k12.k_x: 1.0e6}}\n  fit:\n    kind: identify\n    inputs: {reference: truth.modes}\n    params: {model: parallel.yaml, strategy: black_box, optimizer: slsqp, budget: 1500}\n",
     );
     ws.run(&[], 0);
-    let id: serde_json::Value =
-        serde_json::from_str(&ws.read("results/par/fit/identifiability.json")).unwrap();
+    let id: serde_json::Value = ws.json("results/par/fit/identifiability.json");
     let groups = id["undetermined"].as_array().unwrap();
     let structural: Vec<Vec<&str>> = groups
         .iter()

@@ -235,8 +235,7 @@ fn uff_in_g_per_newton_imports_in_si_with_a_note() {
     for (a, b) in got[0].channels[0].values.iter().zip(&si.channels[0].values) {
         assert!((a - b).norm() <= 1e-15 * b.norm(), "{a} vs {b}");
     }
-    let summary: serde_json::Value =
-        serde_json::from_str(&ws.read("results/imp/g/import.json")).unwrap();
+    let summary: serde_json::Value = ws.json("results/imp/g/import.json");
     let note = summary["units"][0].as_str().unwrap();
     assert!(
         note.contains("g.uff") && note.contains("g/N") && note.contains("9.80665"),
@@ -472,8 +471,7 @@ fn geometry_comes_from_the_first_universal_file_with_nodes() {
         "name: imp\nstages:\n  psv: {kind: import, params: {path: \"*.unv\"}}\n",
     );
     ws.run(&[], 0);
-    let g: serde_json::Value =
-        serde_json::from_str(&ws.read("results/imp/psv/geometry.json")).unwrap();
+    let g: serde_json::Value = ws.json("results/imp/psv/geometry.json");
     assert_eq!(g["nodes"].as_array().map(Vec::len), Some(10), "{g}");
     assert_eq!(g["lines"].as_array().map(Vec::len), Some(10), "{g}");
     assert_eq!(artifact(&ws, "psv").len(), 2, "one position per file");

@@ -37,7 +37,7 @@ fn coherence(ws: &Workspace) -> Option<Vec<f64>> {
 }
 
 fn import_json(ws: &Workspace) -> serde_json::Value {
-    serde_json::from_str(&ws.read("results/coh/imp/import.json")).unwrap()
+    ws.json("results/coh/imp/import.json")
 }
 
 #[test]

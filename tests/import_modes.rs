@@ -147,7 +147,7 @@ fn evaluate_compares_autoema_with_imported_reference_modes() {
     let r = ws.run(&[], 0);
     assert!(r.all("ran"), "{:?}", r.statuses());
     let metrics = |stage: &str| -> serde_json::Value {
-        serde_json::from_str(&ws.read(&format!("results/ref/{stage}/metrics.json"))).unwrap()
+        ws.json(&format!("results/ref/{stage}/metrics.json"))
     };
     for stage in ["vs_other", "vs_testlab"] {
         let m = &metrics(stage)["modes"];

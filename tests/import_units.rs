@@ -141,8 +141,7 @@ fn voltage_frfs_import_uncalibrated_and_only_scale_free_uses_work() {
     assert_eq!(back[0].channels, volts.channels);
     let by_units = std::fs::read(ws.path().join("results/volt/volts_by_units/frf.uff")).unwrap();
     assert_eq!(artifact, by_units, "both overrides give one artifact");
-    let summary: serde_json::Value =
-        serde_json::from_str(&ws.read("results/volt/volts/import.json")).unwrap();
+    let summary: serde_json::Value = ws.json("results/volt/volts/import.json");
     assert_eq!(summary["calibrated"], false);
     // AutoEMA on voltage data: frequencies as on the calibrated data, and
     // its fitted FRFs keep the mark.
@@ -163,8 +162,7 @@ fn voltage_frfs_import_uncalibrated_and_only_scale_free_uses_work() {
     }
     let fit = std::fs::read(ws.path().join("results/volt/ema/frf_fit.uff")).unwrap();
     assert!(!read_frf_artifact_scaled(&fit, "frf_fit.uff").unwrap().1);
-    let m: serde_json::Value =
-        serde_json::from_str(&ws.read("results/volt/same_scale/metrics.json")).unwrap();
+    let m: serde_json::Value = ws.json("results/volt/same_scale/metrics.json");
     assert!(m["frf"]["mean_frac"].as_f64().unwrap() > 0.99, "{m}");
 }
 

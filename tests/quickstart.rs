@@ -33,17 +33,14 @@ fn quickstart_runs_reports_and_caches() {
         );
     }
     // The noisy measurement scores FRAC < 1 but close to it.
-    let m: serde_json::Value =
-        serde_json::from_str(&ws.read("results/quickstart/score[measurement=noisy]/metrics.json"))
-            .unwrap();
+    let m: serde_json::Value = ws.json("results/quickstart/score[measurement=noisy]/metrics.json");
     let frac = m["frf"]["mean_frac"].as_f64().unwrap();
     assert!(frac > 0.99 && frac < 1.0, "{frac}");
     // AutoEMA finds all three modes of each measurement.
     for which in ["noisy", "hammer"] {
-        let m: serde_json::Value = serde_json::from_str(&ws.read(&format!(
+        let m: serde_json::Value = ws.json(&format!(
             "results/quickstart/score[measurement={which}]/metrics.json"
-        )))
-        .unwrap();
+        ));
         assert_eq!(m["modes"]["paired"], 3, "{which}: {m}");
         assert!(
             m["modes"]["mean_mac"].as_f64().unwrap() > 0.99,

@@ -357,7 +357,7 @@ mod records {
         let ws = tree();
         let key = ws.status().stage("up")["key"].as_str().unwrap().to_string();
         let path = format!("cache/runs/{key}.json");
-        let mut rec: Value = serde_json::from_str(&ws.read(&path)).unwrap();
+        let mut rec: Value = ws.json(&path);
         assert_eq!(rec["key"], key.as_str());
         assert_eq!(rec["checksum"].as_str().map(str::len), Some(64));
         // Valid JSON pointing the output at another object of the cache.
@@ -365,8 +365,7 @@ mod records {
             .as_str()
             .unwrap()
             .to_string();
-        let gen: Value =
-            serde_json::from_str(&ws.read(&format!("cache/runs/{gen_key}.json"))).unwrap();
+        let gen: Value = ws.json(&format!("cache/runs/{gen_key}.json"));
         rec["outputs"]["b.txt"]["hash"] = gen["outputs"]["a.txt"]["hash"].clone();
         rec["outputs"]["b.txt"]["bytes"] = gen["outputs"]["a.txt"]["bytes"].clone();
         ws.write(&path, &serde_json::to_string_pretty(&rec).unwrap());

@@ -78,7 +78,7 @@ fn failed_verdicts_are_prominent_in_report_and_compare() {
     }
 
     // evaluate copies the verdict unchanged.
-    let m: Metrics = serde_json::from_str(&ws.read("results/verdicts/check/metrics.json")).unwrap();
+    let m: Metrics = ws.json("results/verdicts/check/metrics.json");
     assert_eq!(m.verdict.as_ref(), Some(&failed[1].verdict));
 
     let md = ws.read("results/verdicts/report/report/report.md");
@@ -130,10 +130,7 @@ fn failed_verdicts_are_prominent_in_report_and_compare() {
     // identified parameters with value, error and interval.
     assert!(md.contains("## Identifiability and uncertainty"), "{md}");
     for stage in ["good", "mismatch"] {
-        let id: Value = serde_json::from_str(
-            &ws.read(&format!("results/verdicts/{stage}/identifiability.json")),
-        )
-        .unwrap();
+        let id: Value = ws.json(&format!("results/verdicts/{stage}/identifiability.json"));
         let section = md.split(&format!("### {stage}\n")).nth(1).unwrap();
         let section = section.split("\n#").next().unwrap();
         for line in id["undetermined_text"].as_array().unwrap() {
@@ -443,8 +440,7 @@ fn the_report_and_the_run_count_every_upstream_stage_s_warnings() {
     );
     // AutoEMA's warnings (metrics.json) are its stage warnings, cached too.
     let ema = warnings("ema");
-    let metrics: Value =
-        serde_json::from_str(&ws.read("results/upstream/ema/metrics.json")).unwrap();
+    let metrics: Value = ws.json("results/upstream/ema/metrics.json");
     let in_metrics: Vec<String> = serde_json::from_value(metrics["warnings"].clone()).unwrap();
     assert!(!ema.is_empty(), "{metrics}");
     assert_eq!(ema, in_metrics);

@@ -14,8 +14,7 @@ use util::{text, Workspace};
 
 /// The trace of the last run.
 fn trace(ws: &Workspace, pipeline: &str) -> Vec<Value> {
-    let t: Value = serde_json::from_str(&ws.read(&format!("results/{pipeline}/trace.json")))
-        .expect("trace.json");
+    let t: Value = ws.json(&format!("results/{pipeline}/trace.json"));
     t.as_array().cloned().unwrap_or_default()
 }
 

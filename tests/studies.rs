@@ -70,8 +70,7 @@ fn autoema_study_finds_the_modes() {
         &[("iterations: 40, initial: 12", "iterations: 16, initial: 8")],
     );
     ws.run(&[], 0);
-    let m: Value =
-        serde_json::from_str(&ws.read("results/autoema_study/score/metrics.json")).unwrap();
+    let m: Value = ws.json("results/autoema_study/score/metrics.json");
     let paired = m["modes"]["paired"].as_u64().unwrap();
     assert!(paired >= 30, "{m}");
     assert!(m["modes"]["mean_mac"].as_f64().unwrap() > 0.9, "{m}");
@@ -97,7 +96,7 @@ fn dimensionality_reduction_splits_and_validates() {
     let significant = ws.read(&format!("{dir}/significant.csv"));
     let flagged = significant.lines().filter(|l| l.ends_with(",true")).count();
     assert!(flagged > 3 && flagged < 78, "{significant}");
-    let v: Value = serde_json::from_str(&ws.read(&format!("{dir}/validation.json"))).unwrap();
+    let v: Value = ws.json(&format!("{dir}/validation.json"));
     assert_eq!(v["samples"], 40);
     let (min, mean) = (v["min"].as_f64().unwrap(), v["mean"].as_f64().unwrap());
     assert!(min <= mean && mean > 0.8 && mean <= 1.0, "{v}");
@@ -290,7 +289,7 @@ fn real_beam_updated_on_the_hammer_predicts_the_shaker() {
     );
     // What the model cannot explain is named, not absorbed: the verdict
     // lists the measured modes left without a model partner.
-    let cost: Value = serde_json::from_str(&ws.read("results/real_beam/guided/cost.json")).unwrap();
+    let cost: Value = ws.json("results/real_beam/guided/cost.json");
     assert!(
         cost["verdict"]["modes"]["unpaired"].as_u64().unwrap() >= 3,
         "{cost}"

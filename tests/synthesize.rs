@@ -88,8 +88,7 @@ fn clean_frfs_peak_at_the_true_modes_and_the_truth_is_written() {
         truth.starts_with("parameter,value,lower,upper,scale,kind\nk1.k_x,2000000.0,"),
         "{truth}"
     );
-    let model: serde_json::Value =
-        serde_json::from_str(&ws.read("results/syn/truth/model.json")).unwrap();
+    let model: serde_json::Value = ws.json("results/syn/truth/model.json");
     assert!(model["yaml"].as_str().unwrap().contains("bodies:"));
     assert_eq!(model["parameters"].as_array().unwrap().len(), 8);
 }

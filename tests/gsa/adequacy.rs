@@ -105,7 +105,7 @@ fn the_stage_warns_when_n_cannot_decide_the_split_and_flags_the_rows() {
     let (low, high) = (x3[2].parse::<f64>().unwrap(), x3[3].parse::<f64>().unwrap());
     assert!(low < 0.035 && 0.035 < high && x3[4] == "true", "{csv}");
     assert_eq!(util::csv_row(&csv, "x1")[4], "false");
-    let sub: Value = serde_json::from_str(&ws.read("results/s/g/subproblems.json")).unwrap();
+    let sub: Value = ws.json("results/s/g/subproblems.json");
     assert!(sub["undecided"].as_array().unwrap().contains(&"x3".into()));
     assert!(sub["suggested_samples"].is_null() || sub["suggested_samples"].as_u64().unwrap() > 16);
     // Enough samples and a threshold away from every index: no warning.
@@ -159,7 +159,7 @@ stages:
 "#,
     );
     let report = ws.run(&[], 0);
-    let sub: Value = serde_json::from_str(&ws.read("results/m/sel/subproblems.json")).unwrap();
+    let sub: Value = ws.json("results/m/sel/subproblems.json");
     assert_eq!(sub["significant"], serde_json::json!(["x1", "x2"]), "{sub}");
     assert_eq!(sub["kept"], 2);
     let sel = &sub["selection"];
@@ -184,7 +184,7 @@ stages:
     assert!(applied > 1e-4 && applied < 0.01, "{applied}");
     // The reported validation (fresh samples) keeps x3 random and passes
     // (≥ 1 − 0.005/1.555 = 0.99678).
-    let v: Value = serde_json::from_str(&ws.read("results/m/sel/validation.json")).unwrap();
+    let v: Value = ws.json("results/m/sel/validation.json");
     assert_eq!(v["random"], serde_json::json!(["x3"]));
     assert!(v["min"].as_f64().unwrap() >= 0.9967, "{v}");
     assert_eq!(

@@ -38,6 +38,12 @@ impl Workspace {
         std::fs::read_to_string(self.path().join(rel)).unwrap_or_else(|e| panic!("read {rel}: {e}"))
     }
 
+    /// A JSON file of the workspace, parsed (a `serde_json::Value` or any
+    /// type it deserializes into).
+    pub fn json<T: serde::de::DeserializeOwned>(&self, rel: &str) -> T {
+        serde_json::from_str(&self.read(rel)).unwrap_or_else(|e| panic!("parse {rel}: {e}"))
+    }
+
     /// The `cost.json` of the identify stage whose results are in `dir`,
     /// read through the schema the stage writes it with.
     pub fn cost(&self, dir: &str) -> Cost {

@@ -43,9 +43,7 @@ pub fn run(ws: &Workspace, extra: &[&str], env: &[(&str, &str)], code: i32) -> R
 
 /// Output name → content hash, from a stage's results manifest.
 pub fn outputs(ws: &Workspace, stage: &str) -> Vec<(String, String)> {
-    let m: Value =
-        serde_json::from_str(&ws.read(&format!("results/cluster/{stage}/manifest.json")))
-            .expect("manifest");
+    let m: Value = ws.json(&format!("results/cluster/{stage}/manifest.json"));
     let mut out: Vec<(String, String)> = m["outputs"]
         .as_object()
         .expect("outputs")
