@@ -6,26 +6,38 @@
 use crate::autoema::modes_csv;
 use crate::util::{self, Workspace};
 
+/// The real beam's roving-hammer test (../shared, linked as `data/`)
+/// imported as stage `beam` on [5, `top`] Hz with `stages` after it, run;
+/// None when ../shared is absent outside CI ([`util::real_beam_dir`]).
+fn hammer_test(top: f64, stages: &str) -> Option<Workspace> {
+    let dir = util::real_beam_dir()?;
+    let ws = Workspace::new();
+    std::os::unix::fs::symlink(&dir, ws.path().join("data")).unwrap();
+    ws.write(
+        "p.yaml",
+        &format!(
+            "name: ema\nread_outside: [{}]\nstages:\n  beam: {{kind: import, params: {{path: data/frf_hammer_as_measured.uff, band: [5, {top}]}}}}\n{stages}",
+            dir.display()
+        ),
+    );
+    ws.run(&[], 0);
+    Some(ws)
+}
+
 /// The real beam (tests data of ../shared), roving hammer as measured, on a
 /// narrow band with few iterations: the modes do not depend on the seed.
 #[test]
 fn real_beam_modes_do_not_depend_on_the_seed() {
-    let Some(dir) = util::real_beam_dir() else {
+    let stages: String = (1..=4)
+        .map(|seed| {
+            format!(
+                "  s{seed}: {{kind: autoema, inputs: {{frf: beam.frf}}, params: {{seed: {seed}, iterations: 12, initial: 6}}}}\n"
+            )
+        })
+        .collect();
+    let Some(ws) = hammer_test(180.0, &stages) else {
         return;
     };
-    let ws = Workspace::new();
-    std::os::unix::fs::symlink(&dir, ws.path().join("data")).unwrap();
-    let mut yaml = format!(
-        "name: ema\nread_outside: [{}]\nstages:\n  beam: {{kind: import, params: {{path: data/frf_hammer_as_measured.uff, band: [5, 180]}}}}\n",
-        dir.display()
-    );
-    for seed in 1..=4 {
-        yaml.push_str(&format!(
-            "  s{seed}: {{kind: autoema, inputs: {{frf: beam.frf}}, params: {{seed: {seed}, iterations: 12, initial: 6}}}}\n"
-        ));
-    }
-    ws.write("p.yaml", &yaml);
-    ws.run(&[], 0);
     let first = modes_csv(&ws, "s1");
     assert!(first.len() >= 3, "{first:?}");
     for (f, want) in [17.2, 68.8, 155.4].iter().zip([0.02, 0.02, 0.01]) {
@@ -60,17 +72,12 @@ fn real_beam_modes_do_not_depend_on_the_seed() {
 /// calls a mode missing where one was identified (issue 31).
 #[test]
 fn real_beam_warnings_are_few_and_none_at_an_identified_mode() {
-    let Some(dir) = util::real_beam_dir() else {
+    let Some(ws) = hammer_test(
+        800.0,
+        "  full: {kind: autoema, inputs: {frf: beam.frf}, params: {band: [5, 800]}}\n",
+    ) else {
         return;
     };
-    let ws = Workspace::new();
-    std::os::unix::fs::symlink(&dir, ws.path().join("data")).unwrap();
-    let yaml = format!(
-        "name: ema\nread_outside: [{}]\nstages:\n  beam: {{kind: import, params: {{path: data/frf_hammer_as_measured.uff, band: [5, 800]}}}}\n  full: {{kind: autoema, inputs: {{frf: beam.frf}}, params: {{band: [5, 800]}}}}\n",
-        dir.display()
-    );
-    ws.write("p.yaml", &yaml);
-    ws.run(&[], 0);
     let modes = modes_csv(&ws, "full");
     let published = [
         17.212, 68.840, 118.878, 155.391, 226.395, 235.230, 265.219, 362.805, 414.118, 567.539,
