@@ -215,6 +215,16 @@ mod tests {
     use crate::ema::Pole;
     use num_complex::Complex64;
 
+    /// A pole at `f` Hz with damping ratio `z` and a unit participation.
+    fn pole(f: f64, z: f64) -> Pole {
+        Pole {
+            s: crate::metrics::pole(f, z),
+            frequency_hz: f,
+            damping_ratio: z,
+            participation: vec![Complex64::new(1.0, 0.0)],
+        }
+    }
+
     /// Every pole of every order as a candidate (order index, pole index).
     fn every_pole(orders: &[PoleOrder]) -> Vec<(usize, usize)> {
         orders
@@ -226,12 +236,7 @@ mod tests {
 
     #[test]
     fn separates_two_modes_and_drops_a_sparse_cluster() {
-        let mk = |f: f64, z: f64| Pole {
-            s: crate::metrics::pole(f, z),
-            frequency_hz: f,
-            damping_ratio: z,
-            participation: vec![Complex64::new(1.0, 0.0)],
-        };
+        let mk = pole;
         // 10 orders, each with poles near 50 and 80 Hz; one stray pole at 65 Hz.
         let orders: Vec<PoleOrder> = (0..10)
             .map(|j| {
@@ -276,12 +281,7 @@ mod tests {
 
     #[test]
     fn every_stable_column_is_a_cluster_or_dropped_with_its_reason() {
-        let mk = |f: f64| Pole {
-            s: crate::metrics::pole(f, 0.03),
-            frequency_hz: f,
-            damping_ratio: 0.03,
-            participation: vec![Complex64::new(1.0, 0.0)],
-        };
+        let mk = |f: f64| pole(f, 0.03);
         // Ten orders; a column at 100 Hz whose poles average within the cut
         // of 0.5 % (average linkage merges them) while 99.4 Hz lies 0.55 %
         // from the median 99.95 Hz: a wide column. A column at 200 Hz in 6
