@@ -115,12 +115,10 @@ fn real_beam_warnings_are_few_and_none_at_an_identified_mode() {
 #[test]
 fn a_stable_column_ends_as_a_mode_or_a_rejection() {
     let ws = Workspace::new();
-    let set = "benchmarks/real_sets/vibration_toolbox_cases/case1.uff";
-    std::fs::copy(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(set),
-        ws.path().join("case1.uff"),
-    )
-    .unwrap();
+    ws.copy_in(
+        "benchmarks/real_sets/vibration_toolbox_cases/case1.uff",
+        "case1.uff",
+    );
     ws.write(
         "p.yaml",
         "name: ema\nstages:\n  imp: {kind: import, params: {path: case1.uff, band: [10, 490], calibrated: false}}\n  ema: {kind: autoema, inputs: {frf: imp.frf}, params: {band: [10, 490]}}\n",

@@ -459,12 +459,8 @@ fn a_point_count_over_the_memory_limit_is_refused_at_record_7() {
 #[test]
 fn geometry_comes_from_the_first_universal_file_with_nodes() {
     let ws = Workspace::new();
-    let dir = concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/benchmarks/real_sets/pycfs_psv"
-    );
     for f in ["line_h2_accelerance.unv", "surface_h1_receptance.unv"] {
-        std::fs::copy(format!("{dir}/{f}"), ws.path().join(f)).unwrap();
+        ws.copy_in(&format!("benchmarks/real_sets/pycfs_psv/{f}"), f);
     }
     ws.write(
         "p.yaml",

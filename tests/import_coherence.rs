@@ -11,11 +11,7 @@ const SET: &str = "benchmarks/real_sets/vibration_toolbox_cases/case1_with_coher
 /// `imp` with `params` added to its path.
 fn workspace(params: &str) -> Workspace {
     let ws = Workspace::new();
-    std::fs::copy(
-        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(SET),
-        ws.path().join("case1.uff"),
-    )
-    .unwrap();
+    ws.copy_in(SET, "case1.uff");
     write_pipeline(&ws, params);
     ws
 }

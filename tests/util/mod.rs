@@ -34,6 +34,13 @@ impl Workspace {
         p
     }
 
+    /// Copy the repository's file `repo_rel` into the workspace as `name`.
+    pub fn copy_in(&self, repo_rel: &str, name: &str) {
+        let src = Path::new(env!("CARGO_MANIFEST_DIR")).join(repo_rel);
+        std::fs::copy(&src, self.path().join(name))
+            .unwrap_or_else(|e| panic!("copy {}: {e}", src.display()));
+    }
+
     pub fn read(&self, rel: &str) -> String {
         std::fs::read_to_string(self.path().join(rel)).unwrap_or_else(|e| panic!("read {rel}: {e}"))
     }
