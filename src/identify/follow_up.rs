@@ -117,8 +117,9 @@ pub(super) fn refit(
 
 /// With FRFs: search the box of every identified parameter and refine from
 /// the best points and the current result; the better fit is kept and the
-/// evidence records whether a further start won. `None` without FRFs or
-/// budget.
+/// evidence records whether a further start won (nothing, when it found
+/// nothing with less budget than the first FRF refinement used). `None`
+/// without FRFs or budget.
 pub(super) fn escape(
     o: &ModalObjective,
     plan: &Plan,
@@ -130,12 +131,21 @@ pub(super) fn escape(
     let Some((reference, settings)) = plan.frf.filter(|(_, s)| s.enabled) else {
         return Ok(None);
     };
-    let Some(before) = now.frf.as_ref().map(|r| r.summary.end) else {
+    let Some((first, before)) = now
+        .frf
+        .as_ref()
+        .map(|r| (r.summary.evaluations, r.summary.end))
+    else {
         return Ok(None);
     };
     if budget < MINIMUM.max(8 * (now.identified.len() + 1)) {
         return Ok(None);
     }
+    // A search that finds nothing better is the evidence for model error
+    // only when it was at least as thorough as the refinement it
+    // second-guesses; a shorter one may still find a better basin (taken),
+    // but its failure to is no evidence (the causes stay not told apart).
+    let thorough = budget >= first;
     let r = match frf_refinement(
         o.prepared(),
         &o.bounds()?,
@@ -155,7 +165,7 @@ pub(super) fn escape(
     let cost = r.summary.evaluations;
     let escaped = r.summary.end.robust_cost < ESCAPED * before.robust_cost;
     let evidence = SearchEvidence {
-        escaped: Some(escaped),
+        escaped: (escaped || thorough).then_some(escaped),
     };
     let better = r.summary.end.robust_cost < before.robust_cost;
     let next = if better {
@@ -183,16 +193,25 @@ pub(super) fn escape(
 }
 
 /// The guided strategy's own restarts as evidence: several refinement runs
-/// ran (the modal fit was above the noise) and a later start won.
-pub(super) fn escape_evidence(guided: Option<&GuidedResult>) -> SearchEvidence {
-    let runs = guided.map_or(&[][..], |g| &g.refinement[..]);
-    if runs.len() < 2 {
+/// ran (the modal fit was above the noise) and a later start won. When the
+/// FRFs were fitted after them (`on_frfs`) the verdict judges the FRF fit,
+/// and restarts on the modes that found nothing better say nothing about
+/// the FRF misfit's minima: only a win counts then (the landscape has other
+/// minima), a miss is no evidence — the FRF escape search is.
+pub(super) fn escape_evidence(guided: Option<&GuidedResult>, on_frfs: bool) -> SearchEvidence {
+    let ends: Vec<f64> = guided.map_or(vec![], |g| g.refinement.iter().map(|r| r.end).collect());
+    restart_evidence(&ends, on_frfs)
+}
+
+/// [`escape_evidence`] from the refinement runs' final costs.
+fn restart_evidence(ends: &[f64], on_frfs: bool) -> SearchEvidence {
+    if ends.len() < 2 {
         return SearchEvidence::default();
     }
-    let first = runs[0].end;
-    let best = runs.iter().map(|r| r.end).fold(f64::INFINITY, f64::min);
+    let best = ends.iter().copied().fold(f64::INFINITY, f64::min);
+    let escaped = best < ESCAPED * ends[0];
     SearchEvidence {
-        escaped: Some(best < ESCAPED * first),
+        escaped: (escaped || !on_frfs).then_some(escaped),
     }
 }
 
@@ -277,5 +296,25 @@ mod tests {
             .unwrap()
             .unwrap();
         assert_eq!(held.evidence.escaped, Some(false));
+        // With less budget than the first refinement used, finding nothing
+        // better is no evidence either way.
+        let first = next.frf.as_ref().unwrap().summary.evaluations;
+        assert!(first > 100, "{first}");
+        let (short, _) = escape(&o, &plan, &o.nominal(), &next, first - 1, &|_| {})
+            .unwrap()
+            .unwrap();
+        assert_eq!(short.evidence.escaped, None);
+    }
+
+    #[test]
+    fn modal_restarts_that_find_nothing_better_are_no_evidence_about_the_frfs() {
+        let (won, lost) = ([4.0, 2.0, 5.0], [4.0, 3.9, 5.0]);
+        assert_eq!(restart_evidence(&won, false).escaped, Some(true));
+        assert_eq!(restart_evidence(&lost, false).escaped, Some(false));
+        // The FRFs were fitted after the restarts: a win still shows other
+        // minima; a miss says nothing about the FRF misfit.
+        assert_eq!(restart_evidence(&won, true).escaped, Some(true));
+        assert_eq!(restart_evidence(&lost, true).escaped, None);
+        assert_eq!(restart_evidence(&[4.0], false).escaped, None);
     }
 }

@@ -459,6 +459,7 @@ pub(crate) mod tests {
                     .unwrap();
             let noise = FrfNoise {
                 averages: Some(averages),
+                ..FrfNoise::default()
             };
             let coherent = FrfReference::new(&prepared, &[set], None, band, noise).unwrap();
             let (a, b) = (

@@ -27,18 +27,18 @@
 //! do not depend on the damping parameters (section 2.3.1), so NDD is left
 //! out of the residuals and of a subproblem's criterion.
 
+mod model_modes;
 mod residuals;
 mod uncertainty;
 mod visibility;
 
 pub use residuals::Evaluation;
 pub use uncertainty::{complexity, Uncertainty};
-use visibility::mask_invisible;
 
 use super::IdentifyError;
 use crate::dynamics::{self, PreparedModel};
 use crate::metrics::nfd;
-use crate::modal::{ModalModel, Mode};
+use crate::modal::ModalModel;
 use crate::optimize::Bounds;
 use crate::pairing::{cost_matrix, margins, pair_modes, Pair, Pairing};
 use num_complex::Complex64;
@@ -277,42 +277,6 @@ impl ModalObjective {
             .iter()
             .map(|p| p.value.clamp(p.lower, p.upper))
             .collect()
-    }
-
-    /// Model modes of each reference position at `x`, at the shared DOFs in
-    /// the reference's orientation.
-    pub fn model_modes(&self, x: &[f64]) -> Result<Vec<ModalModel>, IdentifyError> {
-        (0..self.references.len())
-            .map(|p| self.model_modes_at(p, x))
-            .collect()
-    }
-
-    /// Model modes of position slot `p` alone (one eigensolution).
-    pub fn model_modes_at(&self, p: usize, x: &[f64]) -> Result<ModalModel, IdentifyError> {
-        let r = &self.references[p];
-        let sol = self
-            .prepared
-            .evaluate(r.config, x, self.modes)
-            .map_err(|e| IdentifyError::Model(e.to_string()))?;
-        let f = sol.frequencies_hz();
-        let z = sol.damping_ratios();
-        let mut modes: Vec<Mode> = (0..f.len())
-            .map(|m| Mode {
-                frequency_hz: f[m],
-                damping_ratio: z[m],
-                shape: r
-                    .rows
-                    .iter()
-                    .map(|&(i, s, _)| Complex64::new(s * sol.sensor_shapes[(i, m)], 0.0))
-                    .collect(),
-            })
-            .collect();
-        mask_invisible(&mut modes);
-        Ok(ModalModel {
-            position: r.position.clone(),
-            dofs: r.rows.iter().map(|row| row.2).collect(),
-            modes,
-        })
     }
 
     /// Per slot and reference mode of `set`, the paired model mode of

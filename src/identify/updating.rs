@@ -124,8 +124,8 @@ pub fn update(
         x,
         identified,
         status,
+        evidence: escape_evidence(guided_result.as_ref(), frf_result.is_some()),
         frf: frf_result,
-        evidence: escape_evidence(guided_result.as_ref()),
         searched: false,
         refitted: Vec::new(),
     };

@@ -82,6 +82,7 @@ pub(super) fn frf_reference(
             let prepared = objective.prepared();
             let noise = FrfNoise {
                 averages: spec.frf_averages,
+                drift: spec.frf_drift,
             };
             FrfReference::new(
                 prepared,

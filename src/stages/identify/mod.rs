@@ -9,7 +9,8 @@
 //! Outputs: `parameters` (parameters.csv with identifiability, standard
 //! errors and 95 % intervals), `history` (history.csv:
 //! `evaluation,best_objective,mean_mac`), `updated_modes` (the model's modes
-//! at the identified values, at the reference DOFs), `cost` (cost.json:
+//! at the identified values, at the reference DOFs; with FRFs every mode up
+//! to the top of their band), `cost` (cost.json:
 //! evaluations, seconds, the match and the verdict, [`crate::artifacts::cost::Cost`]),
 //! `correlation` (correlation.csv: every reference mode, its partner and
 //! why it is used or left out), `identifiability` (identifiability.json),
@@ -117,8 +118,14 @@ impl Kind for Identify {
     /// a bound (outer 2.5 % of its range, or beyond `fixed_spread`) is no
     /// evidence for the screening: cause `screening_or_local_minimum`, the
     /// values judged in the verdict's `refit_values` (issue 26).
+    /// 21: the FRF residuals' noise carries the modes' frequency drift
+    /// (`frf_drift`, default 0): σ² = σ_c² + δ² s(ω)²; with FRFs, modal
+    /// restarts that found nothing better and an escape search less thorough
+    /// than the first FRF refinement are no evidence for model error
+    /// (cause `not_searched` instead); with FRFs, updated_modes holds every
+    /// model mode up to the top of their band (issue 26).
     fn version(&self) -> u32 {
-        20
+        21
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -244,7 +251,8 @@ impl Kind for Identify {
             ctx.progress
                 .set_message(format!("verdict: {}", u.verdict.message));
         }
-        let mut files = write_outputs(ctx, &objective, spec, &u, started)?;
+        let top_hz = frf_reference.as_ref().map(|r| r.top_hz());
+        let mut files = write_outputs(ctx, &objective, spec, &u, top_hz, started)?;
         // The updated model file (see stages::updated_model).
         let model_dir = ctx.scratch.join("updated_model");
         let parameters = ctx.scratch.join("parameters.csv");
@@ -319,6 +327,7 @@ fn write_outputs(
     o: &ModalObjective,
     spec: &Spec,
     u: &Update,
+    top_hz: Option<f64>,
     started: Instant,
 ) -> Result<Vec<(String, std::path::PathBuf)>, StageError> {
     let failed = |e: IdentifyError| StageError::Failed(e.to_string());
@@ -380,7 +389,13 @@ fn write_outputs(
         )?;
     }
     let updated = ctx.scratch.join(artifacts::modes::DIR);
-    artifacts::modes::write_modes(&updated, &o.model_modes(&u.x).map_err(failed)?)?;
+    // With FRFs, every model mode in their band: the update's prediction of
+    // the modes the reference modes lack.
+    let modes = match top_hz {
+        Some(top) => o.model_modes_through(&u.x, top),
+        None => o.model_modes(&u.x),
+    };
+    artifacts::modes::write_modes(&updated, &modes.map_err(failed)?)?;
     files.push(("updated_modes".to_string(), updated));
     let cost = Cost {
         schema_version: Default::default(),

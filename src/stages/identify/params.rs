@@ -233,6 +233,14 @@ crate::params! {
         /// also holds noise correlated across lines (force noise under a force
         /// window) that differences of neighbouring lines miss
         pub frf_averages: Option<usize> = None; range Range::closed(1.0, 100_000.0),
+        /// with the `frf` input: relative standard deviation δ of every
+        /// natural frequency between the test's averages (temperature, mass
+        /// loading: 1e-4 to 1e-3 on real structures); each line's noise
+        /// gains δ times the FRF's sensitivity to the modes' frequencies, so
+        /// a lightly damped peak narrower than a line counts as the few
+        /// standard deviations a drift makes of it, not hundreds; default 0
+        /// (synthesized FRFs have no drift): give it for a real test
+        pub frf_drift: f64 = 0.0; range Range::closed(0.0, 0.01),
     }
 }
 

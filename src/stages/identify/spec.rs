@@ -53,6 +53,7 @@ pub struct Spec {
     pub frf_refinement: FrfRefinementParams,
     pub frf_band: (f64, f64),
     pub frf_averages: Option<usize>,
+    pub frf_drift: f64,
     /// Nominal-model modes to leave out: (position, number).
     pub exclude: Vec<(u32, usize)>,
 }
@@ -92,6 +93,7 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
             frf_refinement: p.frf_refinement.clone(),
             frf_band,
             frf_averages: p.frf_averages,
+            frf_drift: p.frf_drift,
             exclude: p
                 .exclude_modes
                 .iter()
