@@ -20,6 +20,11 @@ fn file(gamma: [f64; 5], storage: Storage) -> Vec<u8> {
         }],
         ..FrfSet::default()
     };
+    written(set, storage)
+}
+
+/// `set` as a universal file.
+fn written(set: FrfSet, storage: Storage) -> Vec<u8> {
     let format = Uff58Format {
         storage,
         digits: NumberText::RoundTrip,
@@ -103,4 +108,32 @@ fn ignore_does_not_check_coherence_values() {
     assert!(read(&bytes, Policy::Clamp).is_err());
     let sets = read(&bytes, Policy::Ignore).unwrap();
     assert_eq!(sets[0].channels.len(), 1);
+}
+
+#[test]
+fn ignore_reads_past_a_non_finite_coherence_but_not_a_non_finite_frf() {
+    for storage in [Storage::Ascii, Storage::Binary(ByteOrder::Little)] {
+        let bytes = file([0.5, f64::NAN, 0.9, f64::INFINITY, 0.7], storage);
+        assert!(matches!(
+            read(&bytes, Policy::Check).unwrap_err(),
+            IoError::NonFinite { .. }
+        ));
+        let sets = read(&bytes, Policy::Ignore).unwrap();
+        assert_eq!(sets[0].channels[0].values.len(), 5);
+    }
+    // An FRF value is never excused.
+    let set = FrfSet {
+        frequencies_hz: (0..3).map(f64::from).collect(),
+        channels: vec![FrfChannel {
+            response: Dof::new(2, 3),
+            reference: Dof::new(1, 3),
+            values: vec![Complex64::new(1.0, f64::NAN); 3],
+            coherence: Some(vec![0.9; 3]),
+        }],
+        ..FrfSet::default()
+    };
+    for storage in [Storage::Ascii, Storage::Binary(ByteOrder::Little)] {
+        let e = read(&written(set.clone(), storage), Policy::Ignore).unwrap_err();
+        assert!(matches!(e, IoError::NonFinite { .. }), "{e}");
+    }
 }

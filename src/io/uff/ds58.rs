@@ -300,6 +300,16 @@ pub(crate) fn parse(
     let vpp = values_per_point(form.complex, form.even);
     let n_values = n.checked_mul(vpp).ok_or_else(|| too_many(src, r7, n))?;
     let mut check = PointCheck::new(d.function, &form, coherence);
+    // Every value must be finite, except in a coherence `ignore` drops:
+    // what it holds cannot stop the import.
+    let ignored = d.function == FunctionType::Coherence && coherence == CoherencePolicy::Ignore;
+    let finite = |x: f64, place: Place, what: &dyn Fn() -> String| {
+        if ignored || x.is_finite() {
+            Ok(())
+        } else {
+            text::finite(src, place, &what(), x)
+        }
+    };
     if check.frequency && form.even {
         check_even_abscissa(form.start, form.step, n).map_err(|m| {
             IoError::implausible(
@@ -328,7 +338,11 @@ pub(crate) fn parse(
                 Precision::Double => 8,
             };
             for (i, &x) in v.iter().enumerate() {
-                check.value(src, i, x, Place::Byte(start + i * size))?;
+                let place = Place::Byte(start + i * size);
+                finite(x, place, &|| {
+                    format!("dataset 58b record 12 value {}", i + 1)
+                })?;
+                check.value(src, i, x, place)?;
             }
             v
         }
@@ -352,7 +366,10 @@ pub(crate) fn parse(
                 single,
                 "dataset 58 record 12 (data)",
                 &mut v,
-                &mut |i, x, place| check.value(src, i, x, place),
+                &mut |i, x, place| {
+                    finite(x, place, &|| "dataset 58 record 12 (data)".into())?;
+                    check.value(src, i, x, place)
+                },
             )?;
             v
         }

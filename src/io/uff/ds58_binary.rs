@@ -25,7 +25,7 @@
 
 use super::ds58::{ByteOrder, Precision};
 use super::text::{Cursor, Line};
-use crate::io::error::{IoError, Location, Place};
+use crate::io::error::{IoError, Place};
 
 /// Fields of a `58b` dataset line.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -194,13 +194,6 @@ pub(crate) fn read_data(
             data.chunks_exact(4)
                 .map(|c| f64::from(f32::from_be_bytes(arr4(c)))),
         ),
-    }
-    if let Some(i) = out.iter().position(|v| !v.is_finite()) {
-        return Err(IoError::NonFinite {
-            at: Location::new(src, Place::Byte(start + i * size)),
-            field: format!("dataset 58b record 12 value {}", i + 1),
-            value: out[i],
-        });
     }
     Ok((out, mismatch))
 }

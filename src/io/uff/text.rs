@@ -280,12 +280,30 @@ pub(crate) fn read_numbers(
     what: &str,
     out: &mut Vec<f64>,
 ) -> Result<(), IoError> {
-    read_numbers_checked(cur, n, single, what, out, &mut |_, _, _| Ok(()))
+    let src = cur.source;
+    read_numbers_checked(cur, n, single, what, out, &mut |_, v, place| {
+        finite(src, place, what, v)
+    })
+}
+
+/// A value read at `place` of `src` for `what`: finite, or the error that
+/// says where it is not.
+pub(crate) fn finite(src: &str, place: Place, what: &str, v: f64) -> Result<(), IoError> {
+    if v.is_finite() {
+        Ok(())
+    } else {
+        Err(IoError::NonFinite {
+            at: crate::io::error::Location::new(src, place),
+            field: what.to_string(),
+            value: v,
+        })
+    }
 }
 
 /// [`read_numbers`] with `check(index, value, place)` called on every value
 /// as it is read (`index` counts from 0 within this call), so a value the
-/// caller refuses is reported at its own line. `out` grows as values are
+/// caller refuses is reported at its own line; the check decides whether a
+/// non-finite value is refused ([`finite`]). `out` grows as values are
 /// read; nothing is reserved from `n`.
 pub(crate) fn read_numbers_checked(
     cur: &mut Cursor<'_>,
@@ -326,13 +344,6 @@ pub(crate) fn read_numbers_checked(
                 parse_f64(tok)
             };
             let v = v.ok_or_else(|| IoError::not_numeric(cur.source, line.place(), what, tok))?;
-            if !v.is_finite() {
-                return Err(IoError::NonFinite {
-                    at: crate::io::error::Location::new(cur.source, line.place()),
-                    field: what.to_string(),
-                    value: v,
-                });
-            }
             check(out.len() - first, v, line.place())?;
             out.push(v);
         }
