@@ -219,14 +219,15 @@ impl FrfReference {
     }
 
     /// The model's FRFs at `x` for slot `s`, per channel, signed as measured,
-    /// and each line's noise σ: the channel's, with the drift term
-    /// δ² s(ω)² of the model at `x` added when δ > 0 (module docs).
+    /// and with δ > 0 each line's noise σ: the channel's with the drift term
+    /// δ² s(ω)² of the model at `x` added (module docs); `None`: the
+    /// channel's σ as it is.
     fn model_frfs(
         &self,
         model: &PreparedModel,
         s: &FrfSlot,
         x: &[f64],
-    ) -> Option<(PerChannel<Complex64>, PerChannel<f64>)> {
+    ) -> Option<(PerChannel<Complex64>, Option<PerChannel<f64>>)> {
         let sol = model
             .evaluate_modes(s.config, x, ModeSelection::Below(self.modes_below_hz))
             .ok()?;
@@ -239,10 +240,9 @@ impl FrfReference {
                 .zip(&spread)
                 .map(|(sc, sd)| sc.iter().zip(sd).map(|(c, d)| c.hypot(drift * d)).collect())
                 .collect();
-            (h, sigma)
+            (h, Some(sigma))
         } else {
-            let h = superposition(&sol, s.quantity, &s.lines_hz, &s.pairs);
-            (h, s.sigma.clone())
+            (superposition(&sol, s.quantity, &s.lines_hz, &s.pairs), None)
         };
         for (v, &sign) in h.iter_mut().zip(&s.signs) {
             v.iter_mut().for_each(|z| *z *= sign);
@@ -257,8 +257,9 @@ impl FrfReference {
     fn misfits(&self, model: &PreparedModel, x: &[f64]) -> Option<Vec<(Vec<Complex64>, f64)>> {
         let mut out = Vec::new();
         for s in &self.slots {
-            let (h, sigmas) = self.model_frfs(model, s, x)?;
-            for ((m, meas), sigma) in h.iter().zip(&s.measured).zip(&sigmas) {
+            let (h, drifting) = self.model_frfs(model, s, x)?;
+            let sigmas = drifting.as_ref().unwrap_or(&s.sigma);
+            for ((m, meas), sigma) in h.iter().zip(&s.measured).zip(sigmas) {
                 let d: Vec<Complex64> = m
                     .iter()
                     .zip(meas)

@@ -29,13 +29,12 @@ impl ModalObjective {
     ) -> Result<Vec<ModalModel>, IdentifyError> {
         (0..self.references.len())
             .map(|p| {
-                let lowest = self.model_modes_at(p, x)?;
                 let below = self.modes_selected(p, x, ModeSelection::Below(top_hz))?;
-                Ok(if below.modes.len() > lowest.modes.len() {
-                    below
+                if below.modes.len() >= self.modes {
+                    Ok(below)
                 } else {
-                    lowest
-                })
+                    self.model_modes_at(p, x)
+                }
             })
             .collect()
     }
