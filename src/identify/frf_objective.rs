@@ -117,8 +117,9 @@ pub struct FrfNoise {
 /// Measured FRFs prepared as a reference for a model.
 pub struct FrfReference {
     slots: Vec<FrfSlot>,
-    /// Modes up to this frequency (Hz) enter the superposition.
-    modes_below_hz: f64,
+    /// The highest line fitted, Hz; modes up to twice it enter the
+    /// superposition (those above act as the residual stiffness).
+    top_hz: f64,
     noise: FrfNoise,
 }
 
@@ -169,7 +170,7 @@ impl FrfReference {
             .fold(0.0, f64::max);
         Ok(FrfReference {
             slots,
-            modes_below_hz: 2.0 * top,
+            top_hz: top,
             noise,
         })
     }
@@ -207,7 +208,7 @@ impl FrfReference {
 
     /// The highest line fitted, Hz.
     pub fn top_hz(&self) -> f64 {
-        self.modes_below_hz / 2.0
+        self.top_hz
     }
 
     /// Number of residuals (2 per channel and line).
@@ -229,7 +230,7 @@ impl FrfReference {
         x: &[f64],
     ) -> Option<(PerChannel<Complex64>, Option<PerChannel<f64>>)> {
         let sol = model
-            .evaluate_modes(s.config, x, ModeSelection::Below(self.modes_below_hz))
+            .evaluate_modes(s.config, x, ModeSelection::Below(2.0 * self.top_hz))
             .ok()?;
         let drift = self.noise.drift;
         let (mut h, sigma) = if drift > 0.0 {

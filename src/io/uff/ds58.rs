@@ -299,17 +299,7 @@ pub(crate) fn parse(
     let n = form.points;
     let vpp = values_per_point(form.complex, form.even);
     let n_values = n.checked_mul(vpp).ok_or_else(|| too_many(src, r7, n))?;
-    let mut check = PointCheck::new(d.function, &form, coherence);
-    // Every value must be finite, except in a coherence `ignore` drops:
-    // what it holds cannot stop the import.
-    let ignored = d.function == FunctionType::Coherence && coherence == CoherencePolicy::Ignore;
-    let finite = |x: f64, place: Place, what: &dyn Fn() -> String| {
-        if ignored || x.is_finite() {
-            Ok(())
-        } else {
-            text::finite(src, place, &what(), x)
-        }
-    };
+    let mut check = PointCheck::new(d.function, &form, coherence, binary.is_some());
     if check.frequency && form.even {
         check_even_abscissa(form.start, form.step, n).map_err(|m| {
             IoError::implausible(
@@ -338,11 +328,7 @@ pub(crate) fn parse(
                 Precision::Double => 8,
             };
             for (i, &x) in v.iter().enumerate() {
-                let place = Place::Byte(start + i * size);
-                finite(x, place, &|| {
-                    format!("dataset 58b record 12 value {}", i + 1)
-                })?;
-                check.value(src, i, x, place)?;
+                check.value(src, i, x, Place::Byte(start + i * size))?;
             }
             v
         }
@@ -366,10 +352,7 @@ pub(crate) fn parse(
                 single,
                 "dataset 58 record 12 (data)",
                 &mut v,
-                &mut |i, x, place| {
-                    finite(x, place, &|| "dataset 58 record 12 (data)".into())?;
-                    check.value(src, i, x, place)
-                },
+                &mut |i, x, place| check.value(src, i, x, place),
             )?;
             v
         }
@@ -391,12 +374,16 @@ struct PointCheck {
     uneven: bool,
     /// How a coherence value is checked; `None` for other functions.
     coherence: Option<CoherencePolicy>,
+    /// Values may be anything: a coherence the import drops (`ignore`).
+    dropped: bool,
+    /// 58b: a non-finite value is named by its index, not its line.
+    binary: bool,
     per_point: usize,
     previous: Option<f64>,
 }
 
 impl PointCheck {
-    fn new(function: FunctionType, form: &DataForm, policy: CoherencePolicy) -> Self {
+    fn new(function: FunctionType, form: &DataForm, policy: CoherencePolicy, binary: bool) -> Self {
         let (kind, frequency, coherence) = match function {
             FunctionType::Frf => ("FRF", true, None),
             FunctionType::Coherence => ("coherence", true, Some(policy)),
@@ -407,13 +394,24 @@ impl PointCheck {
             frequency,
             uneven: !form.even,
             coherence,
+            dropped: function == FunctionType::Coherence && policy == CoherencePolicy::Ignore,
+            binary,
             per_point: values_per_point(form.complex, form.even),
             previous: None,
         }
     }
 
-    /// Value `i` of record 12 (0-based), read at `place`.
+    /// Value `i` of record 12 (0-based), read at `place`: finite (unless
+    /// the dataset is dropped), and for an FRF or coherence physical.
     fn value(&mut self, src: &str, i: usize, x: f64, place: Place) -> Result<(), IoError> {
+        if !x.is_finite() && !self.dropped {
+            let field = if self.binary {
+                format!("dataset 58b record 12 value {}", i + 1)
+            } else {
+                "dataset 58 record 12 (data)".into()
+            };
+            return text::finite(src, place, &field, x);
+        }
         if !self.frequency {
             return Ok(());
         }
