@@ -92,14 +92,15 @@ impl PeakEvidence {
             .map(|(i, _)| i)
     }
 
-    /// Whether a further CMIF curve peaks at `f` (a second mode there; a
-    /// merely raised σ₂ is also what two inconsistent columns give, e.g.
-    /// references measured in different set-ups).
-    pub fn further_curve_peak(&self, f: f64, zeta: f64) -> bool {
+    /// How many further CMIF curves peak at `f` (each a second, third, …
+    /// mode there; a merely raised σ₂ is also what two inconsistent columns
+    /// give, e.g. references measured in different set-ups).
+    pub fn further_curve_peaks(&self, f: f64, zeta: f64) -> usize {
         let hw = (self.window(f, zeta) / 2.0).max(self.step_hz);
         self.further
             .iter()
-            .any(|c| peak_at(c, &self.frequencies_hz, f, hw))
+            .filter(|c| peak_at(c, &self.frequencies_hz, f, hw))
+            .count()
     }
 
     /// Whether two roots sit on different CMIF peaks (then they are two
@@ -144,23 +145,66 @@ impl PeakEvidence {
     }
 
     /// Roots that share a peak with the root keeping it, cannot be told
-    /// from it by the data ([`Self::unresolved`]) and show no second mode
-    /// in a further CMIF curve: `(index, index of the keeper)`, weakest
-    /// first.
+    /// from it by the data ([`Self::unresolved`]) and have no further CMIF
+    /// curve peak of their own to stand on: `(index, index of the keeper)`,
+    /// weakest first. Each further curve that peaks at the peak is evidence
+    /// for one mode beyond the first, so the unresolved roots there (the
+    /// strongest first, after the keeper's own multiplicity) take at most
+    /// that many places: with two references no peak holds more than two
+    /// modes, however many poles the inconsistent columns of two set-ups
+    /// give (the UFSC beam's two tests combined: four roots at 567 Hz).
     pub fn shared_peak_losers(&self, roots: &[RootPeak]) -> Vec<(usize, usize)> {
-        let mut losers: Vec<(usize, usize)> = self
-            .keepers(roots)
-            .into_iter()
+        let keepers = self.keepers(roots);
+        let mut candidates: Vec<(usize, usize)> = keepers
+            .iter()
             .enumerate()
             .filter_map(|(k, keeper)| {
-                let (r, j) = (&roots[k], keeper?);
-                (j != k
-                    && r.multiplicity == 1
-                    && self.unresolved(r, &roots[j])
-                    && !self.further_curve_peak(r.frequency_hz, r.damping_ratio))
-                .then_some((k, j))
+                let j = (*keeper)?;
+                (j != k && roots[k].multiplicity == 1 && self.unresolved(&roots[k], &roots[j]))
+                    .then_some((k, j))
             })
             .collect();
+        // Strongest first, so the places go to the roots carrying the fit.
+        candidates.sort_by(|a, b| {
+            roots[b.0]
+                .strength
+                .total_cmp(&roots[a.0].strength)
+                .then(a.0.cmp(&b.0))
+        });
+        // Further curve peaks at each candidate and at each keeper: a
+        // peak holds as many places as the most further curves peaking at
+        // any of its roots (a close pair's second curve peaks at the second
+        // mode, not at the keeper).
+        let count = |r: &RootPeak| self.further_curve_peaks(r.frequency_hz, r.damping_ratio);
+        let own: Vec<usize> = candidates.iter().map(|&(k, _)| count(&roots[k])).collect();
+        let places = |j: usize| {
+            let at_group = candidates
+                .iter()
+                .zip(&own)
+                .filter(|((_, q), _)| *q == j)
+                .map(|(_, &n)| n)
+                .max()
+                .unwrap_or(0);
+            count(&roots[j])
+                .max(at_group)
+                .saturating_sub(roots[j].multiplicity.saturating_sub(1))
+        };
+        let mut used: Vec<(usize, usize)> = Vec::new(); // (keeper, places used)
+        let mut losers: Vec<(usize, usize)> = Vec::new();
+        for (&(k, j), &n) in candidates.iter().zip(&own) {
+            let slot = match used.iter().position(|(q, _)| *q == j) {
+                Some(i) => i,
+                None => {
+                    used.push((j, 0));
+                    used.len() - 1
+                }
+            };
+            if n > 0 && used[slot].1 < places(j) {
+                used[slot].1 += 1;
+            } else {
+                losers.push((k, j));
+            }
+        }
         losers.sort_by(|a, b| roots[a.0].strength.total_cmp(&roots[b.0].strength));
         losers
     }
@@ -291,5 +335,33 @@ mod tests {
         // A flat second curve gives no such evidence.
         let ev = PeakEvidence::new(&freqs, &[first, vec![1e-3; freqs.len()]], 1e-12);
         assert_eq!(ev.shared_peak_losers(&roots), vec![(1, 0)]);
+    }
+
+    #[test]
+    fn one_further_curve_peak_makes_room_for_one_more_root() {
+        let freqs: Vec<f64> = (0..=300).map(|k| k as f64 * 0.5).collect();
+        let first = curve(&freqs, &[(69.0, 0.005, 1.0)]);
+        let second = curve(&freqs, &[(69.5, 0.005, 0.3)]);
+        let ev = PeakEvidence::new(&freqs, &[first.clone(), second.clone()], 1e-12);
+        assert_eq!(ev.further_curve_peaks(69.5, 0.005), 1);
+        // Two roots beside the keeper: the stronger takes the one place.
+        let roots = [root(69.0, 10.0), root(69.4, 2.0), root(69.6, 3.0)];
+        assert_eq!(ev.shared_peak_losers(&roots), vec![(1, 0)]);
+        let roots = [root(69.0, 10.0), root(69.4, 4.0), root(69.6, 3.0)];
+        assert_eq!(ev.shared_peak_losers(&roots), vec![(2, 0)]);
+        // A keeper that is a repeated root already holds that place.
+        let double = RootPeak {
+            multiplicity: 2,
+            ..root(69.0, 10.0)
+        };
+        assert_eq!(
+            ev.shared_peak_losers(&[double, root(69.5, 3.0)]),
+            vec![(1, 0)]
+        );
+        // Two further curves peaking there: room for two.
+        let third = curve(&freqs, &[(69.5, 0.005, 0.1)]);
+        let ev = PeakEvidence::new(&freqs, &[first, second, third], 1e-12);
+        let roots = [root(69.0, 10.0), root(69.4, 2.0), root(69.6, 3.0)];
+        assert!(ev.shared_peak_losers(&roots).is_empty());
     }
 }

@@ -207,6 +207,46 @@ pub fn mark_identified(peaks: &mut [ResidualPeak], modes: &[(f64, f64)], step_hz
     }
 }
 
+/// The missing-mode warnings of `peaks`, one per stretch of the band
+/// between two identified modes (`modes_hz`): peaks with no mode between
+/// them are one region the fit leaves unexplained (a mode above the span
+/// whose flank rises to the band's end gives a data "peak" every few lines
+/// of it: vibration-toolbox case 1, nine warnings for 395–489 Hz), so the
+/// user is asked once per region; every peak stays in metrics.json.
+pub fn missing_mode_warnings(peaks: &[ResidualPeak], modes_hz: &[f64]) -> Vec<String> {
+    let mut missing: Vec<&ResidualPeak> = peaks.iter().filter(|p| p.missing_mode()).collect();
+    missing.sort_by(|a, b| a.frequency_hz.total_cmp(&b.frequency_hz));
+    let region = |f: f64| modes_hz.iter().filter(|&&m| m < f).count();
+    let mut out = Vec::new();
+    let mut k = 0;
+    while k < missing.len() {
+        let r = region(missing[k].frequency_hz);
+        let n = missing[k..]
+            .iter()
+            .take_while(|p| region(p.frequency_hz) == r)
+            .count();
+        let group = &missing[k..k + n];
+        let worst = group
+            .iter()
+            .max_by(|a, b| a.ratio.total_cmp(&b.ratio))
+            .expect("a group holds a peak");
+        out.push(if n == 1 {
+            worst.warning()
+        } else {
+            format!(
+                "the data peak at {n} frequencies in {:.2}–{:.2} Hz with no identified mode among them, and the fit leaves residuals up to {:.1}× above the noise there (at {:.2} Hz, channel {}): modes may be missing, or a mode outside the band shows its flank; look at that band, or narrow `band` (residual_peaks in metrics.json lists each)",
+                group[0].frequency_hz,
+                group[n - 1].frequency_hz,
+                worst.ratio,
+                worst.frequency_hz,
+                worst.channel
+            )
+        });
+        k += n;
+    }
+    out
+}
+
 /// Local maxima of the residual-to-noise ratio (most prominent first, at
 /// most 20), with the noise σ_c² + ε²|H|² (module docs; `relative` = ε²),
 /// where ε² per line is the larger of `relative` and, with coherence, that
@@ -338,6 +378,34 @@ mod tests {
         assert!(residual_peaks(&d, &fit.reconstructed, &noise, eps2, &[]).is_empty());
         let missing = missing_without_140_hz(&d, &all, &noise, eps2);
         assert!(missing.contains("Hz"));
+    }
+
+    #[test]
+    fn missing_peaks_between_two_modes_are_one_warning() {
+        let peak = |f: f64, ratio: f64| ResidualPeak {
+            frequency_hz: f,
+            channel: "2+Z/1+Z".into(),
+            ratio,
+            data_peak: true,
+            at_mode_hz: None,
+        };
+        let peaks = [
+            peak(464.06, 20.4),
+            peak(395.31, 10.1),
+            peak(489.06, 25.9),
+            peak(420.94, 14.7),
+            peak(300.0, 4.0), // below the visibility limit: no warning
+        ];
+        let w = missing_mode_warnings(&peaks, &[212.1, 410.1, 431.8]);
+        assert_eq!(w.len(), 3, "{w:?}");
+        assert!(w[0].starts_with("the data peak at 395.31 Hz"), "{w:?}");
+        assert!(w[1].starts_with("the data peak at 420.94 Hz"), "{w:?}");
+        assert!(
+            w[2].starts_with("the data peak at 2 frequencies in 464.06–489.06 Hz")
+                && w[2].contains("25.9× above the noise there (at 489.06 Hz"),
+            "{w:?}"
+        );
+        assert!(missing_mode_warnings(&peaks[4..], &[]).is_empty());
     }
 
     /// The poles λ of the synthetic modes.

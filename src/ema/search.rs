@@ -20,7 +20,9 @@ use super::lsfd::LsfdFit;
 use super::noise::{coherence_relative_error, relative_noise, ASSUMED_AVERAGES};
 use super::peak_evidence::unresolved_pairs;
 use super::polymax::{polymax, PoleOrder, PolymaxParams};
-use super::residual::{mark_identified, relative_misfit, residual_peaks, ResidualPeak};
+use super::residual::{
+    mark_identified, missing_mode_warnings, relative_misfit, residual_peaks, ResidualPeak,
+};
 use super::selection::{
     final_fit, refine_selection, select_modes, Hyperparameters, Screening, Selection,
     SelectionParams, HYPERPARAMETER_NAMES,
@@ -336,12 +338,12 @@ fn warnings(
         .filter(|b| b.sensitive)
         .map(AtBound::warning)
         .collect();
-    warnings.extend(
-        residual_peaks
-            .iter()
-            .filter(|r| r.missing_mode())
-            .map(ResidualPeak::warning),
-    );
+    let modes_hz: Vec<f64> = best
+        .roots
+        .iter()
+        .map(|r| r.pole(orders).frequency_hz)
+        .collect();
+    warnings.extend(missing_mode_warnings(residual_peaks, &modes_hz));
     warnings.extend(inconsistent_references(screening, orders, best));
     warnings
 }
