@@ -269,7 +269,7 @@ pub(super) fn identifiability_at(
     let inflation = frf_inflation(&r0, frf);
     let name = |i: &usize| o.parameters()[*i].name.clone();
     let names: Vec<String> = identified.iter().map(name).collect();
-    let analysis = analyze(&columns, &r0, &names, max_std_error);
+    let analysis = analyze(&columns, &r0, &names, max_std_error, inflation);
     let considered = (!fixed.is_empty()).then(|| {
         let fixed_names: Vec<String> = fixed.iter().map(|f| name(&f.0)).collect();
         let spreads: Vec<f64> = fixed.iter().map(|f| f.1).collect();

@@ -128,8 +128,9 @@ impl Consider {
 /// assumed `spreads` (σ of ln c), `sigma2` the residual variance σ̂² the
 /// data covariance is scaled by (1 when it cannot be estimated), and
 /// `inflation` ≥ 1 the variance factor of residuals correlated along
-/// frequency ([`ar1_inflation`]) by which the tests and the conditioning
-/// on the data are made less confident.
+/// frequency ([`ar1_inflation`]) by which the tests, the conditioning on
+/// the data and the identified parameters' data variance are made less
+/// confident.
 pub fn consider(
     theta: &[Vec<f64>],
     fixed: &[Vec<f64>],
@@ -176,7 +177,9 @@ pub fn consider(
         .collect();
     let s2 = sigma2.max(1.0) * inflation.max(1.0);
     let sigma_c = posterior(&absorbed, spreads, s2);
-    let mut variance: Vec<f64> = (0..n).map(|i| sigma2 * g_plus[(i, i)]).collect();
+    let mut variance: Vec<f64> = (0..n)
+        .map(|i| sigma2 * inflation.max(1.0) * g_plus[(i, i)])
+        .collect();
     for (i, v) in variance.iter_mut().enumerate() {
         for j in 0..q {
             for k in 0..q {

@@ -67,6 +67,7 @@
 //! 10 % off overlaps its measured twin nowhere). It refines a modal fit
 //! that is already close ([`super::frf_refinement`]).
 
+pub use super::local_misfit::{LocalMisfit, LOCAL_LINES};
 use super::IdentifyError;
 use crate::dynamics::frf::{superposition, superposition_with_drift};
 use crate::dynamics::reference::dof_row;
@@ -86,6 +87,8 @@ pub const HUBER: f64 = 3.0;
 /// The measured FRFs of one position, matched to the model's sensors and
 /// excitations.
 struct FrfSlot {
+    /// Position index of the set.
+    position: u32,
     config: usize,
     quantity: FrfQuantity,
     lines_hz: Vec<f64>,
@@ -137,6 +140,9 @@ pub struct FrfFit {
     /// smooth, systematic misfit (damping model, leakage, model error).
     #[serde(default)]
     pub lag1: f64,
+    /// The worst window of consecutive lines ([`LocalMisfit`]).
+    #[serde(default)]
+    pub local: Option<LocalMisfit>,
 }
 
 impl FrfReference {
@@ -254,10 +260,14 @@ impl FrfReference {
     /// Per slot and channel, the noise-scaled misfit d = (H^model −
     /// H^meas)·√2/σ_c at every line (σ_c² = E|n|² is split evenly between
     /// the real and imaginary parts, so each part of d has unit variance),
-    /// and the channel's FRAC.
-    fn misfits(&self, model: &PreparedModel, x: &[f64]) -> Option<Vec<(Vec<Complex64>, f64)>> {
+    /// with the slot's index and the channel's FRAC.
+    fn misfits(
+        &self,
+        model: &PreparedModel,
+        x: &[f64],
+    ) -> Option<Vec<(usize, Vec<Complex64>, f64)>> {
         let mut out = Vec::new();
-        for s in &self.slots {
+        for (k, s) in self.slots.iter().enumerate() {
             let (h, drifting) = self.model_frfs(model, s, x)?;
             let sigmas = drifting.as_ref().unwrap_or(&s.sigma);
             for ((m, meas), sigma) in h.iter().zip(&s.measured).zip(sigmas) {
@@ -267,7 +277,7 @@ impl FrfReference {
                     .zip(sigma)
                     .map(|((p, q), s)| (p - q) * (std::f64::consts::SQRT_2 / s))
                     .collect();
-                out.push((d, crate::metrics::frac(meas, m)));
+                out.push((k, d, crate::metrics::frac(meas, m)));
             }
         }
         Some(out)
@@ -278,7 +288,7 @@ impl FrfReference {
     /// be solved there.
     pub fn residuals(&self, model: &PreparedModel, x: &[f64]) -> Option<Vec<f64>> {
         let mut out = Vec::with_capacity(self.count());
-        for (d, _) in self.misfits(model, x)? {
+        for (_, d, _) in self.misfits(model, x)? {
             for v in d {
                 let w = huber_factor(v.norm());
                 out.extend([w * v.re, w * v.im]);
@@ -287,18 +297,29 @@ impl FrfReference {
         out.iter().all(|v| v.is_finite()).then_some(out)
     }
 
-    /// The fit at `x`: noise-unit RMS, robust cost and mean FRAC.
+    /// The fit at `x`: noise-unit RMS, robust cost, mean FRAC and the
+    /// worst local misfit ([`LocalMisfit`]).
     pub fn fit(&self, model: &PreparedModel, x: &[f64]) -> Option<FrfFit> {
         let (mut sum2, mut count, mut robust) = (0.0, 0usize, 0.0);
         let (mut frac, mut channels, mut lagged) = (0.0, 0usize, 0.0);
-        for (d, f) in self.misfits(model, x)? {
-            for v in &d {
+        // Per slot and line, Σ_c |d_c|² and the channel count.
+        let mut power: Vec<(Vec<f64>, usize)> = self
+            .slots
+            .iter()
+            .map(|s| (vec![0.0; s.lines_hz.len()], 0))
+            .collect();
+        for (k, d, f) in self.misfits(model, x)? {
+            for (l, v) in d.iter().enumerate() {
                 let n = v.norm();
                 sum2 += n * n;
                 count += 2;
                 let w = huber_factor(n);
                 robust += 0.5 * w * w * n * n;
+                if let Some(p) = power[k].0.get_mut(l) {
+                    *p += n * n;
+                }
             }
+            power[k].1 += 1;
             lagged += d
                 .windows(2)
                 .map(|w| w[0].re * w[1].re + w[0].im * w[1].im)
@@ -307,11 +328,18 @@ impl FrfReference {
             channels += 1;
         }
         let rms = (sum2 / count.max(1) as f64).sqrt();
+        let local = self
+            .slots
+            .iter()
+            .zip(&power)
+            .filter_map(|(s, (p, n))| LocalMisfit::worst(s.position, &s.lines_hz, p, *n))
+            .max_by(|a, b| a.rms.total_cmp(&b.rms));
         rms.is_finite().then_some(FrfFit {
             rms,
             robust_cost: robust,
             mean_frac: frac / channels.max(1) as f64,
             lag1: lagged / sum2.max(f64::MIN_POSITIVE),
+            local,
         })
     }
 }
@@ -412,6 +440,7 @@ fn slot(
         )));
     }
     Ok(FrfSlot {
+        position: index,
         config,
         quantity: set.quantity,
         lines_hz,
@@ -486,5 +515,41 @@ mod tests {
         far[0] *= 1.05;
         let b = drifting.fit(&prepared, &far).unwrap();
         assert!(b.rms > 8.0, "{b:?}");
+    }
+
+    /// The worst window finds a misplaced resonance the overall RMS
+    /// dilutes, and stays near 1 at the truth.
+    #[test]
+    fn the_local_misfit_sits_on_a_misplaced_peak() {
+        let prepared = PreparedModel::new(&model()).unwrap();
+        let mut light = truth();
+        light[4..].iter_mut().for_each(|c| *c *= 0.05);
+        let set = measured(&prepared, &light, 0.01, 7);
+        let r = FrfReference::new(
+            &prepared,
+            std::slice::from_ref(&set),
+            None,
+            (10.0, 400.0),
+            FrfNoise::default(),
+        )
+        .unwrap();
+        let at = r.fit(&prepared, &light).unwrap();
+        let l = at.local.unwrap();
+        assert!(l.rms < 1.8 && l.rms > at.rms, "{at:?}");
+        // One stiffness 0.3 % off: a few lines at each peak, tens of σ.
+        let mut near = light.clone();
+        near[0] *= 1.003;
+        let off = r.fit(&prepared, &near).unwrap();
+        let l = off.local.unwrap();
+        assert!(l.rms > 4.0 * off.rms && l.rms > 10.0, "{off:?}");
+        let sol = prepared
+            .evaluate_modes(0, &near, ModeSelection::Below(400.0))
+            .unwrap();
+        let nearest = sol
+            .eigenvalues
+            .iter()
+            .map(|w2| (w2.sqrt() / std::f64::consts::TAU - l.frequency_hz).abs())
+            .fold(f64::INFINITY, f64::min);
+        assert!(nearest < 2.0, "{l:?} is {nearest} Hz from the nearest mode");
     }
 }

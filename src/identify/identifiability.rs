@@ -127,12 +127,15 @@ pub struct Identifiability {
 }
 
 /// Analyze the Jacobian `columns` (one per parameter, ∂r/∂ln p, each of
-/// length m) at residuals `r`; `names` name the parameters.
+/// length m) at residuals `r`; `names` name the parameters. `inflation`
+/// ≥ 1 multiplies the data variance for residuals correlated along
+/// frequency ([`super::consider::ar1_inflation`]; 1 for independent ones).
 pub fn analyze(
     columns: &[Vec<f64>],
     r: &[f64],
     names: &[String],
     max_std_error: f64,
+    inflation: f64,
 ) -> Identifiability {
     let n = columns.len();
     let m = r.len();
@@ -165,7 +168,7 @@ pub fn analyze(
         })
         .collect();
     // Without residual degrees of freedom the stated uncertainty stands in.
-    let sigma = residual_variance.map_or(1.0, f64::sqrt);
+    let sigma = (residual_variance.unwrap_or(1.0) * inflation.max(1.0)).sqrt();
     let parameters = (0..n)
         .map(|i| {
             let se = sigma * prior[i];
@@ -286,7 +289,7 @@ mod tests {
         let a = (sy - b * st) / n;
         let r: Vec<f64> = t.iter().zip(&y).map(|(t, y)| a + b * t - y).collect();
         let cols = vec![vec![1.0; 5], t.to_vec()];
-        let id = analyze(&cols, &r, &names(2), 10.0);
+        let id = analyze(&cols, &r, &names(2), 10.0, 1.0);
         let s2 = r.iter().map(|v| v * v).sum::<f64>() / 3.0;
         assert!((id.residual_variance.unwrap() / s2 - 1.0).abs() < 1e-12);
         let se_a = (s2 * stt / det).sqrt();
@@ -311,6 +314,7 @@ mod tests {
             &[0.0; 4],
             &["k0".into(), "k1".into(), "k2".into()],
             0.1,
+            1.0,
         );
         assert_eq!(id.rank, 2);
         let flags: Vec<bool> = id.parameters.iter().map(|p| p.identifiable).collect();
@@ -347,6 +351,7 @@ mod tests {
             &[0.0; 5],
             &names,
             0.1,
+            1.0,
         );
         let groups: Vec<Vec<&str>> = id
             .undetermined
@@ -364,12 +369,12 @@ mod tests {
         // 0.2 — identifiable at 0.25, not at 0.1.
         let cols = vec![vec![3.0, 4.0]];
         let r = [0.8, -0.6];
-        assert!(analyze(&cols, &r, &names(1), 0.25).parameters[0].identifiable);
-        let id = analyze(&cols, &r, &names(1), 0.1);
+        assert!(analyze(&cols, &r, &names(1), 0.25, 1.0).parameters[0].identifiable);
+        let id = analyze(&cols, &r, &names(1), 0.1, 1.0);
         assert!(!id.parameters[0].identifiable && !id.parameters[0].structural);
         assert_eq!(id.undetermined.len(), 1);
         assert!((id.undetermined[0].singular_value - 5.0).abs() < 1e-12);
         // The same data without noise determine it exactly.
-        assert!(analyze(&cols, &[0.0, 0.0], &names(1), 0.1).parameters[0].identifiable);
+        assert!(analyze(&cols, &[0.0, 0.0], &names(1), 0.1, 1.0).parameters[0].identifiable);
     }
 }

@@ -34,6 +34,7 @@ pub mod frf_refinement;
 pub mod guided;
 pub mod history;
 pub mod identifiability;
+pub mod local_misfit;
 pub mod objective;
 pub mod subproblem;
 pub mod updating;

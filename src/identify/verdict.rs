@@ -28,7 +28,7 @@
 //! systematic misfit (damping model, leakage of an impact test, model
 //! error), not noise.
 
-use super::frf_objective::FrfFit;
+use super::frf_objective::{FrfFit, LocalMisfit, LOCAL_LINES};
 pub use refit::{Implausible, RefitValue};
 use serde::{Deserialize, Serialize};
 
@@ -42,6 +42,15 @@ const NAMED_IMPLICATED: usize = 5;
 
 /// Weighted-residual RMS (σ units) up to which a fit is within the noise.
 pub const NOISE_RMS: f64 = 2.0;
+
+/// RMS (σ units) over the worst window of lines
+/// ([`super::frf_objective::LocalMisfit`]) up to which an FRF fit is within
+/// the noise: four times [`NOISE_RMS`]. Noise alone stays below 1.6 (the
+/// vertical mill family at 1 % noise: 1.04–1.07 at its successes); the H1
+/// bias and leakage of impact tests sit on the resonances and the low lines
+/// (test bench, 10 impact tests: 3.8–5.6σ at 1.5–2.0σ overall); resonances
+/// the model misses or misplaces on the mill: 8.5–15σ.
+pub const LOCAL_NOISE_RMS: f64 = 4.0 * NOISE_RMS;
 
 /// How the optimizer ended.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -252,7 +261,7 @@ pub struct FrfJudgement {
 impl FrfJudgement {
     /// Judge the FRF fit from its start and end.
     pub fn new(start: FrfFit, end: FrfFit) -> FrfJudgement {
-        let fit = if end.rms <= NOISE_RMS {
+        let fit = if end.rms <= NOISE_RMS && !end.local.is_some_and(|l| l.rms > LOCAL_NOISE_RMS) {
             Fit::WithinNoise
         } else {
             Fit::AboveNoise
@@ -261,7 +270,7 @@ impl FrfJudgement {
             start,
             end,
             fit,
-            systematic: fit == Fit::AboveNoise && end.lag1 > SMOOTH_LAG1,
+            systematic: end.rms > NOISE_RMS && end.lag1 > SMOOTH_LAG1,
         }
     }
 
@@ -279,6 +288,17 @@ impl FrfJudgement {
                 "FRF residual {e:.2}σ RMS (from {s:.1}σ), FRAC {:.3}: the model reproduces the measured FRFs within their noise",
                 self.end.mean_frac
             ),
+            (Fit::AboveNoise, _) if e <= NOISE_RMS => {
+                let l = self.end.local.unwrap_or(LocalMisfit {
+                    rms: f64::NAN,
+                    frequency_hz: f64::NAN,
+                    position: 0,
+                });
+                format!(
+                    "FRF residual {e:.2}σ RMS (from {s:.1}σ) overall, but {:.0}σ over the {LOCAL_LINES} lines around {:.1} Hz at position {}: a resonance the model misses or misplaces (another basin, or a mode the model lacks), which the overall RMS dilutes",
+                    l.rms, l.frequency_hz, l.position
+                )
+            }
             (Fit::AboveNoise, true) => format!(
                 "FRF residual {e:.1}σ RMS (from {s:.1}σ) is above the noise and smooth along frequency (lag-1 correlation {:.2}): a systematic misfit, not noise",
                 self.end.lag1
@@ -399,6 +419,12 @@ impl Verdict {
         let mut warnings = self.warnings;
         if !self.ok {
             warnings.insert(0, format!("modal reference: {}", self.message));
+        }
+        if f.fit == Fit::WithinNoise && f.end.lag1 > SMOOTH_LAG1 {
+            warnings.push(format!(
+                "the FRF residual is within the noise but smooth along frequency (lag-1 correlation {:.2}): a systematic part (the H1 bias and leakage of an impact test, the damping model) that the intervals do not contain — they count it as fewer independent lines, not as a bias; on simulated impact tests the stiffnesses carried biases of several standard errors",
+                f.end.lag1
+            ));
         }
         Verdict {
             ok,

@@ -60,6 +60,7 @@ fn fit(rms: f64, lag1: f64) -> FrfFit {
         robust_cost: rms * rms,
         mean_frac: 0.9,
         lag1,
+        local: None,
     }
 }
 
@@ -81,6 +82,19 @@ fn with_frfs_the_frf_fit_decides_and_modal_losses_are_warnings() {
         "{:?}",
         v.warnings
     );
+    // Within the noise but smooth: ok, with a warning that the intervals
+    // do not contain the systematic part.
+    let f = FrfJudgement::new(fit(9.0, 0.9), fit(1.8, 0.8));
+    let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+        .with_frf(Status::Converged, f);
+    assert!(v.ok && !f.systematic);
+    assert!(
+        v.warnings
+            .iter()
+            .any(|w| w.contains("lag-1 correlation 0.80")),
+        "{:?}",
+        v.warnings
+    );
     // Above the noise and smooth: named a systematic misfit, not ok,
     // even with the modal fit within its noise.
     let f = FrfJudgement::new(fit(30.0, 0.9), fit(6.5, 0.94));
@@ -91,6 +105,30 @@ fn with_frfs_the_frf_fit_decides_and_modal_losses_are_warnings() {
     // Above the noise and rough: not called systematic.
     let f = FrfJudgement::new(fit(30.0, 0.9), fit(3.0, 0.1));
     assert!(!f.systematic);
+    // Within the noise overall but 40σ over one resonance's lines: not ok,
+    // and the message names where.
+    let mut end = fit(1.7, 0.1);
+    end.local = Some(LocalMisfit {
+        rms: 40.0,
+        frequency_hz: 120.2,
+        position: 0,
+    });
+    let f = FrfJudgement::new(fit(9.0, 0.9), end);
+    let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+        .with_frf(Status::Converged, f);
+    assert!(!v.ok && v.fit == Fit::AboveNoise && !f.systematic);
+    assert!(
+        v.message.contains("120.2 Hz at position 0"),
+        "{}",
+        v.message
+    );
+    assert_eq!(v.cause, Cause::NotSearched);
+    // A local window at the H1 bias of an impact test stays within.
+    end.local = Some(LocalMisfit {
+        rms: LOCAL_NOISE_RMS,
+        ..end.local.unwrap()
+    });
+    assert_eq!(FrfJudgement::new(fit(9.0, 0.9), end).fit, Fit::WithinNoise);
     // Worse than the modal result.
     let f = FrfJudgement::new(fit(1.5, 0.1), fit(1.8, 0.1));
     let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])

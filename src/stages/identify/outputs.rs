@@ -13,7 +13,7 @@ use crate::stages::StageError;
 use std::path::Path;
 
 /// What the intervals assume (identifiability.json, the report).
-pub const ASSUMPTIONS: &str = "Linearized (Gauss–Newton) at the result; residuals scaled by the reference's stated uncertainty and by the residual variance when it is larger; the parameters held fixed vary as `fixed_spread` says (default: uniform over their bounds), conditioned on what the data say of them, and their effect is carried in linearly (consider covariance); intervals are cut at the parameter's bounds; the model's form is right. `std_error_rel` alone assumes the fixed parameters exact.";
+pub const ASSUMPTIONS: &str = "Linearized (Gauss–Newton) at the result; residuals scaled by the reference's stated uncertainty and by the residual variance when it is larger, and FRF residuals correlated along frequency counted as fewer independent lines (variance × (1 + ρ)/(1 − ρ), ρ their lag-1 correlation); the parameters held fixed vary as `fixed_spread` says (default: uniform over their bounds), conditioned on what the data say of them, and their effect is carried in linearly (consider covariance); intervals are cut at the parameter's bounds; the model's form is right. `std_error_rel` alone assumes the fixed parameters exact.";
 
 /// z of a two-sided 95 % interval.
 const Z95: f64 = 1.959_963_984_540_054;
