@@ -224,12 +224,13 @@ pub fn missing_mode_warnings(peaks: &[ResidualPeak], modes_hz: &[f64]) -> Vec<St
         let n = missing[k..]
             .iter()
             .take_while(|p| region(p.frequency_hz) == r)
-            .count();
+            .count()
+            .max(1);
+        // n ≥ 1: the group starts with missing[k] itself.
         let group = &missing[k..k + n];
         let worst = group
             .iter()
-            .max_by(|a, b| a.ratio.total_cmp(&b.ratio))
-            .expect("a group holds a peak");
+            .fold(group[0], |w, p| if p.ratio > w.ratio { p } else { w });
         out.push(if n == 1 {
             worst.warning()
         } else {
