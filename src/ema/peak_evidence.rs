@@ -177,30 +177,29 @@ impl PeakEvidence {
         // mode, not at the keeper).
         let count = |r: &RootPeak| self.further_curve_peaks(r.frequency_hz, r.damping_ratio);
         let own: Vec<usize> = candidates.iter().map(|&(k, _)| count(&roots[k])).collect();
-        let places = |j: usize| {
-            let at_group = candidates
-                .iter()
-                .zip(&own)
-                .filter(|((_, q), _)| *q == j)
-                .map(|(_, &n)| n)
-                .max()
-                .unwrap_or(0);
-            count(&roots[j])
-                .max(at_group)
-                .saturating_sub(roots[j].multiplicity.saturating_sub(1))
-        };
-        let mut used: Vec<(usize, usize)> = Vec::new(); // (keeper, places used)
+        // (keeper, places, places used), each keeper's places counted once.
+        let mut groups: Vec<(usize, usize, usize)> = Vec::new();
         let mut losers: Vec<(usize, usize)> = Vec::new();
         for (&(k, j), &n) in candidates.iter().zip(&own) {
-            let slot = match used.iter().position(|(q, _)| *q == j) {
-                Some(i) => i,
+            let g = match groups.iter().position(|g| g.0 == j) {
+                Some(g) => g,
                 None => {
-                    used.push((j, 0));
-                    used.len() - 1
+                    let at_group = candidates
+                        .iter()
+                        .zip(&own)
+                        .filter(|((_, q), _)| *q == j)
+                        .map(|(_, &n)| n)
+                        .max()
+                        .unwrap_or(0);
+                    let places = count(&roots[j])
+                        .max(at_group)
+                        .saturating_sub(roots[j].multiplicity.saturating_sub(1));
+                    groups.push((j, places, 0));
+                    groups.len() - 1
                 }
             };
-            if n > 0 && used[slot].1 < places(j) {
-                used[slot].1 += 1;
+            if n > 0 && groups[g].2 < groups[g].1 {
+                groups[g].2 += 1;
             } else {
                 losers.push((k, j));
             }

@@ -208,15 +208,16 @@ pub fn mark_identified(peaks: &mut [ResidualPeak], modes: &[(f64, f64)], step_hz
 }
 
 /// The missing-mode warnings of `peaks`, one per stretch of the band
-/// between two identified modes (`modes_hz`): peaks with no mode between
+/// between two identified modes (`modes`: frequency, damping ratio, as
+/// [`mark_identified`] takes them): peaks with no mode between
 /// them are one region the fit leaves unexplained (a mode above the span
 /// whose flank rises to the band's end gives a data "peak" every few lines
 /// of it: vibration-toolbox case 1, nine warnings for 395–489 Hz), so the
 /// user is asked once per region; every peak stays in metrics.json.
-pub fn missing_mode_warnings(peaks: &[ResidualPeak], modes_hz: &[f64]) -> Vec<String> {
+pub fn missing_mode_warnings(peaks: &[ResidualPeak], modes: &[(f64, f64)]) -> Vec<String> {
     let mut missing: Vec<&ResidualPeak> = peaks.iter().filter(|p| p.missing_mode()).collect();
     missing.sort_by(|a, b| a.frequency_hz.total_cmp(&b.frequency_hz));
-    let region = |f: f64| modes_hz.iter().filter(|&&m| m < f).count();
+    let region = |f: f64| modes.iter().filter(|m| m.0 < f).count();
     let mut out = Vec::new();
     let mut k = 0;
     while k < missing.len() {
@@ -397,7 +398,7 @@ mod tests {
             peak(420.94, 14.7),
             peak(300.0, 4.0), // below the visibility limit: no warning
         ];
-        let w = missing_mode_warnings(&peaks, &[212.1, 410.1, 431.8]);
+        let w = missing_mode_warnings(&peaks, &[(212.1, 0.001), (410.1, 0.01), (431.8, 0.02)]);
         assert_eq!(w.len(), 3, "{w:?}");
         assert!(w[0].starts_with("the data peak at 395.31 Hz"), "{w:?}");
         assert!(w[1].starts_with("the data peak at 420.94 Hz"), "{w:?}");

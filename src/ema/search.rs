@@ -286,6 +286,17 @@ fn search_hyperparameters(
     Evaluations { trace, xs }
 }
 
+/// (frequency, damping ratio) of every root of `best`.
+fn identified_modes(orders: &[PoleOrder], best: &Selection) -> Vec<(f64, f64)> {
+    best.roots
+        .iter()
+        .map(|r| {
+            let p = r.pole(orders);
+            (p.frequency_hz, p.damping_ratio)
+        })
+        .collect()
+}
+
 /// The final fit's check against the noise floor: the relative error ε²
 /// (power ratio; the larger of the data's noise and the fit's misfit) and
 /// the residual peaks, those at an identified mode marked.
@@ -309,15 +320,11 @@ fn check_fit(
         relative_error,
         &coherence_relative_error(data, ASSUMED_AVERAGES),
     );
-    let modes: Vec<(f64, f64)> = best
-        .roots
-        .iter()
-        .map(|r| {
-            let p = r.pole(orders);
-            (p.frequency_hz, p.damping_ratio)
-        })
-        .collect();
-    mark_identified(&mut residual_peaks, &modes, summary.line_spacing_hz);
+    mark_identified(
+        &mut residual_peaks,
+        &identified_modes(orders, best),
+        summary.line_spacing_hz,
+    );
     (relative_error, residual_peaks)
 }
 
@@ -338,12 +345,10 @@ fn warnings(
         .filter(|b| b.sensitive)
         .map(AtBound::warning)
         .collect();
-    let modes_hz: Vec<f64> = best
-        .roots
-        .iter()
-        .map(|r| r.pole(orders).frequency_hz)
-        .collect();
-    warnings.extend(missing_mode_warnings(residual_peaks, &modes_hz));
+    warnings.extend(missing_mode_warnings(
+        residual_peaks,
+        &identified_modes(orders, best),
+    ));
     warnings.extend(inconsistent_references(screening, orders, best));
     warnings
 }

@@ -471,14 +471,21 @@ mod tests {
     use crate::identify::black_box::tests::{model, truth};
     use crate::identify::frf_refinement::tests::measured;
 
+    /// The chain with its dampers at `damping` times the truth's, and its
+    /// FRFs with 1 % noise (`seed`).
+    fn light_chain(damping: f64, seed: u64) -> (PreparedModel, Vec<f64>, FrfSet) {
+        let prepared = PreparedModel::new(&model()).unwrap();
+        let mut light = truth();
+        light[4..].iter_mut().for_each(|c| *c *= damping);
+        let set = measured(&prepared, &light, 0.01, seed);
+        (prepared, light, set)
+    }
+
     #[test]
     fn frequency_drift_bounds_a_lightly_damped_peaks_misfit_and_leaves_the_noise() {
-        let prepared = PreparedModel::new(&model()).unwrap();
-        // The chain with its dampers at 2 % of the truth's: peaks narrower
-        // than the 0.5 Hz lines, as a ball screw's.
-        let mut light = truth();
-        light[4..].iter_mut().for_each(|c| *c *= 0.02);
-        let set = measured(&prepared, &light, 0.01, 4);
+        // Dampers at 2 % of the truth's: peaks narrower than the 0.5 Hz
+        // lines, as a ball screw's.
+        let (prepared, light, set) = light_chain(0.02, 4);
         let band = (10.0, 400.0);
         let reference = |drift: f64| {
             let noise = FrfNoise {
@@ -521,10 +528,7 @@ mod tests {
     /// dilutes, and stays near 1 at the truth.
     #[test]
     fn the_local_misfit_sits_on_a_misplaced_peak() {
-        let prepared = PreparedModel::new(&model()).unwrap();
-        let mut light = truth();
-        light[4..].iter_mut().for_each(|c| *c *= 0.05);
-        let set = measured(&prepared, &light, 0.01, 7);
+        let (prepared, light, set) = light_chain(0.05, 7);
         let r = FrfReference::new(
             &prepared,
             std::slice::from_ref(&set),

@@ -246,6 +246,11 @@ pub struct SearchEvidence {
     pub escaped: Option<bool>,
 }
 
+/// The worst window of `fit` when it is above [`LOCAL_NOISE_RMS`].
+fn local_excess(fit: &FrfFit) -> Option<LocalMisfit> {
+    fit.local.filter(|l| l.rms > LOCAL_NOISE_RMS)
+}
+
 /// The FRF part of a verdict.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FrfJudgement {
@@ -261,7 +266,7 @@ pub struct FrfJudgement {
 impl FrfJudgement {
     /// Judge the FRF fit from its start and end.
     pub fn new(start: FrfFit, end: FrfFit) -> FrfJudgement {
-        let fit = if end.rms <= NOISE_RMS && !end.local.is_some_and(|l| l.rms > LOCAL_NOISE_RMS) {
+        let fit = if end.rms <= NOISE_RMS && local_excess(&end).is_none() {
             Fit::WithinNoise
         } else {
             Fit::AboveNoise
@@ -283,22 +288,18 @@ impl FrfJudgement {
 
     fn sentence(&self) -> String {
         let (s, e) = (self.start.rms, self.end.rms);
+        // Within the noise overall: above it only through one window.
+        if let Some(l) = local_excess(&self.end).filter(|_| e <= NOISE_RMS) {
+            return format!(
+                "FRF residual {e:.2}σ RMS (from {s:.1}σ) overall, but {:.0}σ over the {LOCAL_LINES} lines around {:.1} Hz at position {}: a resonance the model misses or misplaces (another basin, or a mode the model lacks), which the overall RMS dilutes",
+                l.rms, l.frequency_hz, l.position
+            );
+        }
         match (self.fit, self.systematic) {
             (Fit::WithinNoise, _) => format!(
                 "FRF residual {e:.2}σ RMS (from {s:.1}σ), FRAC {:.3}: the model reproduces the measured FRFs within their noise",
                 self.end.mean_frac
             ),
-            (Fit::AboveNoise, _) if e <= NOISE_RMS => {
-                let l = self.end.local.unwrap_or(LocalMisfit {
-                    rms: f64::NAN,
-                    frequency_hz: f64::NAN,
-                    position: 0,
-                });
-                format!(
-                    "FRF residual {e:.2}σ RMS (from {s:.1}σ) overall, but {:.0}σ over the {LOCAL_LINES} lines around {:.1} Hz at position {}: a resonance the model misses or misplaces (another basin, or a mode the model lacks), which the overall RMS dilutes",
-                    l.rms, l.frequency_hz, l.position
-                )
-            }
             (Fit::AboveNoise, true) => format!(
                 "FRF residual {e:.1}σ RMS (from {s:.1}σ) is above the noise and smooth along frequency (lag-1 correlation {:.2}): a systematic misfit, not noise",
                 self.end.lag1
