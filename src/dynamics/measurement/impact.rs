@@ -18,10 +18,12 @@
 //! Random streams of `seed`: 0 force noise, 1 + j response channel j,
 //! `u64::MAX` hit-to-hit variation; results do not depend on processing order.
 
+use super::hysteretic::HystereticExcess;
 use super::impact_params::{dof_index, validate_model, Estimator, ImpactTestParams};
 use super::noise::GaussianStream;
 use super::signals::{decimate, half_sine_pulse, modal_responses};
 use super::spectra::{coherence, force_window, h1, h2, ExponentialWindow, SpectralAverages};
+use super::superposition::convert_quantity;
 use super::MeasurementError;
 use crate::frf::{Dof, FrfChannel, FrfSet};
 use crate::modal::ModalModel;
@@ -38,7 +40,31 @@ pub fn simulate_impact_test(
     params: &ImpactTestParams,
     seed: u64,
 ) -> Result<FrfSet, MeasurementError> {
+    simulate_impact_test_with(model, None, excitation_dof, response_dofs, params, seed)
+}
+
+/// [`simulate_impact_test`] of a structure whose modes carry hysteretic
+/// damping `excess` beyond `model`'s poles ([`HystereticExcess`]; `None`:
+/// the poles are the structure's).
+pub fn simulate_impact_test_with(
+    model: &ModalModel,
+    excess: Option<&HystereticExcess>,
+    excitation_dof: Dof,
+    response_dofs: &[Dof],
+    params: &ImpactTestParams,
+    seed: u64,
+) -> Result<FrfSet, MeasurementError> {
     params.validate()?;
+    if let Some(x) = excess.filter(|x| x.len() != model.modes.len()) {
+        return Err(MeasurementError::InvalidMode {
+            mode: x.len().min(model.modes.len()),
+            reason: format!(
+                "the hysteretic damping has {} modes, the modal model {}",
+                x.len(),
+                model.modes.len()
+            ),
+        });
+    }
     let (fs, r) = (params.sample_rate_hz, params.oversampling);
     validate_model(model, fs * r as f64)?;
     let k = dof_index(model, excitation_dof, "excitation")?;
@@ -47,7 +73,13 @@ pub fn simulate_impact_test(
         .map(|&d| dof_index(model, d, "response"))
         .collect::<Result<_, _>>()?;
     let mut planner = FftPlanner::new();
-    let clean = clean_signals(model, k, &responses, params, &mut planner);
+    let mut clean = clean_signals(model, k, &responses, params, &mut planner);
+    if let Some(x) = excess {
+        for (y, &j) in clean.responses.iter_mut().zip(&responses) {
+            let add = excess_response(model, x, (j, k), &clean.force, params, &mut planner);
+            y.iter_mut().zip(add).for_each(|(v, a)| *v += a);
+        }
+    }
     let windows = windows(params, clean.start);
     let averages = average_hits(params, seed, &clean, &windows, &mut planner);
     Ok(frf_estimate(
@@ -116,6 +148,39 @@ fn clean_signals(
         responses: clean,
         start,
     }
+}
+
+/// The response at fs to the decimated `force` of the receptance `excess`
+/// adds to `model`'s poles for DOF indices (response, reference):
+/// IDFT(ΔH(f_k)·F(k)) over the block's bins (circular; module docs of
+/// [`super::hysteretic`]), in the sensor's quantity.
+fn excess_response(
+    model: &ModalModel,
+    excess: &HystereticExcess,
+    (j, k): (usize, usize),
+    force: &[f64],
+    params: &ImpactTestParams,
+    planner: &mut FftPlanner<f64>,
+) -> Vec<f64> {
+    let n = force.len();
+    let df = params.sample_rate_hz / n as f64;
+    let mut spectrum: Vec<Complex64> = force.iter().map(|&f| Complex64::new(f, 0.0)).collect();
+    planner.plan_fft_forward(n).process(&mut spectrum);
+    let gain = |bin: usize| {
+        let f = bin as f64 * df;
+        convert_quantity(excess.receptance(model, j, k, f), f, params.quantity)
+    };
+    let mut out = vec![Complex64::new(0.0, 0.0); n];
+    for bin in 1..n.div_ceil(2) {
+        let v = gain(bin) * spectrum[bin];
+        out[bin] = v;
+        out[n - bin] = v.conj();
+    }
+    if n.is_multiple_of(2) {
+        out[n / 2] = Complex64::new((gain(n / 2) * spectrum[n / 2]).re, 0.0);
+    }
+    planner.plan_fft_inverse(n).process(&mut out);
+    out.iter().map(|z| z.re / n as f64).collect()
 }
 
 /// The weights of each sample of a block.

@@ -15,6 +15,7 @@
 //! which is what the simulated test reproduces to rounding error
 //! (continuous: [`superposition`]).
 
+pub mod hysteretic;
 pub mod impact;
 pub mod impact_params;
 pub mod noise;
@@ -26,7 +27,8 @@ pub mod superposition;
 #[cfg(test)]
 mod impact_tests;
 
-pub use impact::simulate_impact_test;
+pub use hysteretic::HystereticExcess;
+pub use impact::{simulate_impact_test, simulate_impact_test_with};
 pub use impact_params::{Estimator, ImpactTestParams};
 pub use noise::{add_relative_noise, GaussianStream};
 pub use sampled::{frf_sampled, receptance_sampled};
