@@ -4,6 +4,7 @@
 //! identified parameters and the consider analysis of the fixed ones
 //! ([`super::consider`]), all from one batch of model evaluations.
 
+use super::batch_means::Correlation;
 use super::consider::{ar1_inflation, bounds_spread, consider, Consider};
 use super::frf_objective::FrfReference;
 use super::identifiability::{analyze, Identifiability};
@@ -266,10 +267,10 @@ pub(super) fn identifiability_at(
         .collect();
     let (mut columns, r0) = log_jacobian(o, x, &cols, frf, progress)?;
     let fixed_columns = columns.split_off(identified.len());
-    let inflation = frf_inflation(&r0, frf);
+    let correlation = correlation(&r0, frf);
     let name = |i: &usize| o.parameters()[*i].name.clone();
     let names: Vec<String> = identified.iter().map(name).collect();
-    let analysis = analyze(&columns, &r0, &names, max_std_error, inflation);
+    let analysis = analyze(&columns, &r0, &names, max_std_error, &correlation);
     let considered = (!fixed.is_empty()).then(|| {
         let fixed_names: Vec<String> = fixed.iter().map(|f| name(&f.0)).collect();
         let spreads: Vec<f64> = fixed.iter().map(|f| f.1).collect();
@@ -280,7 +281,7 @@ pub(super) fn identifiability_at(
             &fixed_names,
             &spreads,
             analysis.residual_variance.unwrap_or(1.0),
-            inflation,
+            &correlation,
         )
     });
     let considered = considered.map(|c| cut_at_bounds(o, x, fixed, c));
@@ -347,13 +348,26 @@ fn log_jacobian(
     Ok((columns, r0))
 }
 
-/// The variance inflation of the FRF part of the residuals `r0` (the last
-/// `frf.count()`): re and im per line are correlated along frequency, so
-/// their lag-2 autocorrelation gives the AR(1) factor
-/// ([`ar1_inflation`]); 1 without FRFs.
-fn frf_inflation(r0: &[f64], frf: Option<&FrfReference>) -> f64 {
-    // FRF residuals (re, im per line) correlated along frequency: lag 2.
-    let frf_part = &r0[r0.len() - frf.map_or(0, |f| f.count()).min(r0.len())..];
+/// How the residuals `r0` are correlated: the FRF part (the last
+/// `frf.count()`) along frequency — re and im per line, so their lag-2
+/// autocorrelation gives the AR(1) factor ([`ar1_inflation`]), and the
+/// batch-means blocks follow their integrated correlation
+/// ([`Correlation::of_frfs`]); without FRFs independent.
+fn correlation(r0: &[f64], frf: Option<&FrfReference>) -> Correlation {
+    let Some(frf) = frf.filter(|f| f.count() <= r0.len()) else {
+        return Correlation::independent();
+    };
+    let leading = r0.len() - frf.count();
+    Correlation::of_frfs(
+        leading,
+        &frf.layout(),
+        frf_inflation(&r0[leading..]),
+        &r0[leading..],
+    )
+}
+
+/// The AR(1) factor of FRF residuals `frf_part` (re, im per line).
+fn frf_inflation(frf_part: &[f64]) -> f64 {
     let lagged: f64 = frf_part
         .iter()
         .zip(frf_part.iter().skip(2))

@@ -55,6 +55,7 @@
 
 #![allow(non_snake_case)]
 
+use super::batch_means::{data_variance, Correlation};
 use super::identifiability::{IN_NULL_SPACE, STRUCTURAL};
 use super::verdict::nan_if_null;
 use crate::dynamics::eigen::symmetric_eigen;
@@ -127,10 +128,10 @@ impl Consider {
 /// columns (∂r/∂ln θ), `fixed` the fixed parameters' with their `names` and
 /// assumed `spreads` (σ of ln c), `sigma2` the residual variance σ̂² the
 /// data covariance is scaled by (1 when it cannot be estimated), and
-/// `inflation` ≥ 1 the variance factor of residuals correlated along
-/// frequency ([`ar1_inflation`]) by which the tests, the conditioning on
-/// the data and the identified parameters' data variance are made less
-/// confident.
+/// `correlation` how the residuals are correlated: its AR(1) factor
+/// ([`ar1_inflation`]) makes the tests and the conditioning on the data
+/// less confident, and the identified parameters' data variance is that
+/// of [`super::batch_means::data_variance`].
 pub fn consider(
     theta: &[Vec<f64>],
     fixed: &[Vec<f64>],
@@ -138,8 +139,9 @@ pub fn consider(
     names: &[String],
     spreads: &[f64],
     sigma2: f64,
-    inflation: f64,
+    correlation: &Correlation,
 ) -> Consider {
+    let inflation = correlation.inflation;
     let n = theta.len();
     let m = r.len();
     let (g_plus, structural) = pseudo_inverse(theta);
@@ -177,9 +179,7 @@ pub fn consider(
         .collect();
     let s2 = sigma2.max(1.0) * inflation.max(1.0);
     let sigma_c = posterior(&absorbed, spreads, s2);
-    let mut variance: Vec<f64> = (0..n)
-        .map(|i| sigma2 * inflation.max(1.0) * g_plus[(i, i)])
-        .collect();
+    let mut variance = data_variance(theta, r, &g_plus, sigma2, correlation);
     for (i, v) in variance.iter_mut().enumerate() {
         for j in 0..q {
             for k in 0..q {
@@ -353,7 +353,7 @@ pub fn bounds_spread(value: f64, lower: f64, upper: f64, log: bool) -> f64 {
 /// G⁺ = (JᵀJ)⁺ over the determined directions and which parameters lie in
 /// a structural null direction, as [`super::identifiability`] decides them
 /// (one eigen-decomposition of G; sequential, so bit-identical).
-fn pseudo_inverse(columns: &[Vec<f64>]) -> (Mat<f64>, Vec<bool>) {
+pub(super) fn pseudo_inverse(columns: &[Vec<f64>]) -> (Mat<f64>, Vec<bool>) {
     let n = columns.len();
     if n == 0 {
         return (Mat::zeros(0, 0), Vec::new());
@@ -437,7 +437,15 @@ mod tests {
         ];
         let spreads = [0.3, 0.05, 0.2];
         let names: Vec<String> = ["q", "bump", "line"].map(String::from).to_vec();
-        let c = consider(&theta, &fixed, &vec![0.0; m], &names, &spreads, 1.0, 1.0);
+        let c = consider(
+            &theta,
+            &fixed,
+            &vec![0.0; m],
+            &names,
+            &spreads,
+            1.0,
+            &Correlation::independent(),
+        );
         let cols: Vec<&Vec<f64>> = theta.iter().chain(&fixed).collect();
         let lambda: Vec<Vec<f64>> = (0..5)
             .map(|a| {
@@ -472,7 +480,15 @@ mod tests {
         // With no residual nothing is implicated.
         assert!(c.fixed.iter().all(|f| !f.implicated && f.statistic == 0.0));
         // Exact fixed parameters (spread 0): only the data's own part.
-        let exact = consider(&theta, &fixed, &vec![0.0; m], &names, &[0.0; 3], 1.0, 1.0);
+        let exact = consider(
+            &theta,
+            &fixed,
+            &vec![0.0; m],
+            &names,
+            &[0.0; 3],
+            1.0,
+            &Correlation::independent(),
+        );
         let plain = inverse(vec![
             vec![m as f64, t.iter().sum()],
             vec![t.iter().sum(), t.iter().map(|x| x * x).sum()],
@@ -521,7 +537,7 @@ mod tests {
             &names,
             &[0.1, 0.1],
             rss / (m - 2) as f64,
-            1.0,
+            &Correlation::independent(),
         );
         assert!(c.fixed[0].implicated, "{:?}", c.fixed);
         assert!(!c.fixed[1].implicated, "{:?}", c.fixed);
@@ -529,7 +545,15 @@ mod tests {
         assert_eq!(c.implicated()[0].parameter, "quad");
         // At the truth (noise only), neither is implicated.
         let r0 = fit(&noise);
-        let c0 = consider(&theta, &fixed, &r0, &names, &[0.1, 0.1], 1.0, 1.0);
+        let c0 = consider(
+            &theta,
+            &fixed,
+            &r0,
+            &names,
+            &[0.1, 0.1],
+            1.0,
+            &Correlation::independent(),
+        );
         assert!(c0.fixed.iter().all(|f| !f.implicated), "{:?}", c0.fixed);
     }
 

@@ -225,6 +225,16 @@ impl FrfReference {
             .sum()
     }
 
+    /// Per position (slot), its channels and lines, in the order of
+    /// [`Self::residuals`] (per channel its lines, two residuals, re and
+    /// im, per line).
+    pub fn layout(&self) -> Vec<(usize, usize)> {
+        self.slots
+            .iter()
+            .map(|s| (s.pairs.len(), s.lines_hz.len()))
+            .collect()
+    }
+
     /// The model's FRFs at `x` for slot `s`, per channel, signed as measured,
     /// and with δ > 0 each line's noise σ: the channel's with the drift term
     /// δ² s(ω)² of the model at `x` added (module docs); `None`: the

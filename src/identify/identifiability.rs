@@ -31,6 +31,8 @@
 
 #![allow(non_snake_case)]
 
+use super::batch_means::{data_variance, Correlation};
+use super::consider::pseudo_inverse;
 use crate::dynamics::eigen::symmetric_eigen;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
@@ -56,7 +58,8 @@ pub struct ParameterUncertainty {
     /// structural).
     #[serde(deserialize_with = "super::verdict::nan_if_null")]
     pub prior_std_error: f64,
-    /// Relative standard error σ̂ √C₀,ii (identifiable only).
+    /// Relative standard error (identifiable only): σ̂ √(τ C₀,ii), or the
+    /// batch-means sandwich's when larger ([`super::batch_means`]).
     pub std_error: Option<f64>,
 }
 
@@ -124,18 +127,33 @@ pub struct Identifiability {
     /// m ≤ rank.
     pub residual_variance: Option<f64>,
     pub max_std_error: f64,
+    /// FRF lines per block of the batch-means sandwich
+    /// ([`super::batch_means`]); 0 without FRFs (no sandwich).
+    #[serde(default)]
+    pub batch_lines: usize,
+    /// The FRF residuals' integrated autocorrelation time along frequency,
+    /// in lines (1 for white residuals; without FRFs 1).
+    #[serde(default = "one")]
+    pub integrated_time_lines: f64,
+}
+
+fn one() -> f64 {
+    1.0
 }
 
 /// Analyze the Jacobian `columns` (one per parameter, ∂r/∂ln p, each of
-/// length m) at residuals `r`; `names` name the parameters. `inflation`
-/// ≥ 1 multiplies the data variance for residuals correlated along
-/// frequency ([`super::consider::ar1_inflation`]; 1 for independent ones).
+/// length m) at residuals `r`; `names` name the parameters. `correlation`
+/// says how the residuals are correlated: its AR(1) factor multiplies the
+/// data variance, and the reported standard error is the larger of that
+/// and the batch-means sandwich ([`super::batch_means`]); whether a
+/// parameter is identifiable rests on the former (the design at the
+/// noise), its interval on the latter.
 pub fn analyze(
     columns: &[Vec<f64>],
     r: &[f64],
     names: &[String],
     max_std_error: f64,
-    inflation: f64,
+    correlation: &Correlation,
 ) -> Identifiability {
     let n = columns.len();
     let m = r.len();
@@ -168,17 +186,24 @@ pub fn analyze(
         })
         .collect();
     // Without residual degrees of freedom the stated uncertainty stands in.
-    let sigma = (residual_variance.unwrap_or(1.0) * inflation.max(1.0)).sqrt();
+    let sigma = (residual_variance.unwrap_or(1.0) * correlation.inflation.max(1.0)).sqrt();
+    let (g_plus, _) = pseudo_inverse(columns);
+    let data = data_variance(
+        columns,
+        r,
+        &g_plus,
+        residual_variance.unwrap_or(1.0),
+        correlation,
+    );
     let parameters = (0..n)
         .map(|i| {
-            let se = sigma * prior[i];
-            let identifiable = !structural[i] && se <= max_std_error;
+            let identifiable = !structural[i] && sigma * prior[i] <= max_std_error;
             ParameterUncertainty {
                 parameter: names[i].clone(),
                 identifiable,
                 structural: structural[i],
                 prior_std_error: prior[i],
-                std_error: identifiable.then_some(se),
+                std_error: identifiable.then(|| data[i].max(0.0).sqrt()),
             }
         })
         .collect();
@@ -216,6 +241,8 @@ pub fn analyze(
         rank,
         residual_variance,
         max_std_error,
+        batch_lines: correlation.block_lines,
+        integrated_time_lines: correlation.integrated_time,
     }
 }
 
@@ -289,7 +316,7 @@ mod tests {
         let a = (sy - b * st) / n;
         let r: Vec<f64> = t.iter().zip(&y).map(|(t, y)| a + b * t - y).collect();
         let cols = vec![vec![1.0; 5], t.to_vec()];
-        let id = analyze(&cols, &r, &names(2), 10.0, 1.0);
+        let id = analyze(&cols, &r, &names(2), 10.0, &Correlation::independent());
         let s2 = r.iter().map(|v| v * v).sum::<f64>() / 3.0;
         assert!((id.residual_variance.unwrap() / s2 - 1.0).abs() < 1e-12);
         let se_a = (s2 * stt / det).sqrt();
@@ -314,7 +341,7 @@ mod tests {
             &[0.0; 4],
             &["k0".into(), "k1".into(), "k2".into()],
             0.1,
-            1.0,
+            &Correlation::independent(),
         );
         assert_eq!(id.rank, 2);
         let flags: Vec<bool> = id.parameters.iter().map(|p| p.identifiable).collect();
@@ -351,7 +378,7 @@ mod tests {
             &[0.0; 5],
             &names,
             0.1,
-            1.0,
+            &Correlation::independent(),
         );
         let groups: Vec<Vec<&str>> = id
             .undetermined
@@ -369,12 +396,25 @@ mod tests {
         // 0.2 — identifiable at 0.25, not at 0.1.
         let cols = vec![vec![3.0, 4.0]];
         let r = [0.8, -0.6];
-        assert!(analyze(&cols, &r, &names(1), 0.25, 1.0).parameters[0].identifiable);
-        let id = analyze(&cols, &r, &names(1), 0.1, 1.0);
+        assert!(
+            analyze(&cols, &r, &names(1), 0.25, &Correlation::independent()).parameters[0]
+                .identifiable
+        );
+        let id = analyze(&cols, &r, &names(1), 0.1, &Correlation::independent());
         assert!(!id.parameters[0].identifiable && !id.parameters[0].structural);
         assert_eq!(id.undetermined.len(), 1);
         assert!((id.undetermined[0].singular_value - 5.0).abs() < 1e-12);
         // The same data without noise determine it exactly.
-        assert!(analyze(&cols, &[0.0, 0.0], &names(1), 0.1, 1.0).parameters[0].identifiable);
+        assert!(
+            analyze(
+                &cols,
+                &[0.0, 0.0],
+                &names(1),
+                0.1,
+                &Correlation::independent()
+            )
+            .parameters[0]
+                .identifiable
+        );
     }
 }

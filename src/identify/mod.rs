@@ -23,6 +23,7 @@
 //! parallel part is the evaluation of a batch of points.
 
 pub mod assessment;
+pub mod batch_means;
 pub mod black_box;
 pub mod consider;
 pub mod continuation;

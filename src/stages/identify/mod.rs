@@ -130,8 +130,14 @@ impl Kind for Identify {
     /// misses or misplaces, which then gets the escape search and a cause;
     /// the intervals count FRF residuals correlated along frequency as
     /// fewer independent lines, (1 + ρ)/(1 − ρ) (issue 26).
+    /// 23: with FRFs, each identified parameter's data variance is the
+    /// larger of that and a leave-one-block-out (batch-means jackknife)
+    /// sandwich over blocks of neighbouring lines across a position's
+    /// channels, on the t quantile of its effective number of blocks
+    /// (`identify::batch_means`; identifiability.json `batch_lines`,
+    /// `integrated_time_lines`; issue 26).
     fn version(&self) -> u32 {
-        22
+        23
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
