@@ -24,11 +24,12 @@
 //! McCaffrey 2002): the residuals split into blocks b that are correlated
 //! within but not across. Every residual that is not an FRF line
 //! (frequencies, shapes, damping) stands alone. The FRF lines of one
-//! position form blocks of B neighbouring lines **across all its
-//! channels**: the channels of one impact share its force signal, so the
-//! force channel's noise, which H1 divides by, errs every channel alike
-//! (the simulated tests' force noise inside a 50 ms force window moves all
-//! 20 channels of a position by the same few % over ~25 lines). Leaving
+//! position and reference form blocks of B neighbouring lines **across
+//! all its channels**: the channels of one impact share its force signal,
+//! so the force channel's noise, which H1 divides by, errs every channel
+//! alike (the simulated tests' force noise inside a 50 ms force window
+//! moves all 20 channels of a position by the same few % over ~25 lines),
+//! while a roving hammer's channels are separate hits. Leaving
 //! block b out moves the estimate by δ_b = (G − J_bᵀJ_b)⁻¹ J_bᵀ r_b (r the
 //! residuals at the result), and
 //!
@@ -104,29 +105,36 @@ impl Correlation {
     }
 
     /// The blocks for `leading` residuals that stand alone followed by the
-    /// FRF residuals `frf` of positions laid out as `layout` (per position
-    /// its channels and lines; per channel its lines, re and im per line),
-    /// with AR(1) factor `inflation` (module docs for the blocks).
-    pub fn of_frfs(leading: usize, layout: &[(usize, usize)], inflation: f64, frf: &[f64]) -> Self {
+    /// FRF residuals `frf` of positions laid out as `layout` (per channel
+    /// its lines, re and im per line), with AR(1) factor `inflation`
+    /// (module docs for the blocks).
+    pub fn of_frfs(leading: usize, layout: &[FrfLayout], inflation: f64, frf: &[f64]) -> Self {
         let tau = integrated_time(frf, layout);
         let mut blocks: Vec<Block> = (0..leading).map(|t| single(t..t + 1)).collect();
         let mut start = leading;
         let mut block_lines = 0;
-        for &(channels, lines) in layout {
+        for l in layout {
+            let (lines, channels) = (l.lines, l.references.len());
             let b = batch_lines(tau, lines);
             block_lines = block_lines.max(b);
-            let mut first = 0;
-            while first < lines {
-                let last = (first + b).min(lines);
-                blocks.push(
-                    (0..channels)
-                        .map(|c| {
-                            let at = start + 2 * (c * lines + first);
-                            at..at + 2 * (last - first)
-                        })
-                        .collect(),
-                );
-                first = last;
+            let mut references = l.references.clone();
+            references.sort_unstable();
+            references.dedup();
+            for reference in references {
+                let mut first = 0;
+                while first < lines {
+                    let last = (first + b).min(lines);
+                    blocks.push(
+                        (0..channels)
+                            .filter(|&c| l.references[c] == reference)
+                            .map(|c| {
+                                let at = start + 2 * (c * lines + first);
+                                at..at + 2 * (last - first)
+                            })
+                            .collect(),
+                    );
+                    first = last;
+                }
             }
             start += 2 * channels * lines;
         }
@@ -139,11 +147,22 @@ impl Correlation {
     }
 }
 
+/// One position's FRF residuals: its lines, and per channel (in residual
+/// order) the index of its reference (excitation).
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrfLayout {
+    pub lines: usize,
+    pub references: Vec<usize>,
+}
+
 /// τ_int of FRF residuals `frf` laid out as `layout` (module docs), in
 /// lines; 1 without residuals or when they do not fit the layout.
-pub fn integrated_time(frf: &[f64], layout: &[(usize, usize)]) -> f64 {
-    let total: usize = layout.iter().map(|&(c, l)| 2 * c * l).sum();
-    let longest = layout.iter().map(|&(_, l)| l).max().unwrap_or(0);
+pub fn integrated_time(frf: &[f64], layout: &[FrfLayout]) -> f64 {
+    let total: usize = layout
+        .iter()
+        .map(|l| 2 * l.references.len() * l.lines)
+        .sum();
+    let longest = layout.iter().map(|l| l.lines).max().unwrap_or(0);
     if total != frf.len() || total == 0 {
         return 1.0;
     }
@@ -151,8 +170,9 @@ pub fn integrated_time(frf: &[f64], layout: &[(usize, usize)]) -> f64 {
     // Autocovariance at each lag in lines, pooled over channels.
     let mut acov = vec![0.0; max_lag + 1];
     let mut start = 0;
-    for &(channels, lines) in layout {
-        for _ in 0..channels {
+    for l in layout {
+        let lines = l.lines;
+        for _ in &l.references {
             let x = &frf[start..start + 2 * lines];
             for (lag, a) in acov.iter_mut().enumerate().take(lines) {
                 *a += x.iter().zip(&x[2 * lag..]).map(|(p, q)| p * q).sum::<f64>();
@@ -324,7 +344,16 @@ mod tests {
     /// B at its floor, a residual smooth over 40 lines a longer B.
     #[test]
     fn blocks_cover_every_residual_once_across_channels() {
-        let layout = [(2, 100), (1, 40)];
+        let layout = [
+            FrfLayout {
+                lines: 100,
+                references: vec![0, 0],
+            },
+            FrfLayout {
+                lines: 40,
+                references: vec![0],
+            },
+        ];
         let m = 2 * (2 * 100 + 40);
         let mut rng = ChaCha8Rng::seed_from_u64(3);
         let white: Vec<f64> = (0..m).map(|_| rng.random::<f64>() - 0.5).collect();
@@ -345,6 +374,18 @@ mod tests {
         assert!(covered.iter().all(|&k| k == 1));
         // Position 2 (one channel of 40 lines) starts at 403, runs of 9.
         assert!(c.blocks.contains(&single(403..421)));
+        // Two references at one position (a roving hammer's hits): each
+        // reference's channels form their own blocks. Channels 0 and 2
+        // (reference 1) at 0..40 and 80..120, channel 1 (reference 0) at
+        // 40..80; runs of 9 lines.
+        let roving = [FrfLayout {
+            lines: 20,
+            references: vec![1, 0, 1],
+        }];
+        let c = Correlation::of_frfs(0, &roving, 1.0, &white[..120]);
+        assert_eq!(c.blocks.len(), 6);
+        assert_eq!(c.blocks[0], single(40..58));
+        assert_eq!(c.blocks[3], vec![0..18, 80..98]);
         // A misfit smooth over 40-line waves: a long integrated time.
         let smooth: Vec<f64> = (0..m)
             .map(|t| ((t / 2) as f64 * std::f64::consts::PI / 40.0).sin())

@@ -225,13 +225,16 @@ impl FrfReference {
             .sum()
     }
 
-    /// Per position (slot), its channels and lines, in the order of
-    /// [`Self::residuals`] (per channel its lines, two residuals, re and
-    /// im, per line).
-    pub fn layout(&self) -> Vec<(usize, usize)> {
+    /// Per position (slot), its lines and each channel's reference, in
+    /// the order of [`Self::residuals`] (per channel its lines, two
+    /// residuals, re and im, per line).
+    pub fn layout(&self) -> Vec<super::batch_means::FrfLayout> {
         self.slots
             .iter()
-            .map(|s| (s.pairs.len(), s.lines_hz.len()))
+            .map(|s| super::batch_means::FrfLayout {
+                lines: s.lines_hz.len(),
+                references: s.pairs.iter().map(|p| p.1).collect(),
+            })
             .collect()
     }
 

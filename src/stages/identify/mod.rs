@@ -132,8 +132,8 @@ impl Kind for Identify {
     /// fewer independent lines, (1 + ρ)/(1 − ρ) (issue 26).
     /// 23: with FRFs, each identified parameter's data variance is the
     /// larger of that and a leave-one-block-out (batch-means jackknife)
-    /// sandwich over blocks of neighbouring lines across a position's
-    /// channels, on the t quantile of its effective number of blocks
+    /// sandwich over blocks of neighbouring lines across the channels of one
+    /// reference at one position, on the t quantile of its effective number of blocks
     /// (`identify::batch_means`; identifiability.json `batch_lines`,
     /// `integrated_time_lines`; issue 26).
     fn version(&self) -> u32 {
