@@ -368,16 +368,27 @@ pub(super) fn pseudo_inverse(columns: &[Vec<f64>]) -> (Mat<f64>, Vec<bool>) {
         .iter()
         .map(|&m| m <= STRUCTURAL * STRUCTURAL * largest || m <= 0.0)
         .collect();
-    let g_plus = Mat::from_fn(n, n, |i, j| {
-        (0..n)
-            .filter(|&k| !null[k])
-            .map(|k| V[(i, k)] * V[(j, k)] / mu[k])
-            .sum()
-    });
+    let g_plus = pseudo_inverse_of(&mu, &V, &|k| null[k]);
     let structural = (0..n)
         .map(|i| (0..n).any(|k| null[k] && V[(i, k)].abs() >= IN_NULL_SPACE))
         .collect();
     (g_plus, structural)
+}
+
+/// G⁺ = Σ_k v_k v_kᵀ/μ_k over the eigenpairs (μ, V) of G that are not
+/// `null`.
+pub(super) fn pseudo_inverse_of(
+    mu: &[f64],
+    V: &Mat<f64>,
+    null: &dyn Fn(usize) -> bool,
+) -> Mat<f64> {
+    let n = mu.len();
+    Mat::from_fn(n, n, |i, j| {
+        (0..n)
+            .filter(|&k| !null(k))
+            .map(|k| V[(i, k)] * V[(j, k)] / mu[k])
+            .sum()
+    })
 }
 
 #[cfg(test)]

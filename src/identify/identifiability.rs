@@ -32,7 +32,7 @@
 #![allow(non_snake_case)]
 
 use super::batch_means::{data_variance, Correlation};
-use super::consider::pseudo_inverse;
+use super::consider::pseudo_inverse_of;
 use crate::dynamics::eigen::symmetric_eigen;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
@@ -187,7 +187,7 @@ pub fn analyze(
         .collect();
     // Without residual degrees of freedom the stated uncertainty stands in.
     let sigma = (residual_variance.unwrap_or(1.0) * correlation.inflation.max(1.0)).sqrt();
-    let (g_plus, _) = pseudo_inverse(columns);
+    let g_plus = pseudo_inverse_of(&mu, &V, &null);
     let data = data_variance(
         columns,
         r,

@@ -75,8 +75,15 @@ pub fn simulate_impact_test_with(
     let mut planner = FftPlanner::new();
     let mut clean = clean_signals(model, k, &responses, params, &mut planner);
     if let Some(x) = excess {
+        let n = clean.force.len();
+        let mut force: Vec<Complex64> = clean
+            .force
+            .iter()
+            .map(|&f| Complex64::new(f, 0.0))
+            .collect();
+        planner.plan_fft_forward(n).process(&mut force);
         for (y, &j) in clean.responses.iter_mut().zip(&responses) {
-            let add = excess_response(model, x, (j, k), &clean.force, params, &mut planner);
+            let add = excess_response(model, x, (j, k), &force, params, &mut planner);
             y.iter_mut().zip(add).for_each(|(v, a)| *v += a);
         }
     }
@@ -150,7 +157,8 @@ fn clean_signals(
     }
 }
 
-/// The response at fs to the decimated `force` of the receptance `excess`
+/// The response at fs to the decimated force (its DFT `spectrum`) of the
+/// receptance `excess`
 /// adds to `model`'s poles for DOF indices (response, reference):
 /// IDFT(ΔH(f_k)·F(k)) over the block's bins (circular; module docs of
 /// [`super::hysteretic`]), in the sensor's quantity.
@@ -158,14 +166,12 @@ fn excess_response(
     model: &ModalModel,
     excess: &HystereticExcess,
     (j, k): (usize, usize),
-    force: &[f64],
+    spectrum: &[Complex64],
     params: &ImpactTestParams,
     planner: &mut FftPlanner<f64>,
 ) -> Vec<f64> {
-    let n = force.len();
+    let n = spectrum.len();
     let df = params.sample_rate_hz / n as f64;
-    let mut spectrum: Vec<Complex64> = force.iter().map(|&f| Complex64::new(f, 0.0)).collect();
-    planner.plan_fft_forward(n).process(&mut spectrum);
     let gain = |bin: usize| {
         let f = bin as f64 * df;
         convert_quantity(excess.receptance(model, j, k, f), f, params.quantity)
