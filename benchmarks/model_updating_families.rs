@@ -36,6 +36,9 @@ struct Family {
     seeds: u32,
     min_mac: f64,
     max_error: f64,
+    /// The truth moved only parameters the screening kept: a verdict that
+    /// blames the screening names the wrong cause.
+    in_class: bool,
 }
 
 const FAMILIES: [Family; 6] = [
@@ -46,6 +49,7 @@ const FAMILIES: [Family; 6] = [
         seeds: 20,
         min_mac: 0.999,
         max_error: 0.02,
+        in_class: true,
     },
     // Screened-out parameters moved too, exact modes: judged by coverage
     // and the verdict (no absolute threshold), as the model-error families.
@@ -56,6 +60,7 @@ const FAMILIES: [Family; 6] = [
         seeds: 20,
         min_mac: f64::NAN,
         max_error: f64::NAN,
+        in_class: false,
     },
     Family {
         name: "AutoEMA, 1 % noise",
@@ -64,6 +69,7 @@ const FAMILIES: [Family; 6] = [
         seeds: 20,
         min_mac: 0.99,
         max_error: 0.05,
+        in_class: true,
     },
     Family {
         name: "AutoEMA, impact test",
@@ -72,6 +78,7 @@ const FAMILIES: [Family; 6] = [
         seeds: 20,
         min_mac: 0.99,
         max_error: 0.05,
+        in_class: true,
     },
     // Model error: success is ending closer to the truth than the start
     // (both measures), judged separately below; no absolute threshold.
@@ -82,6 +89,7 @@ const FAMILIES: [Family; 6] = [
         seeds: 20,
         min_mac: f64::NAN,
         max_error: f64::NAN,
+        in_class: false,
     },
     // The same model error measured by impact tests: the per-line noise
     // from coherence (`frf_averages`) must not let it pass.
@@ -92,6 +100,7 @@ const FAMILIES: [Family; 6] = [
         seeds: 20,
         min_mac: f64::NAN,
         max_error: f64::NAN,
+        in_class: false,
     },
 ];
 
@@ -125,6 +134,43 @@ fn coverage_text(scores: &[(u32, Score)]) -> String {
         if failing.is_empty() { String::new() } else { format!(": {}", failing.join(", ")) },
         if wrong_ok.is_empty() { "none".to_string() } else { wrong_ok.join(", ") },
     )
+}
+
+/// The causes the not-ok verdicts name, counted; for a family whose truth
+/// moved only screened-in parameters (`in_class`), the verdicts that blame
+/// the screening anyway (`ScreenedOut`: a wrong cause).
+fn causes_text(scores: &[(u32, Score)], in_class: bool) -> String {
+    let mut counts: Vec<(String, usize)> = Vec::new();
+    for (_, s) in scores.iter().filter(|(_, s)| !s.ok) {
+        match counts.iter_mut().find(|(c, _)| *c == s.cause) {
+            Some((_, n)) => *n += 1,
+            None => counts.push((s.cause.clone(), 1)),
+        }
+    }
+    counts.sort();
+    let tally: Vec<String> = counts.iter().map(|(c, n)| format!("{c} {n}")).collect();
+    let mut text = format!(
+        "Causes named by the {} verdicts that are not ok: {}.",
+        scores.iter().filter(|(_, s)| !s.ok).count(),
+        if tally.is_empty() {
+            "none".to_string()
+        } else {
+            tally.join(", ")
+        }
+    );
+    if in_class {
+        let wrong: Vec<String> = scores
+            .iter()
+            .filter(|(_, s)| s.cause == "ScreenedOut")
+            .map(|(seed, _)| seed.to_string())
+            .collect();
+        let _ = write!(
+            text,
+            " The truths moved no parameter the screening left fixed; verdicts that blame it anyway: {}.",
+            if wrong.is_empty() { "none".to_string() } else { wrong.join(", ") }
+        );
+    }
+    text
 }
 
 /// min / 10 % / median / 90 % / max of `v`.
@@ -234,6 +280,7 @@ not run yet.
             scores.iter().filter(|(_, s)| s.ok).count()
         );
         let _ = writeln!(md, "{}\n", coverage_text(&scores));
+        let _ = writeln!(md, "{}\n", causes_text(&scores, f.in_class));
         let macs: Vec<f64> = scores.iter().map(|(_, s)| s.mean_mac).collect();
         let errs: Vec<f64> = scores.iter().map(|(_, s)| s.median_error).collect();
         let evals: Vec<f64> = scores.iter().map(|(_, s)| s.evaluations as f64).collect();

@@ -77,6 +77,9 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
     assert!(metrics["modes"]["mean_mac"].as_f64().unwrap() > 0.9999);
     let cost = ws.cost("results/id/fit");
     assert!(cost.evaluations <= 3000);
+    // Every evaluation is in one phase.
+    assert_eq!(cost.phase_evaluations.total(), cost.evaluations, "{cost:?}");
+    assert!(cost.phase_evaluations.optimizer > 0, "{cost:?}");
     assert!(cost.best_objective < 1e-4);
     assert_eq!(cost.optimizer, "slsqp");
     let params = ws.read("results/id/fit/parameters.csv");
@@ -121,6 +124,7 @@ fn black_box_and_guided_recover_the_synthesized_stiffness() {
     let guided = ws.cost("results/id/guided");
     assert_eq!(guided.strategy, "sensitivity_guided");
     assert!(guided.evaluations <= 600);
+    assert_eq!(guided.phase_evaluations.total(), guided.evaluations);
     assert!(guided.modes.mean_mac > 1.0 - 1e-9);
     assert!(guided.modes.mean_nfd < 1e-6);
     assert!(guided.verdict.ok, "{:?}", guided.verdict);
@@ -358,7 +362,7 @@ fn the_updated_model_file_reproduces_the_updated_modes() {
 fn measured_frfs_refine_the_update_and_judge_it() {
     let values = "{k1.k_x: 2.4e6, k12.k_x: 1.3e6, k23.k_x: 1.15e6, k3.k_x: 4.2e5, k1.c_x: 48, k12.c_x: 25, k23.c_x: 23, k3.c_x: 12}";
     let ws = setup(&format!(
-        "name: frf\nstages:\n  truth:\n    kind: synthesize\n    params: {{model: three_mass.yaml, frequency: {{min: 10, max: 400, step: 0.5}}, values: {values}, noise: {{relative: 0.01}}, seed: 2}}\n  heavy:\n    kind: synthesize\n    params: {{model: heavy.yaml, frequency: {{min: 10, max: 400, step: 0.5}}, noise: {{relative: 0.01}}, seed: 2}}\n  fit:\n    kind: identify\n    inputs: {{reference: truth.modes, frf: truth.frf}}\n    params: {{model: three_mass.yaml, strategy: black_box, optimizer: slsqp, budget: 3000}}\n  bad:\n    kind: identify\n    inputs: {{reference: heavy.modes, frf: heavy.frf}}\n    params: {{model: three_mass.yaml, strategy: black_box, optimizer: slsqp, budget: 3000}}\n"
+        "name: frf\nstages:\n  truth:\n    kind: synthesize\n    params: {{model: three_mass.yaml, frequency: {{min: 10, max: 400, step: 0.5}}, values: {values}, noise: {{relative: 0.01}}, seed: 2}}\n  heavy:\n    kind: synthesize\n    params: {{model: heavy.yaml, frequency: {{min: 10, max: 400, step: 0.5}}, noise: {{relative: 0.01}}, seed: 2}}\n  fit:\n    kind: identify\n    inputs: {{reference: truth.modes, frf: truth.frf}}\n    params: {{model: three_mass.yaml, strategy: black_box, optimizer: slsqp, budget: 3000}}\n  bad:\n    kind: identify\n    inputs: {{reference: heavy.modes, frf: heavy.frf}}\n    params: {{model: three_mass.yaml, strategy: black_box, optimizer: slsqp, budget: 6000}}\n"
     ));
     write_heavy(&ws);
     ws.run(&[], 0);
@@ -375,7 +379,23 @@ fn measured_frfs_refine_the_update_and_judge_it() {
     let judged = |v: &Verdict| v.frf.expect("an FRF judgement");
     assert_eq!(judged(v).fit, Fit::WithinNoise, "{v:?}");
     assert!(v.message.contains("FRF residual"), "{v:?}");
-    let v = ws.cost("results/frf/bad").verdict;
+    assert_eq!(good.phase_evaluations.total(), good.evaluations, "{good:?}");
+    assert!(good.follow_ups.is_empty(), "{good:?}");
+    // Above the noise with every parameter identified: the escape search
+    // ran, out of the same budget, and cost.json accounts for it.
+    let bad = ws.cost("results/frf/bad");
+    assert_eq!(bad.phase_evaluations.total(), bad.evaluations, "{bad:?}");
+    let escape = bad
+        .follow_ups
+        .first()
+        .unwrap_or_else(|| panic!("an escape search: {bad:?}"));
+    assert_eq!(escape.kind, modalflow::identify::FollowUpKind::Escape);
+    assert!(
+        escape.evaluations > 0 && escape.rms_after.is_finite(),
+        "{escape:?}"
+    );
+    assert_eq!(bad.phase_evaluations.follow_ups, escape.evaluations);
+    let v = bad.verdict;
     assert!(!v.ok, "{v:?}");
     assert_eq!(judged(&v).fit, Fit::AboveNoise, "{v:?}");
     assert!(judged(&v).end.rms > 5.0, "{v:?}");

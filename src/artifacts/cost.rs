@@ -24,7 +24,26 @@ pub struct Phases {
     /// The FRF refinement (0 without the `frf` input).
     #[serde(default)]
     pub frf: usize,
+    /// A black-box strategy's optimizer.
+    #[serde(default)]
+    pub optimizer: usize,
+    /// The refits and escape searches after the strategy (`follow_ups`).
+    #[serde(default)]
+    pub follow_ups: usize,
     pub assessment: usize,
+}
+
+impl Phases {
+    /// All phases: the update's evaluations.
+    pub fn total(&self) -> usize {
+        self.subproblems
+            + self.refine
+            + self.damping
+            + self.frf
+            + self.optimizer
+            + self.follow_ups
+            + self.assessment
+    }
 }
 
 /// The contents of cost.json.
@@ -47,6 +66,9 @@ pub struct Cost {
     /// The FRF refinement, when the `frf` input was given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub frf: Option<crate::identify::frf_refinement::FrfSummary>,
+    /// What ran after the strategy before the verdict, in order.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub follow_ups: Vec<crate::identify::FollowUpRecord>,
     pub verdict: Verdict,
 }
 

@@ -24,6 +24,7 @@ use super::history::Recorder;
 use super::updating::Plan;
 use super::verdict::{SearchEvidence, Status};
 use super::{IdentifyError, ModalObjective};
+use serde::{Deserialize, Serialize};
 
 /// A further start counts as a better minimum when its cost is below this
 /// fraction of the first (robust cost ½‖r‖²): 10 % lower in RMS.
@@ -31,6 +32,35 @@ pub const ESCAPED: f64 = 0.81;
 
 /// Fewest evaluations a follow-up is started with.
 const MINIMUM: usize = 64;
+
+/// What one follow-up did (cost.json's `follow_ups`): so that an update's
+/// evaluations add up and a reader sees what was tried before the verdict.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FollowUpRecord {
+    /// `refit` (implicated fixed parameters identified too) or `escape`
+    /// (a search over every identified parameter's box).
+    pub kind: FollowUpKind,
+    pub evaluations: usize,
+    /// Parameters it moved.
+    pub parameters: usize,
+    /// Fit RMS (σ units; the FRF fit when FRFs were given) before and at
+    /// its own result.
+    #[serde(deserialize_with = "super::verdict::nan_if_null")]
+    pub rms_before: f64,
+    #[serde(deserialize_with = "super::verdict::nan_if_null")]
+    pub rms_after: f64,
+    /// Its result replaced the update's (an escape: it fitted better; a
+    /// refit: materially better).
+    pub taken: bool,
+}
+
+/// The kind of a [`FollowUpRecord`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FollowUpKind {
+    Refit,
+    Escape,
+}
 
 /// Where an update stands: its point, what it identified and how its last
 /// optimizer ended.
@@ -46,6 +76,15 @@ pub(super) struct Outcome {
     pub refitted: Vec<String>,
 }
 
+/// A follow-up's result: where the update stands after it, what it cost
+/// and, for an escape, the FRF fit RMS at its own best point (which
+/// `outcome` holds only when it fitted better).
+pub(super) struct Step {
+    pub outcome: Outcome,
+    pub cost: usize,
+    pub own_rms: Option<f64>,
+}
+
 /// Refit with the `implicated` fixed parameters identified too, from the
 /// current result, within `budget`; `None` when the budget cannot pay it.
 pub(super) fn refit(
@@ -56,7 +95,7 @@ pub(super) fn refit(
     implicated: &[usize],
     budget: usize,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<Option<(Outcome, usize)>, IdentifyError> {
+) -> Result<Option<Step>, IdentifyError> {
     if budget < MINIMUM.max(8 * (now.identified.len() + implicated.len() + 1)) {
         return Ok(None);
     }
@@ -101,8 +140,8 @@ pub(super) fn refit(
             (r.x, Status::of(&r.termination), None, r.evaluations)
         }
     };
-    Ok(Some((
-        Outcome {
+    Ok(Some(Step {
+        outcome: Outcome {
             x,
             identified: free,
             status,
@@ -112,7 +151,8 @@ pub(super) fn refit(
             refitted,
         },
         cost,
-    )))
+        own_rms: None,
+    }))
 }
 
 /// With FRFs: search the box of every identified parameter and refine from
@@ -127,7 +167,7 @@ pub(super) fn escape(
     now: &Outcome,
     budget: usize,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<Option<(Outcome, usize)>, IdentifyError> {
+) -> Result<Option<Step>, IdentifyError> {
     let Some((reference, settings)) = plan.frf.filter(|(_, s)| s.enabled) else {
         return Ok(None);
     };
@@ -163,6 +203,7 @@ pub(super) fn escape(
         r => r?,
     };
     let cost = r.summary.evaluations;
+    let own_rms = Some(r.summary.end.rms);
     let escaped = r.summary.end.robust_cost < ESCAPED * before.robust_cost;
     let evidence = SearchEvidence {
         escaped: (escaped || thorough).then_some(escaped),
@@ -189,7 +230,11 @@ pub(super) fn escape(
             refitted: now.refitted.clone(),
         }
     };
-    Ok(Some((next, cost)))
+    Ok(Some(Step {
+        outcome: next,
+        cost,
+        own_rms,
+    }))
 }
 
 /// The guided strategy's own restarts as evidence: several refinement runs
@@ -281,9 +326,14 @@ mod tests {
             searched: false,
             refitted: Vec::new(),
         };
-        let (next, cost) = escape(&o, &plan, &o.nominal(), &now, 3000, &|_| {})
+        let Step {
+            outcome: next,
+            cost,
+            own_rms,
+        } = escape(&o, &plan, &o.nominal(), &now, 3000, &|_| {})
             .unwrap()
             .unwrap();
+        assert_eq!(own_rms, Some(next.frf.as_ref().unwrap().summary.end.rms));
         assert!(cost <= 3000);
         assert!(next.searched && next.evidence.escaped == Some(true));
         let end = next.frf.as_ref().unwrap().summary.end;
@@ -292,17 +342,19 @@ mod tests {
             assert!((x / t - 1.0).abs() < 2e-3, "k{k}: {x}");
         }
         // Already at the truth: nothing better, and the evidence says so.
-        let (held, _) = escape(&o, &plan, &o.nominal(), &next, 3000, &|_| {})
+        let held = escape(&o, &plan, &o.nominal(), &next, 3000, &|_| {})
             .unwrap()
-            .unwrap();
+            .unwrap()
+            .outcome;
         assert_eq!(held.evidence.escaped, Some(false));
         // With less budget than the first refinement used, finding nothing
         // better is no evidence either way.
         let first = next.frf.as_ref().unwrap().summary.evaluations;
         assert!(first > 100, "{first}");
-        let (short, _) = escape(&o, &plan, &o.nominal(), &next, first - 1, &|_| {})
+        let short = escape(&o, &plan, &o.nominal(), &next, first - 1, &|_| {})
             .unwrap()
-            .unwrap();
+            .unwrap()
+            .outcome;
         assert_eq!(short.evidence.escaped, None);
     }
 

@@ -45,6 +45,7 @@ pub use black_box::{black_box, BlackBoxResult};
 pub use continuation::ContinuationParams;
 pub use correspondence::{Correspondence, NamedMode};
 pub use damping::{bvls, identify_damping, DampingFit};
+pub use follow_up::{FollowUpKind, FollowUpRecord};
 pub use guided::{guided, GuidedParams, GuidedResult, Screening};
 pub use history::{HistoryRow, Recorder};
 pub use identifiability::Identifiability;

@@ -7,7 +7,7 @@
 use super::assessment::identifiability_at;
 use super::consider::Consider;
 use super::correspondence::Correspondence;
-use super::follow_up::{escape_evidence, Outcome};
+use super::follow_up::{escape_evidence, FollowUpRecord, Outcome};
 use super::frf_objective::FrfReference;
 use super::frf_refinement::{frf_refinement, FrfRefinement, FrfRefinementParams};
 use super::guided::{guided, GuidedParams, GuidedResult, Screening};
@@ -91,6 +91,11 @@ pub struct Update {
     pub frf: Option<FrfRefinement>,
     /// Fixed parameters the score test implicated and a refit identified.
     pub refitted: Vec<String>,
+    /// The first FRF refinement's evaluations (its identifiability analysis
+    /// included; 0 when it did not run): `frf` may be a follow-up's.
+    pub frf_evaluations: usize,
+    /// The follow-ups that ran after the strategy ([`super::follow_up`]).
+    pub follow_ups: Vec<FollowUpRecord>,
 }
 
 /// Update the model of `o` (exclusions are added to it) by `plan`.
@@ -107,8 +112,10 @@ pub fn update(
     let mut evaluations = searched.evaluations;
     let mut x = searched.x.clone();
     let mut frf_result = None;
+    let mut frf_evaluations = 0;
     if let Some((r, cost)) = refine_on_frfs(o, plan, &start, &searched, &budgets, progress)? {
         evaluations += cost;
+        frf_evaluations = cost;
         x = r.x.clone();
         frf_result = Some(r);
     }
@@ -145,6 +152,7 @@ pub fn update(
         evaluations,
         material: Vec::new(),
         refuted: false,
+        follow_ups: Vec::new(),
     })?;
     let Standing {
         outcome,
@@ -152,6 +160,7 @@ pub fn update(
         evaluations,
         mut assessment_evaluations,
         material,
+        follow_ups,
         ..
     } = standing;
     let values = judging::refit_values(o, plan, &start, &outcome, &judged, &material);
@@ -181,6 +190,8 @@ pub fn update(
         optimizer,
         frf: outcome.frf,
         refitted: outcome.refitted,
+        frf_evaluations,
+        follow_ups,
     })
 }
 

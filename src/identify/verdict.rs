@@ -168,12 +168,15 @@ pub enum Cause {
     Budget,
     /// A refit of implicated fixed parameters fitted materially better but
     /// needs values the screening's range does not make plausible (at a
-    /// bound, or beyond the assumed `fixed_spread`; [`RefitValue`]): the
-    /// screening and a local minimum the refitted parameters compensate are
-    /// not told apart.
+    /// bound, or beyond the assumed `fixed_spread`; [`RefitValue`]), or the
+    /// score test implicates fixed parameters at a fit that stalled or
+    /// misplaces a resonance and no refit tested them: the screening and a
+    /// local minimum are not told apart.
     ScreeningOrLocalMinimum,
     /// The residual points at parameters the update held fixed (score
-    /// test): the screening left out something these data see.
+    /// test) at a converged fit, or a refit of them fitted materially
+    /// better with plausible values: the screening left out something these
+    /// data see.
     ScreenedOut,
     /// A further search from other starts found a better fit (taken), so
     /// the landscape has other minima and the result may still be one.
@@ -462,10 +465,9 @@ impl Verdict {
             ));
         }
         self.message.push_str(&format!(
-            "; the residual points at parameter{} the update held fixed: {} — the screening left out what these data see; identify {} too (`refit_implicated`) or check the model file's values",
+            "; the residual points at parameter{} the update held fixed: {}",
             if named.len() == 1 { "" } else { "s" },
             named.join(", "),
-            if named.len() == 1 { "it" } else { "them" },
         ));
         self.implicated = implicated.iter().map(|i| i.0.clone()).collect();
         self.classified(SearchEvidence::default())
@@ -505,6 +507,13 @@ impl Verdict {
         let why: &str = match self.cause {
             Cause::None => return self,
             Cause::Budget => "cause: the budget ran out before the fit converged — give more",
+            Cause::ScreeningOrLocalMinimum if self.refit_values.is_empty() => {
+                line = format!(
+                    "cause: the screening or a local minimum, not told apart — the score test implicates the fixed parameters named above, but at a fit that {}, where a wrong basin of the identified parameters makes the residual point at fixed ones too, and no refit tested them (`refit_implicated` off, or no budget left for it): give more budget so that the refit can tell, or check these parameters' file values",
+                    self.off_minimum().unwrap_or("has not converged")
+                );
+                &line
+            }
             Cause::ScreeningOrLocalMinimum => {
                 line = refit::cause_line(
                     &self.refit_values,
@@ -524,7 +533,7 @@ impl Verdict {
                 );
                 &line
             }
-            Cause::ScreenedOut => "cause: parameters the screening left fixed (named above)",
+            Cause::ScreenedOut => "cause: parameters the screening left fixed (named above): the screening left out what these data see; identify them too (`refit_implicated`) or check the model file's values",
             Cause::LocalMinimum => "cause: a local minimum — a further search from other starts found a better fit (taken), so this one may not be the best either; more `restarts` or a larger budget",
             Cause::ModelError => "cause: model error — further starts end no better and no fixed parameter is implicated: the model's form, its damping model or the test itself (leakage, attachments) differs from the structure",
             Cause::NotSearched => "cause: not told apart — the fit ends above the noise with no fixed parameter implicated, and no further search from other starts ran (budget or strategy), so a local minimum and model error are both possible",
@@ -554,6 +563,11 @@ impl Verdict {
             Cause::Budget
         } else if refit_short && refit::any_implausible(&self.refit_values) {
             Cause::ScreeningOrLocalMinimum
+        } else if !self.implicated.is_empty() && !refit_short && self.off_minimum().is_some() {
+            // The score test holds at a minimum over the identified
+            // parameters; away from one (stalled, or a resonance misplaced:
+            // another basin) a refit must confirm what it implicates.
+            Cause::ScreeningOrLocalMinimum
         } else if !self.implicated.is_empty() || refit_short {
             Cause::ScreenedOut
         } else if self.fit == Fit::AboveNoise {
@@ -575,6 +589,22 @@ impl Verdict {
             Cause::UnreproducedModes
         };
         self
+    }
+}
+
+impl Verdict {
+    /// Why the result may not be a minimum in the right basin, in words: the optimizer stalled above the noise, or a window of the
+    /// FRFs misses a resonance the overall fit does not (another basin, or
+    /// a mode the model lacks). `None` at a converged fit without such a
+    /// window.
+    fn off_minimum(&self) -> Option<&'static str> {
+        if self.status == Status::Stalled {
+            return Some("stalled before converging");
+        }
+        let local = self.frf.as_ref().and_then(|f| local_excess(&f.end));
+        local.map(|_| {
+            "misses or misplaces a resonance (its worst window of lines is far above the noise)"
+        })
     }
 }
 

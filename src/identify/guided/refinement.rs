@@ -70,11 +70,16 @@ impl Refinement<'_> {
         let minimum = run_minimum(o, self.free.len(), self.settings);
         let Runs { best, mut runs } =
             self.run_candidates(&candidates, budget, minimum, noise_cost, &mut used)?;
+        // The subproblems may leave less than one run needs (the up-front
+        // check cannot know what they will use): the better start stands,
+        // and the verdict names the budget instead of refusing the stage.
         let Some((r, index)) = best else {
-            return Err(IdentifyError::Invalid(format!(
-                "budget {budget} cannot pay one refinement over {} parameters; give at least {minimum} more",
-                self.free.len()
-            )));
+            return Ok(Refined {
+                x: candidates[0].1.clone(),
+                status: Status::BudgetExhausted,
+                evaluations: used,
+                runs,
+            });
         };
         let kept = runs.remove(index);
         runs.insert(0, kept);
@@ -157,7 +162,8 @@ impl Refinement<'_> {
             let runs_left = candidates.len() - k;
             // The first run may use most of it; later ones share what is left.
             let share = if k == 0 && runs_left > 1 {
-                left * 3 / 5
+                // ... but never less than one run when the budget has it.
+                (left * 3 / 5).max(minimum.min(left))
             } else {
                 left / runs_left
             };

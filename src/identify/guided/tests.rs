@@ -103,6 +103,39 @@ fn the_refinement_alone_and_the_subproblems_alone() {
     assert!(e.to_string().contains("give at least"), "{e}");
 }
 
+/// What the subproblems leave may not pay one refinement run: the better
+/// start stands with the status "budget exhausted" (the verdict names the
+/// budget), not an error after the work is done.
+#[test]
+fn a_refinement_the_budget_cannot_pay_ends_at_the_budget() {
+    let o = objective();
+    let settings = GuidedParams::default();
+    let free: Vec<usize> = (0..4).collect();
+    let start = o.nominal();
+    let mut x1 = truth();
+    x1[0] *= 1.01;
+    let recorder = Recorder::starting_at(0);
+    let refinement = Refinement {
+        o: &o,
+        free: &free,
+        start: &start,
+        settings: &settings,
+        seed: 1,
+        recorder: &recorder,
+        progress: &|_| {},
+    };
+    let minimum = run_minimum(&o, free.len(), &settings);
+    let short = refinement.refine(&x1, minimum - 1).unwrap();
+    assert_eq!(short.status, Status::BudgetExhausted);
+    assert!(short.runs.is_empty());
+    assert_eq!(short.x, x1, "the better of start and subproblems stands");
+    assert!(short.evaluations < 8, "{}", short.evaluations);
+    // One run's worth, even where the first run's usual share (3/5 of what
+    // is left) would be less: it runs.
+    let one = refinement.refine(&x1, minimum + 8).unwrap();
+    assert_eq!(one.runs.len(), 1, "{:?}", one.runs.len());
+}
+
 #[test]
 fn the_refinement_does_not_depend_on_the_start() {
     // From three corners of the box the continuation reaches the truth.

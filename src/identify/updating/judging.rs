@@ -6,7 +6,9 @@
 
 use super::super::assessment::{assess, bound_warnings};
 use super::super::consider::Consider;
-use super::super::follow_up::{escape, refit, Outcome, ESCAPED};
+use super::super::follow_up::{
+    escape, refit, FollowUpKind, FollowUpRecord, Outcome, Step, ESCAPED,
+};
 use super::super::guided::GuidedResult;
 use super::super::identifiability::Identifiability;
 use super::super::objective::ModalObjective;
@@ -30,6 +32,8 @@ pub(super) struct Standing {
     /// A refit that did not fit better refutes the implication: the verdict
     /// is judged without it, and the escape search may run instead.
     pub(super) refuted: bool,
+    /// The follow-ups that ran, in order.
+    pub(super) follow_ups: Vec<FollowUpRecord>,
 }
 
 /// What the judging and the follow-ups of an update work with.
@@ -75,11 +79,34 @@ impl FollowUps<'_> {
             } else {
                 None
             };
-            let Some((next, cost)) = step else { break };
+            let Some(Step {
+                outcome: next,
+                cost,
+                own_rms,
+            }) = step
+            else {
+                break;
+            };
             s.evaluations += cost;
             let mut next_judged = self.judge(&next)?;
             s.assessment_evaluations += next_judged.evaluations;
             let gain = Gain::of(fit_rms(&s.judged.verdict), fit_rms(&next_judged.verdict));
+            s.follow_ups.push(FollowUpRecord {
+                kind: if refitting {
+                    FollowUpKind::Refit
+                } else {
+                    FollowUpKind::Escape
+                },
+                evaluations: cost,
+                parameters: next.identified.len(),
+                rms_before: fit_rms(&s.judged.verdict),
+                rms_after: own_rms.unwrap_or_else(|| fit_rms(&next_judged.verdict)),
+                taken: if refitting {
+                    gain == Gain::Material
+                } else {
+                    next.x != s.outcome.x
+                },
+            });
             if refitting && gain != Gain::Material {
                 let within = refute(&mut s.judged, &next_judged, gain == Gain::Slight);
                 s.refuted = true;

@@ -203,6 +203,60 @@ fn the_cause_is_classified_on_small_cases() {
     assert_eq!(ok.clone().explained().message, ok.message);
 }
 
+/// The score test holds at a minimum over the identified parameters: what
+/// it implicates at a stalled fit, or at one that misplaces a resonance
+/// (another basin), names the screening only once a refit confirms it.
+#[test]
+fn an_untested_implication_off_a_minimum_is_not_blamed_on_the_screening() {
+    let implicated = [("colj.k_x".to_string(), 0.4, 505.0)];
+    let stalled = Verdict::judge(Status::Stalled, 29.0, 18.0, counts(), 5, 5, vec![])
+        .with_frf(
+            Status::Stalled,
+            FrfJudgement::new(fit(29.0, 0.9), fit(18.0, 0.9)),
+        )
+        .with_implicated(&implicated);
+    assert_eq!(stalled.cause, Cause::ScreeningOrLocalMinimum, "{stalled:?}");
+    let text = stalled.clone().explained().message;
+    assert!(text.contains("colj.k_x (+49 %"), "{text}");
+    assert!(
+        text.contains("stalled before converging, where a wrong basin"),
+        "{text}"
+    );
+    assert!(text.contains("no refit tested them"), "{text}");
+    // Converged overall at 1.9σ but 12σ over one window: another basin.
+    let local = FrfFit {
+        local: Some(LocalMisfit {
+            rms: 12.0,
+            frequency_hz: 119.5,
+            position: 0,
+        }),
+        ..fit(1.9, 0.3)
+    };
+    let misplaced = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+        .with_frf(Status::Converged, FrfJudgement::new(fit(11.0, 0.9), local))
+        .with_implicated(&implicated);
+    assert_eq!(misplaced.cause, Cause::ScreeningOrLocalMinimum);
+    let text = misplaced.explained().message;
+    assert!(text.contains("misplaces a resonance"), "{text}");
+    // A converged fit without such a window: the score test stands.
+    let converged = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+        .with_frf(
+            Status::Converged,
+            FrfJudgement::new(fit(11.0, 0.9), fit(3.0, 0.9)),
+        )
+        .with_implicated(&implicated);
+    assert_eq!(converged.cause, Cause::ScreenedOut);
+    let text = converged.explained().message;
+    assert!(
+        text.contains("the screening left out what these data see"),
+        "{text}"
+    );
+    // A refit with plausible values that fitted materially better confirms
+    // it, stalled or not.
+    let confirmed = stalled.with_refitted(vec![plausible("colj.k_x")]);
+    assert_eq!(confirmed.cause, Cause::ScreenedOut);
+}
+
 /// A refitted value 30 % above its file value, mid-range and determined.
 fn plausible(name: &str) -> RefitValue {
     RefitValue::judge(name.into(), 1.3, 0.59, true, None)

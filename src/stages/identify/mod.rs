@@ -136,8 +136,14 @@ impl Kind for Identify {
     /// reference at one position, on the t quantile of its effective number of blocks
     /// (`identify::batch_means`; identifiability.json `batch_lines`,
     /// `integrated_time_lines`; issue 26).
+    /// 24: an implication of the score test that no refit tested, at a
+    /// stalled fit or one that misplaces a resonance, is cause
+    /// `screening_or_local_minimum`, not `screened_out`; cost.json lists the
+    /// follow-ups (`follow_ups`) and counts them in `phase_evaluations`; a
+    /// refinement the subproblems left no budget for ends at the budget
+    /// instead of failing the stage (issue 26).
     fn version(&self) -> u32 {
-        23
+        24
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -373,7 +379,9 @@ fn write_outputs(
     };
     let mut phases = Phases {
         assessment: u.assessment_evaluations,
-        frf: u.frf.as_ref().map_or(0, |r| r.summary.evaluations),
+        frf: u.frf_evaluations,
+        optimizer: u.optimizer.as_ref().map_or(0, |r| r.evaluations),
+        follow_ups: u.follow_ups.iter().map(|f| f.evaluations).sum(),
         ..Phases::default()
     };
     if let Some(g) = &u.guided {
@@ -420,6 +428,7 @@ fn write_outputs(
         modes: o.summary(&u.x).map_err(failed)?,
         phase_evaluations: phases,
         frf: u.frf.as_ref().map(|r| r.summary.clone()),
+        follow_ups: u.follow_ups.clone(),
         verdict: u.verdict.clone(),
     };
     let path = ctx.scratch.join(crate::artifacts::cost::FILE);
