@@ -385,6 +385,7 @@ fn measured_frfs_refine_the_update_and_judge_it() {
     // ran, out of the same budget, and cost.json accounts for it.
     let bad = ws.cost("results/frf/bad");
     assert_eq!(bad.phase_evaluations.total(), bad.evaluations, "{bad:?}");
+    assert!(bad.evaluations <= 6000, "{}", bad.evaluations);
     let escape = bad
         .follow_ups
         .first()

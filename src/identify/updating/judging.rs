@@ -66,9 +66,14 @@ impl FollowUps<'_> {
     pub(super) fn run(&self, mut s: Standing) -> Result<Standing, IdentifyError> {
         let (o, plan, start, progress) = (self.o, self.plan, self.start, self.progress);
         for _ in 0..2 {
+            // The reserve pays the judgement of what a follow-up returns;
+            // one more for the result's J at the end (the strategy's share
+            // keeps the same one back: `Budgets::split`). Without it a
+            // follow-up that used all it was given ended one over the
+            // budget (the mill's impact family: 16,001 of 16,000).
             let left = plan
                 .budget
-                .saturating_sub(s.evaluations + s.assessment_evaluations + self.reserve);
+                .saturating_sub(s.evaluations + s.assessment_evaluations + self.reserve + 1);
             let mut implicated = s.judged.implicated(o);
             implicated.truncate(REFIT_AT_ONCE);
             let refitting = !implicated.is_empty() && plan.refit_implicated && !s.refuted;
