@@ -151,6 +151,10 @@ pub struct Verdict {
     /// Why the verdict is not ok (`none` when it is).
     #[serde(default)]
     pub cause: Cause,
+    /// The evidence of a further search it was last classified with (not
+    /// written: the cause and the message say what it showed).
+    #[serde(skip)]
+    pub search: SearchEvidence,
     /// One line a person reads first.
     pub message: String,
     /// Everything else worth a look.
@@ -169,9 +173,9 @@ pub enum Cause {
     /// A refit of implicated fixed parameters fitted materially better but
     /// needs values the screening's range does not make plausible (at a
     /// bound, or beyond the assumed `fixed_spread`; [`RefitValue`]), or the
-    /// score test implicates fixed parameters at a fit that stalled or
-    /// misplaces a resonance and no refit tested them: the screening and a
-    /// local minimum are not told apart.
+    /// score test implicates fixed parameters at a fit that stalled,
+    /// misplaces a resonance or an escape search just reached, and no refit
+    /// tested them: the screening and a local minimum are not told apart.
     ScreeningOrLocalMinimum,
     /// The residual points at parameters the update held fixed (score
     /// test) at a converged fit, or a refit of them fitted materially
@@ -397,6 +401,7 @@ impl Verdict {
             refit_values: Vec::new(),
             damping: None,
             cause: Cause::None,
+            search: SearchEvidence::default(),
             message: parts.join("; "),
             warnings,
         }
@@ -548,6 +553,7 @@ impl Verdict {
     /// Name the cause (see [`Cause`]) from the verdict and the `evidence`
     /// of a further search.
     pub fn classified(mut self, evidence: SearchEvidence) -> Verdict {
+        self.search = evidence;
         // Parameters the screening held fixed and a refit had to add, with
         // the fit still above the noise: the screening is the cause, even
         // when that refit (not the strategy) ran out of budget — more budget
@@ -593,13 +599,17 @@ impl Verdict {
 }
 
 impl Verdict {
-    /// Why the result may not be a minimum in the right basin, in words: the optimizer stalled above the noise, or a window of the
-    /// FRFs misses a resonance the overall fit does not (another basin, or
-    /// a mode the model lacks). `None` at a converged fit without such a
-    /// window.
+    /// Why the result may not be a minimum in the right basin, in words:
+    /// the optimizer stalled above the noise, a further search just left
+    /// another minimum for it, or a window of the FRFs misses a resonance
+    /// the overall fit does not (another basin, or a mode the model lacks).
+    /// `None` at a converged fit without any of these.
     fn off_minimum(&self) -> Option<&'static str> {
         if self.status == Status::Stalled {
             return Some("stalled before converging");
+        }
+        if self.search.escaped == Some(true) {
+            return Some("an escape search reached from a worse basin (the landscape has other minima, and this may be one)");
         }
         let local = self.frf.as_ref().and_then(|f| local_excess(&f.end));
         local.map(|_| {

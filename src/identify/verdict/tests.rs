@@ -246,11 +246,19 @@ fn an_untested_implication_off_a_minimum_is_not_blamed_on_the_screening() {
         )
         .with_implicated(&implicated);
     assert_eq!(converged.cause, Cause::ScreenedOut);
-    let text = converged.explained().message;
+    let text = converged.clone().explained().message;
     assert!(
         text.contains("the screening left out what these data see"),
         "{text}"
     );
+    // ... unless an escape search has just found it from a worse basin:
+    // other minima exist, and no refit tested the implication.
+    let escaped = converged.clone().classified(SearchEvidence {
+        escaped: Some(true),
+    });
+    assert_eq!(escaped.cause, Cause::ScreeningOrLocalMinimum);
+    let text = escaped.explained().message;
+    assert!(text.contains("an escape search reached"), "{text}");
     // A refit with plausible values that fitted materially better confirms
     // it, stalled or not.
     let confirmed = stalled.with_refitted(vec![plausible("colj.k_x")]);

@@ -137,7 +137,8 @@ impl Kind for Identify {
     /// (`identify::batch_means`; identifiability.json `batch_lines`,
     /// `integrated_time_lines`; issue 26).
     /// 24: an implication of the score test that no refit tested, at a
-    /// stalled fit or one that misplaces a resonance, is cause
+    /// stalled fit, one that misplaces a resonance or one an escape search
+    /// just reached, is cause
     /// `screening_or_local_minimum`, not `screened_out`; cost.json lists the
     /// follow-ups (`follow_ups`) and counts them in `phase_evaluations`; a
     /// refinement the subproblems left no budget for ends at the budget
