@@ -152,6 +152,7 @@ pub fn update(
         evaluations,
         material: Vec::new(),
         refuted: false,
+        refutation: None,
         follow_ups: Vec::new(),
     })?;
     let Standing {

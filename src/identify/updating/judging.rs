@@ -32,6 +32,9 @@ pub(super) struct Standing {
     /// A refit that did not fit better refutes the implication: the verdict
     /// is judged without it, and the escape search may run instead.
     pub(super) refuted: bool,
+    /// The refuted parameters and the warning that says so, kept on every
+    /// later judgement (an escape's result is judged afresh).
+    pub(super) refutation: Option<(Vec<String>, String)>,
     /// The follow-ups that ran, in order.
     pub(super) follow_ups: Vec<FollowUpRecord>,
 }
@@ -112,9 +115,21 @@ impl FollowUps<'_> {
                     next.x != s.outcome.x
                 },
             });
+            if let Some((names, warning)) = &s.refutation {
+                next_judged.keep_refutation(names, warning);
+            }
             if refitting && gain != Gain::Material {
+                let names = s.judged.verdict.implicated.clone();
                 let within = refute(&mut s.judged, &next_judged, gain == Gain::Slight);
                 s.refuted = true;
+                let warning = s
+                    .judged
+                    .verdict
+                    .warnings
+                    .last()
+                    .cloned()
+                    .unwrap_or_default();
+                s.refutation = Some((names, warning));
                 if within {
                     break;
                 }
@@ -284,6 +299,21 @@ pub(super) struct Judged {
 }
 
 impl Judged {
+    /// Keep a refit's refutation of `names` on this later judgement: they
+    /// are not implicated again (what else the score test implicates here
+    /// is), and the `warning` that refuted them stays.
+    fn keep_refutation(&mut self, names: &[String], warning: &str) {
+        let kept: Vec<(String, f64, f64)> = self.consider.as_ref().map_or(Vec::new(), |c| {
+            c.implicated()
+                .iter()
+                .filter(|f| !names.contains(&f.parameter))
+                .map(|f| (f.parameter.clone(), f.change, f.statistic))
+                .collect()
+        });
+        self.untested.warnings.push(warning.to_string());
+        self.verdict = self.untested.clone().with_implicated(&kept);
+    }
+
     /// Indices of the implicated fixed parameters, largest statistic first.
     fn implicated(&self, o: &ModalObjective) -> Vec<usize> {
         let Some(c) = &self.consider else {
@@ -396,6 +426,67 @@ mod tests {
             largest_moves(&o, &before, &x),
             format!("{} ×0.25, {} ×3, {} ×1.1", names[1], names[2], names[0])
         );
+    }
+
+    /// A refit refuted the implication of `a` and `b`; the escape that
+    /// followed is judged afresh, and its score test implicates `a` and `c`:
+    /// `a` stays refuted (with the warning that said so), `c` is new.
+    #[test]
+    fn a_refutation_holds_on_later_judgements() {
+        use super::super::super::consider::{Consider, FixedParameter};
+        use super::super::super::identifiability::Identifiability;
+        use super::super::super::verdict::{ModeCounts, Verdict};
+        use super::Judged;
+        let fixed = |name: &str, statistic: f64| FixedParameter {
+            parameter: name.into(),
+            spread: 0.3,
+            statistic,
+            p_value: 1e-9,
+            change: 0.2,
+            implicated: true,
+            influence: 0.0,
+        };
+        let untested = Verdict::judge(
+            Status::Converged,
+            9.0,
+            5.0,
+            ModeCounts::default(),
+            4,
+            4,
+            vec![],
+        );
+        let implicated = [("a".to_string(), 0.2, 90.0), ("c".to_string(), 0.2, 40.0)];
+        let mut judged = Judged {
+            verdict: untested.clone().with_implicated(&implicated),
+            untested,
+            identifiability: Identifiability {
+                parameters: Vec::new(),
+                singular_values: Vec::new(),
+                undetermined: Vec::new(),
+                residuals: 0,
+                rank: 0,
+                residual_variance: None,
+                max_std_error: 0.1,
+                batch_lines: 0,
+                integrated_time_lines: 1.0,
+            },
+            consider: Some(Consider {
+                std_error: Vec::new(),
+                fixed: vec![fixed("a", 90.0), fixed("c", 40.0)],
+                critical: 10.0,
+            }),
+            pairs: Vec::new(),
+            evaluations: 0,
+        };
+        assert_eq!(judged.verdict.implicated, ["a", "c"]);
+        judged.keep_refutation(&["a".into(), "b".into()], "refuted a, b");
+        assert_eq!(judged.verdict.implicated, ["c"]);
+        assert!(judged.verdict.warnings.iter().any(|w| w == "refuted a, b"));
+        // Nothing new implicated: the untested verdict, with the warning.
+        judged.keep_refutation(&["a".into(), "c".into()], "refuted c");
+        assert!(judged.verdict.implicated.is_empty());
+        assert_eq!(judged.verdict.warnings, judged.untested.warnings);
+        assert!(judged.verdict.warnings.iter().any(|w| w == "refuted c"));
     }
 
     #[test]

@@ -142,7 +142,8 @@ impl Kind for Identify {
     /// `screening_or_local_minimum`, not `screened_out`; cost.json lists the
     /// follow-ups (`follow_ups`) and counts them in `phase_evaluations`; a
     /// refinement the subproblems left no budget for ends at the budget
-    /// instead of failing the stage (issue 26).
+    /// instead of failing the stage; a refit's refutation holds on the
+    /// escape search's judgement (issue 26).
     fn version(&self) -> u32 {
         24
     }
