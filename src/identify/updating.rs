@@ -151,7 +151,6 @@ pub fn update(
         judged,
         evaluations,
         material: Vec::new(),
-        refuted: false,
         refutation: None,
         follow_ups: Vec::new(),
     })?;

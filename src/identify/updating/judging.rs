@@ -30,11 +30,9 @@ pub(super) struct Standing {
     /// (a refit that gains little says the misfit lies elsewhere).
     pub(super) material: Vec<String>,
     /// A refit that did not fit better refutes the implication: the verdict
-    /// is judged without it, and the escape search may run instead.
-    pub(super) refuted: bool,
-    /// The refuted parameters and the warning that says so, kept on every
-    /// later judgement (an escape's result is judged afresh).
-    pub(super) refutation: Option<(Vec<String>, String)>,
+    /// is judged without it (on every later judgement too: an escape's
+    /// result is judged afresh), and the escape search may run instead.
+    pub(super) refutation: Option<Refutation>,
     /// The follow-ups that ran, in order.
     pub(super) follow_ups: Vec<FollowUpRecord>,
 }
@@ -79,7 +77,8 @@ impl FollowUps<'_> {
                 .saturating_sub(s.evaluations + s.assessment_evaluations + self.reserve + 1);
             let mut implicated = s.judged.implicated(o);
             implicated.truncate(REFIT_AT_ONCE);
-            let refitting = !implicated.is_empty() && plan.refit_implicated && !s.refuted;
+            let refitting =
+                !implicated.is_empty() && plan.refit_implicated && s.refutation.is_none();
             let step = if refitting {
                 refit(o, plan, start, &s.outcome, &implicated, left, progress)?
             } else if s.judged.verdict.fit == Fit::AboveNoise && !s.outcome.searched {
@@ -115,21 +114,13 @@ impl FollowUps<'_> {
                     next.x != s.outcome.x
                 },
             });
-            if let Some((names, warning)) = &s.refutation {
-                next_judged.keep_refutation(names, warning);
+            if let Some(r) = &s.refutation {
+                next_judged.keep_refutation(r);
             }
             if refitting && gain != Gain::Material {
-                let names = s.judged.verdict.implicated.clone();
-                let within = refute(&mut s.judged, &next_judged, gain == Gain::Slight);
-                s.refuted = true;
-                let warning = s
-                    .judged
-                    .verdict
-                    .warnings
-                    .last()
-                    .cloned()
-                    .unwrap_or_default();
-                s.refutation = Some((names, warning));
+                let (refutation, within) =
+                    refute(&mut s.judged, &next_judged, gain == Gain::Slight);
+                s.refutation = Some(refutation);
                 if within {
                     break;
                 }
@@ -219,11 +210,18 @@ pub(super) fn refit_values(
         .collect()
 }
 
+/// A refit's refutation of the score test's implication: the parameters
+/// it refuted and the warning that says so.
+pub(super) struct Refutation {
+    names: Vec<String>,
+    warning: String,
+}
+
 /// Refute the score test's implication after a refit (judged `refitted`)
 /// that did not fit better, or only slightly (`better`): `judged` goes back
-/// to its untested verdict, with a warning saying so. True when the fit is
-/// within the noise (then the follow-ups end).
-fn refute(judged: &mut Judged, refitted: &Judged, better: bool) -> bool {
+/// to its untested verdict, with a warning saying so. The refutation, and
+/// true when the fit is within the noise (then the follow-ups end).
+fn refute(judged: &mut Judged, refitted: &Judged, better: bool) -> (Refutation, bool) {
     let (now, then) = (fit_rms(&judged.verdict), fit_rms(&refitted.verdict));
     let names = judged.verdict.implicated.join(", ");
     // The implication is refuted: within the noise it was
@@ -236,16 +234,21 @@ fn refute(judged: &mut Judged, refitted: &Judged, better: bool) -> bool {
     } else {
         "did not fit better"
     };
-    judged.verdict = judged.untested.clone();
-    judged.verdict.warnings.push(format!(
+    let warning = format!(
         "the score test implicated {names}, but identifying them too {how} ({then:.2}σ against {now:.2}σ): {}",
         if within {
             "the fit is within the noise, not counted against the verdict"
         } else {
             "not taken, and the misfit is judged as not theirs"
         }
-    ));
-    within
+    );
+    let refutation = Refutation {
+        names: std::mem::take(&mut judged.verdict.implicated),
+        warning,
+    };
+    judged.verdict = judged.untested.clone();
+    judged.verdict.warnings.push(refutation.warning.clone());
+    (refutation, within)
 }
 
 /// What a follow-up gained over the result before it, by the residual RMS
@@ -299,18 +302,18 @@ pub(super) struct Judged {
 }
 
 impl Judged {
-    /// Keep a refit's refutation of `names` on this later judgement: they
-    /// are not implicated again (what else the score test implicates here
-    /// is), and the `warning` that refuted them stays.
-    fn keep_refutation(&mut self, names: &[String], warning: &str) {
+    /// Keep a refit's refutation on this later judgement: the parameters
+    /// it refuted are not implicated again (what else the score test
+    /// implicates here is), and its warning stays.
+    fn keep_refutation(&mut self, r: &Refutation) {
         let kept: Vec<(String, f64, f64)> = self.consider.as_ref().map_or(Vec::new(), |c| {
             c.implicated()
                 .iter()
-                .filter(|f| !names.contains(&f.parameter))
+                .filter(|f| !r.names.contains(&f.parameter))
                 .map(|f| (f.parameter.clone(), f.change, f.statistic))
                 .collect()
         });
-        self.untested.warnings.push(warning.to_string());
+        self.untested.warnings.push(r.warning.clone());
         self.verdict = self.untested.clone().with_implicated(&kept);
     }
 
@@ -436,7 +439,7 @@ mod tests {
         use super::super::super::consider::{Consider, FixedParameter};
         use super::super::super::identifiability::Identifiability;
         use super::super::super::verdict::{ModeCounts, Verdict};
-        use super::Judged;
+        use super::{Judged, Refutation};
         let fixed = |name: &str, statistic: f64| FixedParameter {
             parameter: name.into(),
             spread: 0.3,
@@ -479,11 +482,15 @@ mod tests {
             evaluations: 0,
         };
         assert_eq!(judged.verdict.implicated, ["a", "c"]);
-        judged.keep_refutation(&["a".into(), "b".into()], "refuted a, b");
+        let refuted = |names: &[&str], warning: &str| Refutation {
+            names: names.iter().map(|n| n.to_string()).collect(),
+            warning: warning.into(),
+        };
+        judged.keep_refutation(&refuted(&["a", "b"], "refuted a, b"));
         assert_eq!(judged.verdict.implicated, ["c"]);
         assert!(judged.verdict.warnings.iter().any(|w| w == "refuted a, b"));
         // Nothing new implicated: the untested verdict, with the warning.
-        judged.keep_refutation(&["a".into(), "c".into()], "refuted c");
+        judged.keep_refutation(&refuted(&["a", "c"], "refuted c"));
         assert!(judged.verdict.implicated.is_empty());
         assert_eq!(judged.verdict.warnings, judged.untested.warnings);
         assert!(judged.verdict.warnings.iter().any(|w| w == "refuted c"));
