@@ -77,12 +77,21 @@ pub(super) struct Outcome {
 }
 
 /// A follow-up's result: where the update stands after it, what it cost
-/// and, for an escape, the FRF fit RMS at its own best point (which
-/// `outcome` holds only when it fitted better).
+/// and, for an escape, how its own best point ended.
 pub(super) struct Step {
     pub outcome: Outcome,
     pub cost: usize,
-    pub own_rms: Option<f64>,
+    pub escape: Option<EscapeEnd>,
+}
+
+/// How an escape search ended.
+#[derive(Clone, Copy)]
+pub(super) struct EscapeEnd {
+    /// FRF fit RMS (σ units) at its best point.
+    pub rms: f64,
+    /// It fitted better, so `Step::outcome` is its point; otherwise the
+    /// outcome is the point it started from (searched, its evidence new).
+    pub better: bool,
 }
 
 /// Refit with the `implicated` fixed parameters identified too, from the
@@ -151,7 +160,7 @@ pub(super) fn refit(
             refitted,
         },
         cost,
-        own_rms: None,
+        escape: None,
     }))
 }
 
@@ -203,7 +212,7 @@ pub(super) fn escape(
         r => r?,
     };
     let cost = r.summary.evaluations;
-    let own_rms = Some(r.summary.end.rms);
+    let end_rms = r.summary.end.rms;
     let escaped = r.summary.end.robust_cost < ESCAPED * before.robust_cost;
     let evidence = SearchEvidence {
         escaped: (escaped || thorough).then_some(escaped),
@@ -233,7 +242,10 @@ pub(super) fn escape(
     Ok(Some(Step {
         outcome: next,
         cost,
-        own_rms,
+        escape: Some(EscapeEnd {
+            rms: end_rms,
+            better,
+        }),
     }))
 }
 
@@ -329,11 +341,13 @@ mod tests {
         let Step {
             outcome: next,
             cost,
-            own_rms,
+            escape: end,
         } = escape(&o, &plan, &o.nominal(), &now, 3000, &|_| {})
             .unwrap()
             .unwrap();
-        assert_eq!(own_rms, Some(next.frf.as_ref().unwrap().summary.end.rms));
+        let end = end.unwrap();
+        assert!(end.better);
+        assert_eq!(end.rms, next.frf.as_ref().unwrap().summary.end.rms);
         assert!(cost <= 3000);
         assert!(next.searched && next.evidence.escaped == Some(true));
         let end = next.frf.as_ref().unwrap().summary.end;
@@ -344,8 +358,10 @@ mod tests {
         // Already at the truth: nothing better, and the evidence says so.
         let held = escape(&o, &plan, &o.nominal(), &next, 3000, &|_| {})
             .unwrap()
-            .unwrap()
-            .outcome;
+            .unwrap();
+        assert!(!held.escape.unwrap().better);
+        assert_eq!(held.outcome.x, next.x);
+        let held = held.outcome;
         assert_eq!(held.evidence.escaped, Some(false));
         // With less budget than the first refinement used, finding nothing
         // better is no evidence either way.

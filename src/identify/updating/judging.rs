@@ -89,16 +89,14 @@ impl FollowUps<'_> {
             let Some(Step {
                 outcome: next,
                 cost,
-                own_rms,
+                escape: end,
             }) = step
             else {
                 break;
             };
             s.evaluations += cost;
-            let mut next_judged = self.judge(&next)?;
-            s.assessment_evaluations += next_judged.evaluations;
-            let gain = Gain::of(fit_rms(&s.judged.verdict), fit_rms(&next_judged.verdict));
-            s.follow_ups.push(FollowUpRecord {
+            let before = fit_rms(&s.judged.verdict);
+            let record = |rms_after: f64, taken: bool| FollowUpRecord {
                 kind: if refitting {
                     FollowUpKind::Refit
                 } else {
@@ -106,14 +104,24 @@ impl FollowUps<'_> {
                 },
                 evaluations: cost,
                 parameters: next.identified.len(),
-                rms_before: fit_rms(&s.judged.verdict),
-                rms_after: own_rms.unwrap_or_else(|| fit_rms(&next_judged.verdict)),
-                taken: if refitting {
-                    gain == Gain::Material
-                } else {
-                    next.x != s.outcome.x
-                },
-            });
+                rms_before: before,
+                rms_after,
+                taken,
+            };
+            // An escape that found nothing better leaves the point as it
+            // was judged: only its evidence is new (the verdict is
+            // classified with it at the end), so it is not judged again.
+            if let Some(e) = end.filter(|e| !e.better) {
+                s.follow_ups.push(record(e.rms, false));
+                s.outcome = next;
+                continue;
+            }
+            let mut next_judged = self.judge(&next)?;
+            s.assessment_evaluations += next_judged.evaluations;
+            let after = fit_rms(&next_judged.verdict);
+            let gain = Gain::of(before, after);
+            s.follow_ups
+                .push(record(after, !refitting || gain == Gain::Material));
             if let Some(r) = &s.refutation {
                 next_judged.keep_refutation(r);
             }

@@ -144,8 +144,10 @@ impl Kind for Identify {
     /// refinement the subproblems left no budget for ends at the budget
     /// instead of failing the stage; a refit's refutation holds on the
     /// escape search's judgement (issue 26).
+    /// 25: an escape search that found nothing better is not assessed
+    /// again (the same point; one assessment's evaluations fewer).
     fn version(&self) -> u32 {
-        24
+        25
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
