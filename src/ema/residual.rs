@@ -88,6 +88,13 @@ impl ResidualPeak {
 const SEARCH_LINES: usize = 12;
 const SEARCH_RELATIVE: f64 = 0.03;
 
+/// How far (Hz) from a residual peak at `f_hz` the check looks for the
+/// data's own peak: ±max([`SEARCH_LINES`] lines of `step_hz`,
+/// [`SEARCH_RELATIVE`] f).
+pub fn search_reach(f_hz: f64, step_hz: f64) -> f64 {
+    (SEARCH_LINES as f64 * step_hz).max(SEARCH_RELATIVE * f_hz)
+}
+
 /// Whether line `k` of `a` is the largest within ±`w` lines (and no end).
 fn local_max(a: &dyn Fn(usize) -> f64, n: usize, k: usize, w: usize) -> bool {
     k > 0 && k + 1 < n && (k.saturating_sub(w)..(k + w + 1).min(n)).all(|j| a(j) <= a(k))

@@ -110,6 +110,14 @@ pub enum Acceptance {
     /// Its contribution to the fit stands above the noise (score ≥ 1);
     /// a root between peaks or sharing one with a second CMIF curve peak.
     Significance { score: f64 },
+    /// Significant on a short stable column, and kept because the fit
+    /// without it leaves the data peak at `peak_hz` unexplained, `ratio`×
+    /// above the noise ([`super::residual::ResidualPeak::missing_mode`]).
+    DataPeak {
+        peak_hz: f64,
+        ratio: f64,
+        score: f64,
+    },
 }
 
 /// The roots kept, their fit and what was removed.
