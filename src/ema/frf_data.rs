@@ -46,6 +46,17 @@ impl FrfData {
         self.frequencies_hz.len()
     }
 
+    /// The median spacing of the lines, Hz (0 with fewer than two lines).
+    pub fn line_spacing_hz(&self) -> f64 {
+        let mut steps: Vec<f64> = self
+            .frequencies_hz
+            .windows(2)
+            .map(|w| w[1] - w[0])
+            .collect();
+        steps.sort_by(f64::total_cmp);
+        steps.get(steps.len() / 2).copied().unwrap_or(0.0)
+    }
+
     /// The FRF of output `o` and reference `i` over all lines.
     pub fn channel(&self, o: usize, i: usize) -> &[Complex64] {
         let nf = self.n_lines();

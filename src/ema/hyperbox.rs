@@ -112,8 +112,6 @@ impl DataSummary {
     /// variances ([`super::noise`]).
     pub fn of(data: &FrfData, cmif: &[Vec<f64>], noise: &[f64]) -> DataSummary {
         let f = &data.frequencies_hz;
-        let mut steps: Vec<f64> = f.windows(2).map(|w| w[1] - w[0]).collect();
-        steps.sort_by(f64::total_cmp);
         let reach = (data.n_lines() / 50).max(5);
         // First curve: every mode, by prominence above the noise
         // ([`cmif_mode_peaks`]); further curves: repeated roots.
@@ -129,7 +127,7 @@ impl DataSummary {
                 }
             })
             .sum();
-        let line_spacing_hz = steps.get(steps.len() / 2).copied().unwrap_or(0.0);
+        let line_spacing_hz = data.line_spacing_hz();
         let frf_peaks = if data.n_ref() <= FEW_REFERENCES {
             frf_peak_count(data, noise, line_spacing_hz)
         } else {

@@ -36,6 +36,7 @@
 //! valley (antiresonances, where the H1 error grows as the coherence drops)
 //! is listed, not warned about.
 
+use super::noise::{coherence_relative_error, relative_noise, ASSUMED_AVERAGES};
 use super::FrfData;
 use num_complex::Complex64;
 
@@ -254,6 +255,28 @@ pub fn missing_mode_warnings(peaks: &[ResidualPeak], modes: &[(f64, f64)]) -> Ve
         k += n;
     }
     out
+}
+
+/// The check of a fit (`reconstructed`, of the identified `modes`:
+/// frequency, damping ratio) against the noise: the relative error ε²
+/// (power ratio; the larger of the data's noise and the fit's misfit) and
+/// the residual peaks, those at an identified mode marked.
+pub fn check(
+    data: &FrfData,
+    noise: &[f64],
+    reconstructed: &[Complex64],
+    modes: &[(f64, f64)],
+) -> (f64, Vec<ResidualPeak>) {
+    let relative = relative_noise(data, noise).max(relative_misfit(data, reconstructed, noise));
+    let mut peaks = residual_peaks(
+        data,
+        reconstructed,
+        noise,
+        relative,
+        &coherence_relative_error(data, ASSUMED_AVERAGES),
+    );
+    mark_identified(&mut peaks, modes, data.line_spacing_hz());
+    (relative, peaks)
 }
 
 /// Local maxima of the residual-to-noise ratio (most prominent first, at

@@ -17,12 +17,9 @@
 use super::design::SobolSearch;
 use super::hyperbox::{AtBound, DataSummary, LOG_SCALE};
 use super::lsfd::LsfdFit;
-use super::noise::{coherence_relative_error, relative_noise, ASSUMED_AVERAGES};
 use super::peak_evidence::unresolved_pairs;
 use super::polymax::{polymax, PoleOrder, PolymaxParams};
-use super::residual::{
-    mark_identified, missing_mode_warnings, relative_misfit, residual_peaks, ResidualPeak,
-};
+use super::residual::{self, missing_mode_warnings, ResidualPeak};
 use super::selection::{
     final_fit, refine_selection, select_modes, Hyperparameters, Screening, Selection,
     SelectionParams, HYPERPARAMETER_NAMES,
@@ -297,35 +294,19 @@ fn identified_modes(orders: &[PoleOrder], best: &Selection) -> Vec<(f64, f64)> {
         .collect()
 }
 
-/// The final fit's check against the noise floor: the relative error ε²
-/// (power ratio; the larger of the data's noise and the fit's misfit) and
-/// the residual peaks, those at an identified mode marked.
+/// The final fit's check against the noise floor ([`residual::check`]).
 fn check_fit(
     screening: &Screening<'_>,
     orders: &[PoleOrder],
     best: &Selection,
     fit: &LsfdFit,
-    summary: &DataSummary,
 ) -> (f64, Vec<ResidualPeak>) {
-    let data = screening.data;
-    let relative_error = relative_noise(data, &screening.noise).max(relative_misfit(
-        data,
-        &fit.reconstructed,
+    residual::check(
+        screening.data,
         &screening.noise,
-    ));
-    let mut residual_peaks = residual_peaks(
-        data,
         &fit.reconstructed,
-        &screening.noise,
-        relative_error,
-        &coherence_relative_error(data, ASSUMED_AVERAGES),
-    );
-    mark_identified(
-        &mut residual_peaks,
         &identified_modes(orders, best),
-        summary.line_spacing_hz,
-    );
-    (relative_error, residual_peaks)
+    )
 }
 
 /// The sentences that ask the user to act.
@@ -392,7 +373,7 @@ pub fn auto_ema(
     );
     let best = refine_selection(&mut screening, &orders, &best);
     let fit = final_fit(data, &orders, &best)?;
-    let (relative_error, residual_peaks) = check_fit(&screening, &orders, &best, &fit, &summary);
+    let (relative_error, residual_peaks) = check_fit(&screening, &orders, &best, &fit);
     let warnings = warnings(&screening, &orders, &best, &at_bound, &residual_peaks);
     Ok(AutoEmaResult {
         orders,

@@ -7,13 +7,11 @@
 
 use super::{band_hz, stabilization_params, stable_poles, Screening, Selection};
 use crate::ema::lsfd::lsfd_roots;
-use crate::ema::noise::{coherence_relative_error, peak_at, relative_noise, ASSUMED_AVERAGES};
+use crate::ema::noise::peak_at;
 use crate::ema::polymax::{Pole, PoleOrder};
 use crate::ema::projection::FitOutcome;
 use crate::ema::refine::{nested_statistic, refine_sweep};
-use crate::ema::residual::{
-    mark_identified, relative_misfit, residual_peaks, search_reach, ResidualPeak,
-};
+use crate::ema::residual::{self, search_reach, ResidualPeak};
 use crate::ema::roots::{multiplicity_over_all_orders, Root};
 use crate::ema::significance::{chi2_isf, holds_peak, Acceptance, Reason, Rejection, Validated};
 use crate::ema::stabilization::stabilize;
@@ -222,7 +220,7 @@ fn unfitted_data_peak(
     k: usize,
 ) -> Option<ResidualPeak> {
     let f = roots[k].pole(orders).frequency_hz;
-    let reach = search_reach(f, line_step(&screening.data.frequencies_hz));
+    let reach = search_reach(f, screening.data.line_spacing_hz());
     let others: Vec<&Root> = (0..roots.len())
         .filter(|&j| j != k)
         .map(|j| &roots[j])
@@ -235,7 +233,7 @@ fn unfitted_data_peak(
 }
 
 /// The strongest missing-mode residual peak within `reach` Hz of `f_hz`
-/// of the LSFD fit of `roots` (the final check of [`crate::ema::search`],
+/// of the LSFD fit of `roots` (the final fit's check, [`residual::check`],
 /// on these roots).
 fn missing_mode_near(
     screening: &Screening<'_>,
@@ -244,20 +242,9 @@ fn missing_mode_near(
     f_hz: f64,
     reach: f64,
 ) -> Option<ResidualPeak> {
-    let data = screening.data;
     let lambdas: Vec<Complex64> = roots.iter().map(|r| r.pole(orders).s).collect();
     let mult: Vec<usize> = roots.iter().map(|r| r.multiplicity).collect();
-    let fit = lsfd_roots(data, &lambdas, &mult).ok()?;
-    let noise = &screening.noise;
-    let relative =
-        relative_noise(data, noise).max(relative_misfit(data, &fit.reconstructed, noise));
-    let mut peaks = residual_peaks(
-        data,
-        &fit.reconstructed,
-        noise,
-        relative,
-        &coherence_relative_error(data, ASSUMED_AVERAGES),
-    );
+    let fit = lsfd_roots(screening.data, &lambdas, &mult).ok()?;
     let modes: Vec<(f64, f64)> = roots
         .iter()
         .map(|r| {
@@ -265,19 +252,11 @@ fn missing_mode_near(
             (p.frequency_hz, p.damping_ratio)
         })
         .collect();
-    mark_identified(&mut peaks, &modes, line_step(&data.frequencies_hz));
+    let (_, peaks) = residual::check(screening.data, &screening.noise, &fit.reconstructed, &modes);
     peaks
         .into_iter()
         .filter(|q| q.missing_mode() && (q.frequency_hz - f_hz).abs() <= reach)
         .max_by(|a, b| a.ratio.total_cmp(&b.ratio))
-}
-
-/// Mean line spacing of `freqs`, Hz (as the residual check takes it).
-fn line_step(freqs: &[f64]) -> f64 {
-    match freqs {
-        [first, .., last] => (last - first) / (freqs.len() - 1) as f64,
-        _ => f64::MIN_POSITIVE,
-    }
 }
 
 /// A root kept only for its significance (no CMIF peak of its own) needs a
