@@ -244,8 +244,8 @@ impl Kind for AutoEma {
     /// missing-mode warnings are one per stretch between identified modes
     /// (vibration-toolbox case 1: 9 → 3) (issue 31).
     /// 13: a short stable column is kept when the fit without it leaves a
-    /// data peak in its window ≥ 10× above the noise (`accepted_by:
-    /// data_peak`): the vertical mill's impact tests lost one of a 0.5 %
+    /// data peak near it ≥ 10× above the noise that the fit with it
+    /// explains (`accepted_by: data_peak`): the vertical mill's impact tests lost one of a 0.5 %
     /// close pair at 174 Hz (ζ 0.1 %) this way and then warned that a mode
     /// is missing there (issues 26, 31).
     fn version(&self) -> u32 {

@@ -167,9 +167,17 @@ fn validate_without_short_columns(
                 .into_iter()
                 .filter(|&(k, _)| held(&kept, &validated.roots[k]).is_none())
                 .collect();
+        // What the fit of every root leaves unexplained: one fit per round,
+        // whichever short column asks.
+        let unexplained = if short.is_empty() {
+            Vec::new()
+        } else {
+            let all: Vec<&Root> = validated.roots.iter().collect();
+            missing_modes(screening, orders, &all)
+        };
         let mut unjudged = Vec::new();
         for &(k, median) in &short {
-            match unfitted_data_peak(screening, orders, &validated.roots, k) {
+            match unfitted_data_peak(screening, orders, &validated.roots, k, &unexplained) {
                 Some(peak) => kept.push((validated.roots[k].pole(orders).s, peak)),
                 None => unjudged.push((k, median)),
             }
@@ -208,7 +216,8 @@ fn validate_without_short_columns(
 /// peak, the fit does not, ≥ [`crate::ema::residual::VISIBLE`]× the noise)
 /// of the fit of the other roots within the reach in which the check
 /// looks for a residual's data peak ([`search_reach`]) of the root, where
-/// the fit with it leaves none. A root on a short column with such a peak
+/// the fit of all roots leaves none (`unexplained`: its missing-mode
+/// peaks, [`missing_modes`]). A root on a short column with such a peak
 /// is a mode the data show: dropping it would leave the very peak the
 /// final check then warns about (vertical mill, impact tests: a 174.1 Hz
 /// root at ζ 0.13 % on 8 of 40 orders, one of a 0.5 % close pair, was
@@ -218,33 +227,37 @@ fn unfitted_data_peak(
     orders: &[PoleOrder],
     roots: &[Root],
     k: usize,
+    unexplained: &[ResidualPeak],
 ) -> Option<ResidualPeak> {
     let f = roots[k].pole(orders).frequency_hz;
     let reach = search_reach(f, screening.data.line_spacing_hz());
+    let near = |q: &ResidualPeak| (q.frequency_hz - f).abs() <= reach;
+    if unexplained.iter().any(near) {
+        return None;
+    }
     let others: Vec<&Root> = (0..roots.len())
         .filter(|&j| j != k)
         .map(|j| &roots[j])
         .collect();
-    let without = missing_mode_near(screening, orders, &others, f, reach)?;
-    let all: Vec<&Root> = roots.iter().collect();
-    missing_mode_near(screening, orders, &all, f, reach)
-        .is_none()
-        .then_some(without)
+    missing_modes(screening, orders, &others)
+        .into_iter()
+        .filter(near)
+        .max_by(|a, b| a.ratio.total_cmp(&b.ratio))
 }
 
-/// The strongest missing-mode residual peak within `reach` Hz of `f_hz`
-/// of the LSFD fit of `roots` (the final fit's check, [`residual::check`],
-/// on these roots).
-fn missing_mode_near(
+/// The missing-mode residual peaks ([`ResidualPeak::missing_mode`]) of the
+/// LSFD fit of `roots` (the final fit's check, [`residual::check`], on
+/// these roots); none when the fit fails.
+fn missing_modes(
     screening: &Screening<'_>,
     orders: &[PoleOrder],
     roots: &[&Root],
-    f_hz: f64,
-    reach: f64,
-) -> Option<ResidualPeak> {
+) -> Vec<ResidualPeak> {
     let lambdas: Vec<Complex64> = roots.iter().map(|r| r.pole(orders).s).collect();
     let mult: Vec<usize> = roots.iter().map(|r| r.multiplicity).collect();
-    let fit = lsfd_roots(screening.data, &lambdas, &mult).ok()?;
+    let Ok(fit) = lsfd_roots(screening.data, &lambdas, &mult) else {
+        return Vec::new();
+    };
     let modes: Vec<(f64, f64)> = roots
         .iter()
         .map(|r| {
@@ -255,8 +268,8 @@ fn missing_mode_near(
     let (_, peaks) = residual::check(screening.data, &screening.noise, &fit.reconstructed, &modes);
     peaks
         .into_iter()
-        .filter(|q| q.missing_mode() && (q.frequency_hz - f_hz).abs() <= reach)
-        .max_by(|a, b| a.ratio.total_cmp(&b.ratio))
+        .filter(ResidualPeak::missing_mode)
+        .collect()
 }
 
 /// A root kept only for its significance (no CMIF peak of its own) needs a
@@ -459,7 +472,9 @@ mod tests {
             (175.0, 0.001, 5),
             (210.0, 0.01, 40),
         ]);
-        let peak = unfitted_data_peak(&screening, &orders, &roots, 2)
+        let all: Vec<&Root> = roots.iter().collect();
+        let unexplained = missing_modes(&screening, &orders, &all);
+        let peak = unfitted_data_peak(&screening, &orders, &roots, 2, &unexplained)
             .expect("without the second of the pair its peak is unexplained");
         assert!(
             (peak.frequency_hz - 141.0).abs() <= search_reach(141.0, 0.25),
@@ -467,7 +482,7 @@ mod tests {
         );
         assert!(peak.ratio >= crate::ema::residual::VISIBLE, "{peak:?}");
         assert_eq!(
-            unfitted_data_peak(&screening, &orders, &roots, 3),
+            unfitted_data_peak(&screening, &orders, &roots, 3, &unexplained),
             None,
             "the spurious root explains no data peak"
         );
