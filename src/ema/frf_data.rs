@@ -30,6 +30,10 @@ pub struct FrfData {
     pub h: Vec<Complex64>,
     /// Weight per output and line, w[o · n_lines + f].
     pub weight: Vec<f64>,
+    /// Whitening weight u(f) per line, common to all channels
+    /// ([`super::whitening`]): when not all ones, `h` holds u·H and every
+    /// model column must be multiplied by u as well.
+    pub line_weight: Vec<f64>,
     /// Ordinary coherence γ² per channel and line, laid out as `h`; empty
     /// unless every channel carries it.
     pub coherence: Vec<f64>,
@@ -87,6 +91,7 @@ impl FrfData {
             references,
             h,
             weight: Vec::new(),
+            line_weight: vec![1.0; nf],
             coherence: Vec::new(),
         };
         d.weight = d.uniform_weights();
@@ -152,6 +157,7 @@ impl FrfData {
             references,
             h,
             weight: Vec::new(),
+            line_weight: vec![1.0; nf],
             coherence: Vec::new(),
         };
         if channels.len() != d.n_out() * d.n_ref() {
@@ -217,6 +223,39 @@ impl FrfData {
             )));
         }
         Ok(())
+    }
+
+    /// Whether `h` is whitened ([`FrfData::whiten`]).
+    pub fn is_whitened(&self) -> bool {
+        self.line_weight.iter().any(|&u| u != 1.0)
+    }
+
+    /// Whiten by the line weights `u` ([`super::whitening`]): h ← u·h, the
+    /// per-output weights recomputed on the whitened data (the coherence
+    /// weighting, a noise model of its own, is not combined with it).
+    pub fn whiten(&mut self, u: Vec<f64>) {
+        let nf = self.n_lines();
+        assert_eq!(u.len(), nf, "one weight per line");
+        for (k, v) in self.h.iter_mut().enumerate() {
+            *v *= u[k % nf];
+        }
+        self.line_weight = u;
+        self.weight = self.uniform_weights();
+    }
+
+    /// Undo the whitening on values laid out as `h` (a reconstruction).
+    pub fn unwhiten(&self, values: &mut [Complex64]) {
+        let nf = self.n_lines();
+        for (k, v) in values.iter_mut().enumerate() {
+            *v /= self.line_weight[k % nf];
+        }
+    }
+
+    /// Undo the whitening on one value per line (a CMIF curve).
+    pub fn unwhiten_lines(&self, values: &mut [f64]) {
+        for (v, u) in values.iter_mut().zip(&self.line_weight) {
+            *v /= u;
+        }
     }
 
     /// Per-output weight 1/√(mean |H_o|²) over references and lines.

@@ -52,6 +52,11 @@ pub struct DataSummary {
     /// order feeds the significance test more spurious columns, and that
     /// test, not the order, rejects the modes missed on these sets.
     pub frf_peaks: usize,
+    /// When the noise varies along the band beyond
+    /// the limit of [`super::whitening::NoiseModel`]: the ratio of its largest to
+    /// its smallest standard deviation, and the analysis weights the lines
+    /// by it ([`super::whitening`]); `None` for white noise.
+    pub noise_profile_range: Option<f64>,
 }
 
 /// Reference count up to which the FRF peaks are counted as well: with one
@@ -143,6 +148,7 @@ impl DataSummary {
             n_lines: data.n_lines(),
             cmif_peaks,
             frf_peaks,
+            noise_profile_range: None,
         }
     }
 
@@ -245,6 +251,7 @@ mod tests {
             n_lines: 961,
             cmif_peaks: 8,
             frf_peaks: 0,
+            noise_profile_range: None,
         };
         assert_eq!(s.max_order_range(), (12, 54));
         let b = s.bounds((12, 54));
@@ -284,6 +291,7 @@ mod tests {
             references: vec![crate::ema::synthetic::dof(99)],
             h,
             weight: vec![1.0; n_out * nf],
+            line_weight: vec![1.0; nf],
             coherence: Vec::new(),
         }
     }

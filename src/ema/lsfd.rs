@@ -129,19 +129,21 @@ fn basis(data: &FrfData, lambdas: &[Complex64], f: usize, col: usize) -> Complex
     let j = Complex64::new(0.0, 1.0);
     let w = 2.0 * PI * data.frequencies_hz[f];
     let jw = Complex64::new(0.0, w);
-    match col {
-        c if c < 2 * lambdas.len() => {
-            let l = lambdas[c / 2];
-            let (p, q) = (1.0 / (jw - l), 1.0 / (jw - l.conj()));
-            if c % 2 == 0 {
-                p + q
-            } else {
-                j * p - j * q
+    // On whitened data (h = u·H) the column is whitened too ([`super::whitening`]).
+    data.line_weight[f]
+        * match col {
+            c if c < 2 * lambdas.len() => {
+                let l = lambdas[c / 2];
+                let (p, q) = (1.0 / (jw - l), 1.0 / (jw - l.conj()));
+                if c % 2 == 0 {
+                    p + q
+                } else {
+                    j * p - j * q
+                }
             }
+            c if c == 2 * lambdas.len() => Complex64::new(-1.0 / (w * w), 0.0),
+            _ => Complex64::new(1.0, 0.0),
         }
-        c if c == 2 * lambdas.len() => Complex64::new(-1.0 / (w * w), 0.0),
-        _ => Complex64::new(1.0, 0.0),
-    }
 }
 
 /// The real design matrix [Re; Im] of the [`basis`] (column-major, 2 n_f

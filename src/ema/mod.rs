@@ -36,6 +36,7 @@ pub mod significance;
 pub mod stabilization;
 pub mod summary;
 pub mod synthetic;
+pub mod whitening;
 
 pub use clustering::{cluster_poles, Cluster, ClusterParams};
 pub use frf_data::{FrfData, Weighting};

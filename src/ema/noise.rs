@@ -51,7 +51,7 @@ pub fn channel_noise_variance(f: &[f64], h: &[Complex64]) -> f64 {
 
 /// |d_k|²/Σ w_i² of the fourth divided difference centred on every line k
 /// with two neighbours each side (module docs), with k.
-fn fourth_differences<'a>(
+pub(crate) fn fourth_differences<'a>(
     f: &'a [f64],
     h: &'a [Complex64],
 ) -> impl Iterator<Item = (usize, f64)> + 'a {
@@ -124,7 +124,7 @@ pub fn coherence_relative_error(data: &FrfData, n_averages: f64) -> Vec<f64> {
         .collect()
 }
 
-fn median(v: &mut [f64]) -> f64 {
+pub(crate) fn median(v: &mut [f64]) -> f64 {
     if v.is_empty() {
         return 0.0;
     }

@@ -100,11 +100,24 @@ fn powers(data: &FrfData, n: usize, dt: f64) -> Vec<Complex64> {
 /// The kernel sums of output `o` and the normal blocks of order `n` they fill.
 fn blocks(data: &FrfData, o: usize, n: usize, zk: &[Complex64]) -> Blocks {
     let (nf, nr) = (data.n_lines(), data.n_ref());
+    // A whitened h = u·H ([`super::whitening`]) is fitted as H with u in the
+    // equation-error weight: u·w_o·(N − H D).
+    let u = &data.line_weight;
     let q: Vec<f64> = data.weight[o * nf..(o + 1) * nf]
         .iter()
-        .map(|w| w * w)
+        .zip(u)
+        .map(|(w, u)| (w * u) * (w * u))
         .collect();
-    let h: Vec<&[Complex64]> = (0..nr).map(|i| data.channel(o, i)).collect();
+    let raw: Vec<Vec<Complex64>> = (0..nr)
+        .map(|i| {
+            data.channel(o, i)
+                .iter()
+                .zip(u)
+                .map(|(h, u)| h / u)
+                .collect()
+        })
+        .collect();
+    let h: Vec<&[Complex64]> = raw.iter().map(Vec::as_slice).collect();
     // c[k] = Σ q z^k (real part), s_i[±k] = Σ q z^{±k} H_i, t_ij[k] = Σ q z^k H_i* H_j.
     let mut c = vec![0.0; n + 1];
     let mut s_pos = vec![Complex64::new(0.0, 0.0); nr * (n + 1)];

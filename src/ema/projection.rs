@@ -172,8 +172,14 @@ impl<'a> Projector<'a> {
         &self.h2
     }
 
-    fn column(&self, re: Vec<f64>, im: Vec<f64>) -> Column {
+    /// The column b(ω) with planar parts `re`, `im`, whitened like the data
+    /// (u·b, [`super::whitening`]), and its projections.
+    fn column(&self, mut re: Vec<f64>, mut im: Vec<f64>) -> Column {
         let nf = self.data.n_lines();
+        for ((r, i), u) in re.iter_mut().zip(&mut im).zip(&self.data.line_weight) {
+            *r *= u;
+            *i *= u;
+        }
         let s = (0..self.n_ch)
             .into_par_iter()
             .map(|c| {

@@ -226,11 +226,15 @@ fn local_problem(
                 .iter()
                 .map(|&f| {
                     let w = omega[f];
+                    // The other poles' part of the fit, whitened like the
+                    // data; u is smooth on the scale of a group's band, so
+                    // the local model absorbs it in its residues.
+                    let u = data.line_weight[f];
                     let mut v = data.h[c * nf + f];
                     for j in (0..np).filter(|j| !g.contains(j)) {
-                        v -= modal(lambdas[j], x[2 * j], x[2 * j + 1], w);
+                        v -= modal(lambdas[j], x[2 * j], x[2 * j + 1], w) * u;
                     }
-                    (v - Complex64::new(-x[2 * np] / (w * w) + x[2 * np + 1], 0.0)) / s
+                    (v - Complex64::new(-x[2 * np] / (w * w) + x[2 * np + 1], 0.0) * u) / s
                 })
                 .collect()
         })

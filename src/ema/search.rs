@@ -24,7 +24,7 @@ use super::selection::{
     final_fit, refine_selection, select_modes, Hyperparameters, Screening, Selection,
     SelectionParams, HYPERPARAMETER_NAMES,
 };
-use super::{EmaError, FrfData};
+use super::{whitening, EmaError, FrfData};
 use std::collections::BTreeMap;
 
 /// Settings of [`auto_ema`].
@@ -48,6 +48,8 @@ pub struct AutoEmaParams {
     pub fixed: BTreeMap<String, f64>,
     /// Search ranges replacing the fitted ones.
     pub bounds: BTreeMap<String, (f64, f64)>,
+    /// The noise model along the band ([`whitening::NoiseModel`]).
+    pub noise: whitening::NoiseModel,
 }
 
 impl Default for AutoEmaParams {
@@ -60,6 +62,7 @@ impl Default for AutoEmaParams {
             design: 0,
             fixed: BTreeMap::new(),
             bounds: BTreeMap::new(),
+            noise: whitening::NoiseModel::Auto,
         }
     }
 }
@@ -94,7 +97,8 @@ pub struct AutoEmaResult {
     pub relative_error: f64,
     /// CMIF curves (singular values per line).
     pub cmif: Vec<Vec<f64>>,
-    /// Noise variance per channel.
+    /// Noise variance per channel (whitened data: at the lines of median
+    /// weight, u = 1).
     pub noise: Vec<f64>,
     /// Everything a user must know, as sentences.
     pub warnings: Vec<String>,
@@ -337,7 +341,7 @@ fn warnings(
 /// PolyMAX up to the highest order, then Bayesian optimization of the
 /// selection hyperparameters; `on_step` is called after every evaluation.
 pub fn auto_ema(
-    data: &FrfData,
+    raw: &FrfData,
     p: &AutoEmaParams,
     on_step: &(dyn Fn() + Sync),
 ) -> Result<AutoEmaResult, EmaError> {
@@ -347,8 +351,30 @@ pub fn auto_ema(
             format!("α = {} must lie in (0, 1)", p.selection.alpha),
         ));
     }
+    // Noise that varies along the band is whitened ([`super::whitening`]):
+    // the analysis works on the whitened data and reports in the units of
+    // `raw`. Where the weights leave PolyMAX's normal equations singular
+    // at the top order, the data are analysed as given (white noise), as
+    // `data.noise_profile_range` (absent) then says.
+    match whitened(raw, p.noise) {
+        Some(white) => match analyse(raw, &white, p, on_step) {
+            Err(EmaError::IllConditioned { .. }) => analyse(raw, raw, p, on_step),
+            r => r,
+        },
+        None => analyse(raw, raw, p, on_step),
+    }
+}
+
+/// [`auto_ema`] on `data`, `raw` itself or whitened.
+fn analyse(
+    raw: &FrfData,
+    data: &FrfData,
+    p: &AutoEmaParams,
+    on_step: &(dyn Fn() + Sync),
+) -> Result<AutoEmaResult, EmaError> {
     let mut screening = Screening::new(data, p.selection.clone());
-    let summary = DataSummary::of(data, &screening.cmif, &screening.noise);
+    let mut summary = DataSummary::of(data, &screening.cmif, &screening.noise);
+    summary.noise_profile_range = data.is_whitened().then(|| profile_range(&data.line_weight));
     let (bounds, fixed) = search_space(p, &summary)?;
     let top_order = bounds[8].1.round().max(1.0) as usize;
     let orders = polymax(
@@ -371,10 +397,20 @@ pub fn auto_ema(
         &coordinates.free,
         &|x| coordinates.point(x),
     );
-    let best = refine_selection(&mut screening, &orders, &best);
-    let fit = final_fit(data, &orders, &best)?;
+    let mut best = refine_selection(&mut screening, &orders, &best);
+    let mut fit = final_fit(data, &orders, &best)?;
     let (relative_error, residual_peaks) = check_fit(&screening, &orders, &best, &fit);
     let warnings = warnings(&screening, &orders, &best, &at_bound, &residual_peaks);
+    let mut cmif = screening.cmif;
+    if data.is_whitened() {
+        // σ_k(u·H) = u·σ_k(H) line by line: the CMIF of the FRFs as given;
+        // the reconstruction and its FRAC too.
+        for curve in &mut cmif {
+            data.unwhiten_lines(curve);
+        }
+        data.unwhiten(&mut fit.reconstructed);
+        best.mean_frac = fit.mean_frac(raw);
+    }
     Ok(AutoEmaResult {
         orders,
         best,
@@ -385,10 +421,27 @@ pub fn auto_ema(
         at_bound,
         residual_peaks,
         relative_error: relative_error.sqrt(),
-        cmif: screening.cmif,
+        cmif,
         noise: screening.noise,
         warnings,
     })
+}
+
+/// `data` whitened by its noise profile, or `None` when `model` takes its
+/// noise as white.
+fn whitened(data: &FrfData, model: whitening::NoiseModel) -> Option<FrfData> {
+    let u = model.line_weights(data)?;
+    let mut white = data.clone();
+    white.whiten(u);
+    Some(white)
+}
+
+/// Ratio of the largest to the smallest line weight: how far the noise's
+/// standard deviation varies along the band.
+fn profile_range(u: &[f64]) -> f64 {
+    let top = u.iter().cloned().fold(0.0, f64::max);
+    let bottom = u.iter().cloned().fold(f64::INFINITY, f64::min);
+    top / bottom
 }
 
 /// Pairs of modes that close together on a single CMIF peak (see
