@@ -356,7 +356,7 @@ pub fn auto_ema(
     // `raw`. Where the weights leave PolyMAX's normal equations singular
     // at the top order, the data are analysed as given (white noise), as
     // `data.noise_profile_range` (absent) then says.
-    match whitened(raw, p.noise) {
+    match p.noise.whitened(raw) {
         Some(white) => match analyse(raw, &white, p, on_step) {
             Err(EmaError::IllConditioned { .. }) => analyse(raw, raw, p, on_step),
             r => r,
@@ -374,7 +374,9 @@ fn analyse(
 ) -> Result<AutoEmaResult, EmaError> {
     let mut screening = Screening::new(data, p.selection.clone());
     let mut summary = DataSummary::of(data, &screening.cmif, &screening.noise);
-    summary.noise_profile_range = data.is_whitened().then(|| profile_range(&data.line_weight));
+    summary.noise_profile_range = data
+        .is_whitened()
+        .then(|| whitening::range(&data.line_weight));
     let (bounds, fixed) = search_space(p, &summary)?;
     let top_order = bounds[8].1.round().max(1.0) as usize;
     let orders = polymax(
@@ -425,23 +427,6 @@ fn analyse(
         noise: screening.noise,
         warnings,
     })
-}
-
-/// `data` whitened by its noise profile, or `None` when `model` takes its
-/// noise as white.
-fn whitened(data: &FrfData, model: whitening::NoiseModel) -> Option<FrfData> {
-    let u = model.line_weights(data)?;
-    let mut white = data.clone();
-    white.whiten(u);
-    Some(white)
-}
-
-/// Ratio of the largest to the smallest line weight: how far the noise's
-/// standard deviation varies along the band.
-fn profile_range(u: &[f64]) -> f64 {
-    let top = u.iter().cloned().fold(0.0, f64::max);
-    let bottom = u.iter().cloned().fold(f64::INFINITY, f64::min);
-    top / bottom
 }
 
 /// Pairs of modes that close together on a single CMIF peak (see

@@ -78,6 +78,22 @@ impl NoiseModel {
         };
         noise_profile(data, min_range).map(|v| line_weights(&v))
     }
+
+    /// `data` whitened by its line weights, or `None` for white noise.
+    pub fn whitened(self, data: &FrfData) -> Option<FrfData> {
+        let u = self.line_weights(data)?;
+        let mut white = data.clone();
+        white.whiten(u);
+        Some(white)
+    }
+}
+
+/// Ratio of the largest to the smallest line weight: how far the noise's
+/// standard deviation varies along the band.
+pub fn range(u: &[f64]) -> f64 {
+    let top = u.iter().cloned().fold(0.0, f64::max);
+    let bottom = u.iter().cloned().fold(f64::INFINITY, f64::min);
+    top / bottom
 }
 
 /// The relative noise variance v(f) per line (module docs), or `None` when

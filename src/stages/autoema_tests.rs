@@ -1,6 +1,7 @@
 //! Unit tests of the autoema stage's parameter handling.
 
 use super::*;
+use crate::ema::{whitening::NoiseModel, Reciprocity, Weighting};
 use crate::stages::{ParamSet, Stage};
 
 fn params(yaml: &str) -> Params {
@@ -23,6 +24,13 @@ fn settings_parse_order_ranges_and_reject_bad_values() {
     assert_eq!(s.ema.max_order, Some((10, 50)));
     assert_eq!(s.band, Some((5.0, 400.0)));
     assert_eq!(s.weighting, Weighting::Coherence);
+    // The coherence is the noise model: no whitening on top of it.
+    assert_eq!(s.ema.noise, NoiseModel::White);
+    assert_eq!(settings(&params("{}")).ema.noise, NoiseModel::Auto);
+    let forced = settings(&params("{noise: profile}"));
+    assert_eq!(forced.ema.noise, NoiseModel::Profile);
+    let coherent = settings(&params("{noise: profile, weighting: coherence}"));
+    assert_eq!(coherent.ema.noise, NoiseModel::White);
     for bad in [
         "{max_order: [50, 10]}",
         "{max_order: 2.5}",
