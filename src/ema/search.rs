@@ -354,11 +354,18 @@ pub fn auto_ema(
     // Noise that varies along the band is whitened ([`super::whitening`]):
     // the analysis works on the whitened data and reports in the units of
     // `raw`. Where the weights leave PolyMAX's normal equations singular
-    // at the top order, the data are analysed as given (white noise), as
-    // `data.noise_profile_range` (absent) then says.
+    // at the top order, the data are analysed as given (white noise), with
+    // a warning.
     match p.noise.whitened(raw) {
         Some(white) => match analyse(raw, &white, p, on_step) {
-            Err(EmaError::IllConditioned { .. }) => analyse(raw, raw, p, on_step),
+            Err(EmaError::IllConditioned { order }) => {
+                let mut r = analyse(raw, raw, p, on_step)?;
+                r.warnings.push(format!(
+                    "the noise varies {:.0}× along the band, but weighted by it PolyMAX's normal equations are singular at order {order}; the FRFs were analysed with white noise, which hides weak modes where the noise is low: narrow `band`, or set `noise: white` to accept this",
+                    whitening::range(&white.line_weight)
+                ));
+                Ok(r)
+            }
             r => r,
         },
         None => analyse(raw, raw, p, on_step),
