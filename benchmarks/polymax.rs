@@ -4,14 +4,15 @@
 //!   3 references × 1601 lines, normal equations built once and reused
 //!   across orders against the per-order rebuild, in the same run; then the
 //!   cost of one Bayesian-optimization step (re-selection from the poles).
-//! - `families [seeds] [noise…]`: the synthetic families of
-//!   `modalflow::ema::families` (close pair 1 % apart, repeated root with 3
-//!   references, damping 5–8 %, 600 FRFs × 2001 lines with 20 modes, modes
-//!   beyond the band edges) over
+//! - `families [seeds] [noise…] [white|profile] [family…]`: the synthetic
+//!   families of `modalflow::ema::families` (close pair 1 % apart, repeated
+//!   root with 3 references, damping 5–8 %, 600 FRFs × 2001 lines with 20
+//!   modes, modes beyond the band edges, noise ∝ |H| over a wide band) over
 //!   many seeds and noise levels with default settings: success rate (every
 //!   visible mode found with NFD < 0.5 %, NDD < 20 %, MAC ≥ 0.9; no spurious
 //!   or duplicate mode; mean FRAC ≥ 1/(1 + r²) − 0.001), spurious and
-//!   duplicate counts, median NFD/NDD/MAC, CPU seconds per case.
+//!   duplicate counts, median NFD/NDD/MAC, CPU seconds per case. `white`
+//!   or `profile` sets the `noise` model (default `auto`, as the stage).
 //! - `scale`: one PUB5-size position (the `large` family) with the time of
 //!   each phase: PolyMAX, the search, the final steps.
 //!
@@ -33,8 +34,9 @@
 
 mod timing;
 
-use modalflow::ema::families::{case, estimates, frf_data, score, Score, FAMILIES};
+use modalflow::ema::families::{case, estimates, frf_data, frf_set, score, Score, FAMILIES};
 use modalflow::ema::synthetic::{lines, modal_superposition, SyntheticMode};
+use modalflow::ema::whitening::NoiseModel;
 use modalflow::ema::{
     auto_ema, polymax, polymax_rebuild_per_order, select_modes, AutoEmaParams, FrfData,
     Hyperparameters, PolymaxParams, Screening, SelectionParams, Weighting,
@@ -129,8 +131,9 @@ fn median(mut v: Vec<f64>) -> f64 {
     v[v.len() / 2]
 }
 
-/// One family at one noise level over `seeds` seeds.
-fn family(name: &str, noise: f64, seeds: u64) {
+/// One family at one noise level over `seeds` seeds, its noise taken as
+/// `model` says.
+fn family(name: &str, noise: f64, seeds: u64, model: NoiseModel) {
     let (mut ok, mut spurious, mut duplicate, mut missed, mut secs) = (0, 0, 0, 0, 0.0);
     let (mut nfd, mut ndd, mut mac) = (Vec::new(), Vec::new(), Vec::new());
     let mut failures = Vec::new();
@@ -138,7 +141,11 @@ fn family(name: &str, noise: f64, seeds: u64) {
         let Some(c) = case(name, seed) else { return };
         let d = frf_data(&c, noise, seed);
         let t = cpu_seconds();
-        let r = match auto_ema(&d, &AutoEmaParams::default(), &|| {}) {
+        let p = AutoEmaParams {
+            noise: model,
+            ..AutoEmaParams::default()
+        };
+        let r = match auto_ema(&d, &p, &|| {}) {
             Ok(r) => r,
             Err(e) => {
                 failures.push(format!("seed {seed}: {e}"));
@@ -196,6 +203,23 @@ fn cpu_seconds() -> f64 {
 fn families(args: &[String]) {
     let seeds: u64 = args.first().and_then(|s| s.parse().ok()).unwrap_or(20);
     let noises: Vec<f64> = args.iter().skip(1).filter_map(|s| s.parse().ok()).collect();
+    // `white` or `profile` overrides the stage's default `auto`; family
+    // names select families (default: all).
+    let model = match () {
+        _ if args.iter().any(|a| a == "white") => NoiseModel::White,
+        _ if args.iter().any(|a| a == "profile") => NoiseModel::Profile,
+        _ => NoiseModel::Auto,
+    };
+    let chosen: Vec<&str> = FAMILIES
+        .into_iter()
+        .filter(|f| args.iter().any(|a| a == f))
+        .collect();
+    let chosen = if chosen.is_empty() {
+        FAMILIES.to_vec()
+    } else {
+        chosen
+    };
+    println!("noise model: {model:?}");
     let noises = if noises.is_empty() {
         vec![0.02, 0.05]
     } else {
@@ -215,14 +239,14 @@ fn families(args: &[String]) {
         "CPU s"
     );
     for &noise in &noises {
-        for name in FAMILIES {
+        for &name in &chosen {
             // The large family costs seconds per case: a quarter of the seeds.
             let n = if name == "large" {
                 (seeds / 4).max(1)
             } else {
                 seeds
             };
-            family(name, noise, n);
+            family(name, noise, n, model);
         }
     }
 }
@@ -328,13 +352,7 @@ fn export(args: &[String]) -> Result<(), String> {
     let sets: Vec<_> = (0..positions)
         .map(|p| {
             let noise_seed = seed + 1000 * u64::from(p);
-            let mut set = modal_superposition(
-                &c.modes,
-                &c.references,
-                &c.frequencies_hz,
-                noise,
-                noise_seed,
-            );
+            let mut set = frf_set(&c, noise, noise_seed);
             set.position = modalflow::frf::Position {
                 index: p,
                 label: format!("p{p}"),

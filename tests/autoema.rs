@@ -177,6 +177,10 @@ fn synthetic_families_with_default_settings() {
         ("close_pair", 0.05, 2),
         ("repeated_root", 0.02, 1),
         ("high_damping", 0.02, 2),
+        // Noise ∝ |H|: each member made a strong mode a "repeated root"
+        // before the multiplicity test scaled the residue separably.
+        ("wide_band", 0.02, 11),
+        ("wide_band", 0.02, 12),
     ] {
         let c = case(family, seed).unwrap();
         let d = frf_data(&c, noise, seed);

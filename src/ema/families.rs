@@ -9,6 +9,7 @@
 //! | `high_damping` | 6, ζ = 5–8 % | 8 × 2 | 20–220 Hz, 0.5 Hz | wide, overlapping peaks |
 //! | `large` | 20 | 300 × 2 | 20–420 Hz, 0.2 Hz (2001 lines) | size |
 //! | `beyond_band` | 7 in the band, ζ = 1–6 %, and 3 outside it (12, 240, 300 Hz) | 8 × 2 | 20–200 Hz, 0.25 Hz | modes beyond the band edges, heavy damping: what a machine's band cut looks like |
+//! | `wide_band` | 8, 300–6500 Hz log-spaced, ζ = 1–3 % | 8 × 2 | 100–8000 Hz, 5 Hz | noise ∝ \|H\| ([`Noise::Proportional`]) on a receptance that falls 470× over the band: what a measured spectrum looks like |
 //!
 //! A mode outside the lines is never visible: it cannot be found, and an
 //! estimate standing in for its flank inside the band is spurious. The
@@ -19,10 +20,16 @@
 //! Shapes are uniform in [−1, 1] per DOF, damping 1–2 % unless stated,
 //! frequencies scaled by a common random factor in [0.95, 1.05]; receptances
 //! by modal superposition (eq. 2.45) with complex noise relative to each
-//! channel's RMS ([`super::synthetic::modal_superposition`]).
+//! channel's RMS ([`super::synthetic::modal_superposition`]), or, for
+//! `wide_band`, relative to |H| at each line (the H1 estimator's random
+//! error, Bendat & Piersol, *Random Data*, eq. 9.90). The `wide_band` family
+//! was added with autoema 14 (noise that varies along the band is whitened,
+//! [`super::whitening`]): the four families before it have white noise and
+//! cannot tell whether the whitening helps or harms.
 //!
 //! **Score.** A true mode is *visible* when its peak |φ_o φ_i|/(2ζω²)
-//! stands ≥ 10× above the noise at its best channel. Estimates and true modes
+//! stands ≥ 10× above the noise at its best channel (for proportional noise,
+//! the noise at the mode's frequency: r·|H(ω_r)|). Estimates and true modes
 //! are paired by the Hungarian method on NFD/0.005 + (1 − MAC_S), where
 //! MAC_S is the MAC between the estimated shape and its projection on the
 //! span of the true shapes at that root (the plain MAC for a simple root),
@@ -34,7 +41,7 @@
 //! 1/(1 + r²) − 0.001 for relative noise r.
 
 pub use super::hermitian::subspace_mac;
-use super::synthetic::{lines, SyntheticMode};
+use super::synthetic::{gauss, lines, SyntheticMode};
 use crate::metrics::nfd;
 use crate::pairing::hungarian;
 use num_complex::Complex64;
@@ -42,21 +49,34 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
 
-/// A family member: its modes, references and lines.
+/// A family member: its modes, references, lines and kind of noise.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Case {
     pub modes: Vec<SyntheticMode>,
     pub references: Vec<usize>,
     pub frequencies_hz: Vec<f64>,
+    pub noise: Noise,
+}
+
+/// How the noise of relative level r is drawn (complex Gaussian, independent
+/// per line and channel).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Noise {
+    /// Standard deviation r × the channel's RMS over the band: white.
+    Relative,
+    /// Standard deviation r × |H(f)| at each line: an H1-like random error
+    /// that falls with a receptance above its first modes.
+    Proportional,
 }
 
 /// The family names of [`case`].
-pub const FAMILIES: [&str; 5] = [
+pub const FAMILIES: [&str; 6] = [
     "close_pair",
     "repeated_root",
     "high_damping",
     "large",
     "beyond_band",
+    "wide_band",
 ];
 
 fn uniform(rng: &mut ChaCha8Rng) -> f64 {
@@ -104,7 +124,21 @@ pub fn case(family: &str, seed: u64) -> Option<Case> {
             vec![0, 4],
             (20.0, 200.0, 0.25),
         ),
+        "wide_band" => (
+            (0..8)
+                .map(|k| 300.0 * (6500.0f64 / 300.0).powf(f64::from(k) / 7.0))
+                .collect(),
+            (0.01, 0.03),
+            8,
+            vec![0, 4],
+            (100.0, 8000.0, 5.0),
+        ),
         _ => return None,
+    };
+    let noise = if family == "wide_band" {
+        Noise::Proportional
+    } else {
+        Noise::Relative
     };
     let scale = 0.95 + 0.1 * uniform(&mut rng);
     let mut modes: Vec<SyntheticMode> = Vec::with_capacity(freqs.len());
@@ -125,6 +159,7 @@ pub fn case(family: &str, seed: u64) -> Option<Case> {
         modes,
         references,
         frequencies_hz: lines(grid.0, grid.1, grid.2),
+        noise,
     })
 }
 
@@ -144,22 +179,19 @@ pub fn visibility(c: &Case, noise: f64) -> Vec<f64> {
             let p: f64 = c
                 .frequencies_hz
                 .iter()
-                .map(|&f| {
-                    let w = 2.0 * PI * f;
-                    c.modes
-                        .iter()
-                        .map(|m| {
-                            let wr = 2.0 * PI * m.frequency_hz;
-                            m.shape[o] * m.shape[i]
-                                / Complex64::new(wr * wr - w * w, 2.0 * m.damping_ratio * wr * w)
-                        })
-                        .sum::<Complex64>()
-                        .norm_sqr()
-                })
+                .map(|&f| receptance(c, o, i, f).norm_sqr())
                 .sum();
             (p / c.frequencies_hz.len() as f64).sqrt()
         })
         .collect();
+    // The noise's standard deviation at channel `ch` near a mode of `f_hz`.
+    let sd = |ch: usize, f_hz: f64| -> f64 {
+        let scale = match c.noise {
+            Noise::Relative => rms[ch],
+            Noise::Proportional => receptance(c, ch / n_ref, c.references[ch % n_ref], f_hz).norm(),
+        };
+        (noise * scale).max(1e-300)
+    };
     let mut out = vec![0.0; c.modes.len()];
     let band = (
         c.frequencies_hz.first().copied().unwrap_or(0.0),
@@ -199,7 +231,7 @@ pub fn visibility(c: &Case, noise: f64) -> Vec<f64> {
                     (0..n_out * n_ref)
                         .map(|ch| {
                             (s_q * u_q[ch / n_ref] * v[ch % n_ref].conj()).norm()
-                                / (noise * rms[ch]).max(1e-300)
+                                / sd(ch, m.frequency_hz)
                         })
                         .fold(0.0, f64::max)
                 }
@@ -214,6 +246,20 @@ pub fn visibility(c: &Case, noise: f64) -> Vec<f64> {
         }
     }
     out
+}
+
+/// The noise-free receptance of output `o` to reference DOF `i` at `f_hz`
+/// (eq. 2.45).
+fn receptance(c: &Case, o: usize, i: usize, f_hz: f64) -> Complex64 {
+    let w = 2.0 * PI * f_hz;
+    c.modes
+        .iter()
+        .map(|m| {
+            let wr = 2.0 * PI * m.frequency_hz;
+            m.shape[o] * m.shape[i]
+                / Complex64::new(wr * wr - w * w, 2.0 * m.damping_ratio * wr * w)
+        })
+        .sum()
 }
 
 /// One estimated mode.
@@ -341,16 +387,35 @@ pub fn estimates(r: &super::AutoEmaResult) -> Vec<Estimate> {
 
 /// The FRFs of case `c` at relative noise `noise` (noise drawn from `seed`).
 pub fn frf_data(c: &Case, noise: f64, seed: u64) -> super::FrfData {
-    let set = super::synthetic::modal_superposition(
+    // The families' lines start above 0 Hz and every channel is present.
+    super::FrfData::from_set(&frf_set(c, noise, seed), None, super::Weighting::Uniform)
+        .unwrap_or_else(|e| unreachable!("family FRFs: {e}"))
+}
+
+/// The receptances of case `c` at relative noise `noise`, drawn from `seed`
+/// as the case's [`Noise`] says.
+pub fn frf_set(c: &Case, noise: f64, seed: u64) -> crate::frf::FrfSet {
+    let white = match c.noise {
+        Noise::Relative => noise,
+        Noise::Proportional => 0.0,
+    };
+    let mut set = super::synthetic::modal_superposition(
         &c.modes,
         &c.references,
         &c.frequencies_hz,
-        noise,
+        white,
         seed,
     );
-    // The families' lines start above 0 Hz and every channel is present.
-    super::FrfData::from_set(&set, None, super::Weighting::Uniform)
-        .unwrap_or_else(|e| unreachable!("family FRFs: {e}"))
+    if c.noise == Noise::Proportional && noise > 0.0 {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        for ch in &mut set.channels {
+            for v in &mut ch.values {
+                let n = Complex64::new(gauss(&mut rng), gauss(&mut rng));
+                *v += n * (noise * v.norm() / 2f64.sqrt());
+            }
+        }
+    }
+    set
 }
 
 #[cfg(test)]
@@ -364,7 +429,7 @@ mod tests {
             let n = c.modes.len();
             assert_eq!(
                 n,
-                [6, 12, 6, 20, 10][FAMILIES.iter().position(|f| *f == fam).unwrap()]
+                [6, 12, 6, 20, 10, 8][FAMILIES.iter().position(|f| *f == fam).unwrap()]
             );
             // Modes outside the lines are never visible.
             let (lo, hi) = (
@@ -411,5 +476,35 @@ mod tests {
         let c = case("repeated_root", 2).unwrap();
         assert_eq!(c.modes[3].frequency_hz, c.modes[4].frequency_hz);
         assert_eq!(c.references.len(), 3);
+    }
+
+    #[test]
+    fn proportional_noise_follows_the_receptance_and_keeps_every_mode_visible() {
+        let c = case("wide_band", 1).unwrap();
+        assert_eq!(c.noise, Noise::Proportional);
+        // Relative error r at every line, whatever |H| (a 470x fall).
+        let (clean, noisy) = (frf_data(&c, 0.0, 4), frf_data(&c, 0.03, 4));
+        let rel: Vec<f64> = clean
+            .h
+            .iter()
+            .zip(&noisy.h)
+            .map(|(a, b)| ((b - a) / a).norm_sqr())
+            .collect();
+        let rms = (rel.iter().sum::<f64>() / rel.len() as f64).sqrt();
+        assert!((rms - 0.03).abs() < 0.002, "{rms}");
+        let half = rel.len() / 2;
+        let (lo, hi) = (&rel[..half], &rel[half..]);
+        let mean = |v: &[f64]| (v.iter().sum::<f64>() / v.len() as f64).sqrt();
+        assert!((mean(lo) / mean(hi) - 1.0).abs() < 0.2);
+        // Every mode stands ≥ 10x above noise proportional to |H| ...
+        assert!(visibility(&c, 0.03).iter().all(|&v| v >= 10.0));
+        // ... while white noise at the same level, set by the low band,
+        // buries the upper modes.
+        let white = Case {
+            noise: Noise::Relative,
+            ..c.clone()
+        };
+        let v = visibility(&white, 0.03);
+        assert!(v[0] >= 10.0 && v[7] < 10.0, "{v:?}");
     }
 }

@@ -37,7 +37,10 @@
 //! **Multiplicity** of a root with m ≥ 2: the residue matrix R (outputs ×
 //! references), whitened by its standard deviation σ_c² · (G⁻¹_aa + G⁻¹_bb)/2,
 //! holds as many modes as singular values s_k with s_k² above four times the
-//! noise edge (√n_out + √n_ref)² (Marchenko–Pastur; Edelman 1988).
+//! noise edge (√n_out + √n_ref)² (Marchenko–Pastur; Edelman 1988). The
+//! whitening is separable (a_o·b_i, [`separable_scale`]) so that a simple
+//! mode's rank-1 residue stays rank 1, and the edge that of the noise left
+//! over, channel by channel ([`noise_edge`]).
 
 use super::hermitian::left_singular;
 use super::peak_evidence::{PeakEvidence, RootPeak};
@@ -314,11 +317,14 @@ impl Validation<'_, '_> {
     /// Modes at a root of multiplicity m by the whitened residue singular values.
     fn multiplicity(&self, fit: &GramFit, k: usize, m: usize, s2: &[f64]) -> usize {
         let v = fit.residue_variance_factor(k);
+        let sd: Vec<f64> = s2.iter().map(|s| (s * v).max(1e-300).sqrt()).collect();
+        let scale = separable_scale(&sd, self.n_out, self.n_ref);
         let r: Vec<Complex64> = (0..self.n_out * self.n_ref)
-            .map(|c| fit.residue(k, c) / (s2[c] * v).max(1e-300).sqrt())
+            .map(|c| fit.residue(k, c) / scale[c])
             .collect();
         let (s, _) = left_singular(&r, self.n_out, self.n_ref);
-        let edge = ((self.n_out as f64).sqrt() + (self.n_ref as f64).sqrt()).powi(2);
+        let rest: Vec<f64> = sd.iter().zip(&scale).map(|(s, a)| s / a).collect();
+        let edge = noise_edge(&rest, self.n_out, self.n_ref);
         s.iter()
             .take(m)
             .filter(|&&x| x * x >= 4.0 * edge)
@@ -409,6 +415,55 @@ impl Validation<'_, '_> {
     }
 }
 
+/// The separable part a_o·b_i of per-channel standard deviations `sd`
+/// (outputs × references): the additive two-way fit of their logarithms.
+///
+/// Scaling the residue matrix R = φ φ_refᵀ/(2jω_d) of a simple mode by a
+/// separable matrix keeps its rank 1; scaling each channel by its own σ_c
+/// does not (σ_c is set by whichever mode dominates that channel's misfit),
+/// and a strong mode then shows a second singular value of several percent
+/// of the first — a "repeated root" at every strong peak under noise ∝ |H|
+/// (the `wide_band` family of [`super::families`]).
+fn separable_scale(sd: &[f64], n_out: usize, n_ref: usize) -> Vec<f64> {
+    let log: Vec<f64> = sd.iter().map(|s| s.ln()).collect();
+    let all = log.iter().sum::<f64>() / log.len().max(1) as f64;
+    let row: Vec<f64> = (0..n_out)
+        .map(|o| log[o * n_ref..(o + 1) * n_ref].iter().sum::<f64>() / n_ref as f64)
+        .collect();
+    let col: Vec<f64> = (0..n_ref)
+        .map(|i| (0..n_out).map(|o| log[o * n_ref + i]).sum::<f64>() / n_out as f64)
+        .collect();
+    (0..n_out * n_ref)
+        .map(|c| (row[c / n_ref] + col[c % n_ref] - all).exp())
+        .collect()
+}
+
+/// The squared noise edge of an outputs × references matrix whose entries
+/// have standard deviations `sd`: (largest row norm + largest column norm)²
+/// of `sd` (Bandeira & van Handel 2016, the expected norm of a matrix of
+/// independent entries up to a log term); for unit entries the
+/// Marchenko–Pastur edge (√n_out + √n_ref)².
+fn noise_edge(sd: &[f64], n_out: usize, n_ref: usize) -> f64 {
+    let row = (0..n_out)
+        .map(|o| {
+            sd[o * n_ref..(o + 1) * n_ref]
+                .iter()
+                .map(|s| s * s)
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(0.0, f64::max);
+    let col = (0..n_ref)
+        .map(|i| {
+            (0..n_out)
+                .map(|o| sd[o * n_ref + i].powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(0.0, f64::max);
+    (row + col).powi(2)
+}
+
 /// What [`PeakEvidence`] needs of every root of a fit: frequency, damping,
 /// multiplicity and Σ_c ΔRSS_c/σ_c².
 pub fn root_peaks(
@@ -453,6 +508,48 @@ pub fn holds_peak(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn separable_scaling_keeps_a_simple_mode_rank_one() {
+        let (n_out, n_ref) = (6, 2);
+        let phi = [0.9, -0.4, 0.7, 0.2, -1.0, 0.5];
+        let r: Vec<Complex64> = (0..n_out * n_ref)
+            .map(|c| Complex64::new(0.0, -phi[c / n_ref] * phi[[0, 4][c % n_ref]]))
+            .collect();
+        // Separable standard deviations are reproduced.
+        let (a, b) = ([1.0, 3.0, 0.5, 2.0, 8.0, 1.5], [1.0, 4.0]);
+        let sep: Vec<f64> = (0..n_out * n_ref)
+            .map(|c| a[c / n_ref] * b[c % n_ref])
+            .collect();
+        let scale = separable_scale(&sep, n_out, n_ref);
+        assert!(scale
+            .iter()
+            .zip(&sep)
+            .all(|(x, y)| (x / y - 1.0).abs() < 1e-12));
+        // Unit noise: the Marchenko–Pastur edge.
+        let mp = (6f64.sqrt() + 2f64.sqrt()).powi(2);
+        assert!((noise_edge(&[1.0; 12], n_out, n_ref) - mp).abs() < 1e-12);
+        // Channels of unequal, non-separable noise: divided channel by
+        // channel the rank-1 residue shows a second singular value of 12 %;
+        // divided separably it stays rank 1, and the edge grows with the
+        // noise left over.
+        let sd: Vec<f64> = sep
+            .iter()
+            .enumerate()
+            .map(|(c, s)| s * [1.0, 30.0, 2.0, 0.5][c % 4])
+            .collect();
+        let ratio = |w: &[Complex64]| {
+            let (s, _) = left_singular(w, n_out, n_ref);
+            s[1] / s[0]
+        };
+        let per_channel: Vec<Complex64> = r.iter().zip(&sd).map(|(x, s)| x / s).collect();
+        assert!(ratio(&per_channel) > 0.1, "{}", ratio(&per_channel));
+        let scale = separable_scale(&sd, n_out, n_ref);
+        let separable: Vec<Complex64> = r.iter().zip(&scale).map(|(x, s)| x / s).collect();
+        assert!(ratio(&separable) < 1e-6, "{}", ratio(&separable));
+        let rest: Vec<f64> = sd.iter().zip(&scale).map(|(s, a)| s / a).collect();
+        assert!(noise_edge(&rest, n_out, n_ref) > mp);
+    }
 
     #[test]
     fn chi2_upper_quantiles_match_closed_forms() {
