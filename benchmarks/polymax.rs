@@ -205,15 +205,15 @@ fn families(args: &[String]) {
     let noises: Vec<f64> = args.iter().skip(1).filter_map(|s| s.parse().ok()).collect();
     // `white` or `profile` overrides the stage's default `auto`; family
     // names select families (default: all).
-    let model = match () {
-        _ if args.iter().any(|a| a == "white") => NoiseModel::White,
-        _ if args.iter().any(|a| a == "profile") => NoiseModel::Profile,
-        _ => NoiseModel::Auto,
+    let has = |word: &str| args.iter().any(|a| a == word);
+    let model = if has("white") {
+        NoiseModel::White
+    } else if has("profile") {
+        NoiseModel::Profile
+    } else {
+        NoiseModel::Auto
     };
-    let chosen: Vec<&str> = FAMILIES
-        .into_iter()
-        .filter(|f| args.iter().any(|a| a == f))
-        .collect();
+    let chosen: Vec<&str> = FAMILIES.into_iter().filter(|f| has(f)).collect();
     let chosen = if chosen.is_empty() {
         FAMILIES.to_vec()
     } else {

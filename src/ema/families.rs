@@ -23,8 +23,8 @@
 //! channel's RMS ([`super::synthetic::modal_superposition`]), or, for
 //! `wide_band`, relative to |H| at each line (the H1 estimator's random
 //! error, Bendat & Piersol, *Random Data*, eq. 9.90). The `wide_band` family
-//! was added with autoema 14 (noise that varies along the band is whitened,
-//! [`super::whitening`]): the four families before it have white noise and
+//! was added with autoema 15 to judge the whitening of autoema 14
+//! ([`super::whitening`]): the families before it have white noise and
 //! cannot tell whether the whitening helps or harms.
 //!
 //! **Score.** A true mode is *visible* when its peak |φ_o φ_i|/(2ζω²)
@@ -41,7 +41,7 @@
 //! 1/(1 + r²) − 0.001 for relative noise r.
 
 pub use super::hermitian::subspace_mac;
-use super::synthetic::{gauss, lines, SyntheticMode};
+use super::synthetic::{gauss, lines, receptance, SyntheticMode};
 use crate::metrics::nfd;
 use crate::pairing::hungarian;
 use num_complex::Complex64;
@@ -86,20 +86,35 @@ fn uniform(rng: &mut ChaCha8Rng) -> f64 {
 /// Member `seed` of `family` (None for an unknown name).
 pub fn case(family: &str, seed: u64) -> Option<Case> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    type Spec = (Vec<f64>, (f64, f64), usize, Vec<usize>, (f64, f64, f64));
-    let (freqs, damping, n_out, references, grid): Spec = match family {
+    type Spec = (
+        Vec<f64>,
+        (f64, f64),
+        usize,
+        Vec<usize>,
+        (f64, f64, f64),
+        Noise,
+    );
+    let (freqs, damping, n_out, references, grid, noise): Spec = match family {
         "close_pair" => (
             vec![40.0, 70.0, 100.0, 101.0, 140.0, 190.0],
             (0.01, 0.02),
             8,
             vec![0, 4],
             (20.0, 260.0, 0.25),
+            Noise::Relative,
         ),
         "repeated_root" => {
             let mut f: Vec<f64> = (0..10).map(|k| 30.0 * 1.2f64.powi(k)).collect();
             f.insert(8, f[7]);
             f.insert(4, f[3]);
-            (f, (0.01, 0.02), 10, vec![0, 3, 6], (20.0, 200.0, 0.25))
+            (
+                f,
+                (0.01, 0.02),
+                10,
+                vec![0, 3, 6],
+                (20.0, 200.0, 0.25),
+                Noise::Relative,
+            )
         }
         "high_damping" => (
             (0..6).map(|k| 40.0 * 1.3f64.powi(k)).collect(),
@@ -107,6 +122,7 @@ pub fn case(family: &str, seed: u64) -> Option<Case> {
             8,
             vec![0, 4],
             (20.0, 220.0, 0.5),
+            Noise::Relative,
         ),
         "large" => (
             (0..20).map(|k| 35.0 * 1.12f64.powi(k)).collect(),
@@ -114,6 +130,7 @@ pub fn case(family: &str, seed: u64) -> Option<Case> {
             300,
             vec![0, 150],
             (20.0, 420.0, 0.2),
+            Noise::Relative,
         ),
         "beyond_band" => (
             vec![
@@ -123,6 +140,7 @@ pub fn case(family: &str, seed: u64) -> Option<Case> {
             8,
             vec![0, 4],
             (20.0, 200.0, 0.25),
+            Noise::Relative,
         ),
         "wide_band" => (
             (0..8)
@@ -132,13 +150,9 @@ pub fn case(family: &str, seed: u64) -> Option<Case> {
             8,
             vec![0, 4],
             (100.0, 8000.0, 5.0),
+            Noise::Proportional,
         ),
         _ => return None,
-    };
-    let noise = if family == "wide_band" {
-        Noise::Proportional
-    } else {
-        Noise::Relative
     };
     let scale = 0.95 + 0.1 * uniform(&mut rng);
     let mut modes: Vec<SyntheticMode> = Vec::with_capacity(freqs.len());
@@ -179,7 +193,7 @@ pub fn visibility(c: &Case, noise: f64) -> Vec<f64> {
             let p: f64 = c
                 .frequencies_hz
                 .iter()
-                .map(|&f| receptance(c, o, i, f).norm_sqr())
+                .map(|&f| receptance(&c.modes, o, i, f).norm_sqr())
                 .sum();
             (p / c.frequencies_hz.len() as f64).sqrt()
         })
@@ -188,7 +202,9 @@ pub fn visibility(c: &Case, noise: f64) -> Vec<f64> {
     let sd = |ch: usize, f_hz: f64| -> f64 {
         let scale = match c.noise {
             Noise::Relative => rms[ch],
-            Noise::Proportional => receptance(c, ch / n_ref, c.references[ch % n_ref], f_hz).norm(),
+            Noise::Proportional => {
+                receptance(&c.modes, ch / n_ref, c.references[ch % n_ref], f_hz).norm()
+            }
         };
         (noise * scale).max(1e-300)
     };
@@ -246,20 +262,6 @@ pub fn visibility(c: &Case, noise: f64) -> Vec<f64> {
         }
     }
     out
-}
-
-/// The noise-free receptance of output `o` to reference DOF `i` at `f_hz`
-/// (eq. 2.45).
-fn receptance(c: &Case, o: usize, i: usize, f_hz: f64) -> Complex64 {
-    let w = 2.0 * PI * f_hz;
-    c.modes
-        .iter()
-        .map(|m| {
-            let wr = 2.0 * PI * m.frequency_hz;
-            m.shape[o] * m.shape[i]
-                / Complex64::new(wr * wr - w * w, 2.0 * m.damping_ratio * wr * w)
-        })
-        .sum()
 }
 
 /// One estimated mode.

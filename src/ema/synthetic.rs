@@ -39,18 +39,7 @@ pub fn modal_superposition(
         for &k in references {
             let mut values: Vec<Complex64> = frequencies_hz
                 .iter()
-                .map(|&f| {
-                    let w = 2.0 * PI * f;
-                    modes
-                        .iter()
-                        .map(|m| {
-                            let wr = 2.0 * PI * m.frequency_hz;
-                            let den =
-                                Complex64::new(wr * wr - w * w, 2.0 * m.damping_ratio * wr * w);
-                            m.shape[j] * m.shape[k] / den
-                        })
-                        .sum()
-                })
+                .map(|&f| receptance(modes, j, k, f))
                 .collect();
             if noise > 0.0 {
                 let rms = (values.iter().map(Complex64::norm_sqr).sum::<f64>()
@@ -75,6 +64,20 @@ pub fn modal_superposition(
         frequencies_hz: frequencies_hz.to_vec(),
         channels,
     }
+}
+
+/// The noise-free receptance of DOF `j` to a force at DOF `k` at `f_hz`,
+/// Σ_r φ_jr φ_kr / (ω_r² − ω² + 2jζ_r ω_r ω) (eq. 2.45, unit modal masses).
+pub fn receptance(modes: &[SyntheticMode], j: usize, k: usize, f_hz: f64) -> Complex64 {
+    let w = 2.0 * PI * f_hz;
+    modes
+        .iter()
+        .map(|m| {
+            let wr = 2.0 * PI * m.frequency_hz;
+            m.shape[j] * m.shape[k]
+                / Complex64::new(wr * wr - w * w, 2.0 * m.damping_ratio * wr * w)
+        })
+        .sum()
 }
 
 /// Standard normal draw by Box–Muller.
