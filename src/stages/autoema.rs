@@ -80,8 +80,12 @@ impl Kind for AutoEma {
     /// simple mode's rank-1 residue stays rank 1: channels of unequal noise
     /// had made strong modes "repeated roots" (the `wide_band` family, noise
     /// ∝ |H|: 44 → 13 duplicates over 80 cases; close pair at 5 %: 17 → 19/20).
+    /// 16: with one reference, a root on no CMIF peak closer than 1.5 lines
+    /// to a stronger root must earn its place as on a shared peak
+    /// (`ema::peak_evidence`; the UFSC shaker test's 274.2/274.9 Hz pair at
+    /// 1 Hz lines).
     fn version(&self) -> u32 {
-        15
+        16
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"
