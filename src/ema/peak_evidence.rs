@@ -21,8 +21,9 @@
 //! the significance test, unless the data have one reference and a stronger
 //! root lies closer than 1.5 line spacings: the two are then one feature of
 //! the data, and the weaker is judged as if it shared that root's peak. Of
-//! the roots assigned to one peak, the one nearest to it keeps the peak (a broad pole soaking up the flanks of a band must
-//! not take a sharp mode's peak; on a tie within a tenth of a line, the one
+//! the roots assigned to one peak, the one nearest to it keeps the peak (a
+//! broad pole soaking up the flanks of a band must not take a sharp mode's
+//! peak; on a tie within a tenth of a line, the one
 //! carrying more of the fit, Σ_c ΔRSS_c/σ_c²). Another root on that peak
 //! that the data cannot tell from the keeper — closer than 1.5 line
 //! spacings, or three times more damped (a broad pole under a sharp peak)
@@ -146,9 +147,11 @@ impl PeakEvidence {
             .collect()
     }
 
-    /// Roots that share a peak with the root keeping it, cannot be told
-    /// from it by the data ([`Self::unresolved`]) and have no further CMIF
-    /// curve peak of their own to stand on: `(index, index of the keeper)`,
+    /// Roots that share a peak with the root keeping it (or, with one
+    /// reference, lie beside a stronger root off the peaks:
+    /// [`Self::stronger_neighbour`]), cannot be told from it by the data
+    /// ([`Self::unresolved`]) and have no further CMIF curve peak of their
+    /// own to stand on: `(index, index of the keeper)`,
     /// weakest first. Each further curve that peaks at the peak is evidence
     /// for one mode beyond the first, so the unresolved roots there (the
     /// strongest first, after the keeper's own multiplicity) take at most
@@ -304,7 +307,7 @@ mod tests {
         // 1 Hz lines, lightly damped modes at 69 and 155 Hz.
         let freqs: Vec<f64> = (0..=300).map(|k| k as f64).collect();
         let c = curve(&freqs, &[(69.0, 0.005, 1.0), (155.0, 0.005, 0.5)]);
-        let ev = PeakEvidence::new(&freqs, &[c], 1e-12);
+        let ev = PeakEvidence::new(&freqs, std::slice::from_ref(&c), 1e-12);
         assert_eq!(ev.peaks_hz, vec![69.0, 155.0]);
         // 69.0 (strong) and 69.7 (a split): the weaker loses to the stronger.
         let roots = [root(69.0, 10.0), root(69.7, 3.0), root(155.2, 5.0)];
@@ -334,8 +337,8 @@ mod tests {
         assert!(ev.shared_peak_losers(&roots).is_empty());
         // A root on no peak (a shoulder) keeps none and alone is not judged
         // here; with one reference (one curve), beside a stronger root
-        // closer than 1.5 lines it is one feature of the data and loses; 2 lines
-        // apart both stay for the significance test.
+        // closer than 1.5 lines it is one feature of the data and loses;
+        // 2 lines apart both stay for the significance test.
         let roots = [root(69.0, 5.0), root(110.0, 0.1), root(69.5, 1.0)];
         assert!(ev.shared_peak_losers(&roots[..2]).is_empty());
         assert_eq!(ev.keepers(&roots), vec![Some(0), None, Some(0)]);
@@ -346,7 +349,6 @@ mod tests {
         assert!(ev.shared_peak_losers(&roots).is_empty());
         // With a second reference (a further curve, here flat) the pair off
         // the peaks is left to significance: participation can separate it.
-        let c = curve(&freqs, &[(69.0, 0.005, 1.0), (155.0, 0.005, 0.5)]);
         let ev2 = PeakEvidence::new(&freqs, &[c, vec![1e-3; freqs.len()]], 1e-12);
         let roots = [root(110.0, 0.1), root(110.7, 0.4)];
         assert!(ev2.shared_peak_losers(&roots).is_empty());
