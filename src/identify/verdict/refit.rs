@@ -151,3 +151,15 @@ pub(super) fn cause_line(values: &[RefitValue], budget: bool) -> String {
         }
     )
 }
+
+/// The cause line of [`super::Cause::ScreeningOrLocalMinimum`] when a refit
+/// with plausible values ends at a fit that is no minimum (`how`: the
+/// verdict's words for it).
+pub(super) fn off_minimum_line(values: &[RefitValue], how: &str) -> String {
+    let names: Vec<&str> = values.iter().map(|v| v.parameter.as_str()).collect();
+    format!(
+        "cause: the screening or a local minimum, not told apart — the refit of {} (held fixed by the screening) fitted materially better, but at a fit that {}: its gain may be the refitted parameters compensating a wrong basin of the identified ones as well as what the screening left out; the outputs hold the refit's result (it fits better), but its refitted values and their intervals are not identified truths — search from other starts (`restarts`, a larger budget) or check these parameters' file values",
+        names.join(", "),
+        how
+    )
+}

@@ -236,7 +236,7 @@ fn an_untested_implication_off_a_minimum_is_not_blamed_on_the_screening() {
         .with_frf(Status::Converged, FrfJudgement::new(fit(11.0, 0.9), local))
         .with_implicated(&implicated);
     assert_eq!(misplaced.cause, Cause::ScreeningOrLocalMinimum);
-    let text = misplaced.explained().message;
+    let text = misplaced.clone().explained().message;
     assert!(text.contains("misplaces a resonance"), "{text}");
     // A converged fit without such a window: the score test stands.
     let converged = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
@@ -260,9 +260,24 @@ fn an_untested_implication_off_a_minimum_is_not_blamed_on_the_screening() {
     let text = escaped.explained().message;
     assert!(text.contains("an escape search reached"), "{text}");
     // A refit with plausible values that fitted materially better confirms
-    // it, stalled or not.
-    let confirmed = stalled.with_refitted(vec![plausible("colj.k_x")]);
+    // it when the refit ends at a minimum ...
+    let confirmed = converged.with_refitted(vec![plausible("colj.k_x")]);
     assert_eq!(confirmed.cause, Cause::ScreenedOut);
+    // ... but not when it stalled itself or still misplaces a resonance
+    // (the vertical mill's 1 % seed 16 and impact seeds 4 and 9 at
+    // identify 26: the truth had moved no fixed parameter).
+    for off in [stalled, misplaced] {
+        let refitted = off.with_refitted(vec![plausible("colj.k_x")]);
+        assert_eq!(refitted.cause, Cause::ScreeningOrLocalMinimum);
+        let text = refitted.explained().message;
+        for part in [
+            "the refit of colj.k_x (held fixed by the screening) fitted materially better, but at a fit that",
+            "compensating a wrong basin",
+        ] {
+            assert!(text.contains(part), "{part}: {text}");
+        }
+        assert!(!text.contains("needs "), "{text}");
+    }
 }
 
 /// A refitted value 30 % above its file value, mid-range and determined.
@@ -285,7 +300,7 @@ fn seed_12() -> Vec<RefitValue> {
 /// apart, with the parameter, its ratio to the file value and why.
 #[test]
 fn a_refit_is_evidence_for_the_screening_only_with_plausible_values() {
-    let above = Verdict::judge(Status::Stalled, 9.0, 4.9, counts(), 40, 25, vec![]);
+    let above = Verdict::judge(Status::Converged, 9.0, 4.9, counts(), 40, 25, vec![]);
     let v = above
         .clone()
         .with_refitted(vec![plausible("lb.k_y"), plausible("fb.k_y")])

@@ -148,8 +148,13 @@ impl Kind for Identify {
     /// that no cache holds its results under a current version.
     /// 26: an escape search that found nothing better is not assessed
     /// again (the same point; one assessment's evaluations fewer).
+    /// 27: used by a reverted experiment (docs/uncertainty.md, step 1 in
+    /// proportion to gradient cost), skipped.
+    /// 28: a refit with plausible values that ends stalled or still
+    /// misplacing a resonance names the screening and a local minimum as
+    /// not told apart (was: the screening).
     fn version(&self) -> u32 {
-        26
+        28
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
