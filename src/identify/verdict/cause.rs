@@ -64,17 +64,11 @@ impl Verdict {
                 );
                 &line
             }
-            Cause::ScreeningOrLocalMinimum if !refit::any_implausible(&self.refit_values) => {
-                line = refit::off_minimum_line(
-                    &self.refit_values,
-                    self.off_minimum().unwrap_or("has not converged"),
-                );
-                &line
-            }
             Cause::ScreeningOrLocalMinimum => {
                 line = refit::cause_line(
                     &self.refit_values,
                     self.status == Status::BudgetExhausted,
+                    self.off_minimum().unwrap_or("has not converged"),
                 );
                 &line
             }
@@ -121,7 +115,7 @@ impl Verdict {
             Cause::Budget
         } else if refit_short && refit::any_implausible(&self.refit_values) {
             Cause::ScreeningOrLocalMinimum
-        } else if (!self.implicated.is_empty() || refit_short) && self.off_minimum().is_some() {
+        } else if !self.implicated.is_empty() || refit_short {
             // The score test holds at a minimum over the identified
             // parameters; away from one (stalled, or a resonance misplaced:
             // another basin) a refit must confirm what it implicates. A
@@ -130,9 +124,11 @@ impl Verdict {
             // vertical mill's families, identify 26, all three such verdicts
             // named the screening while the truth had moved no fixed
             // parameter).
-            Cause::ScreeningOrLocalMinimum
-        } else if !self.implicated.is_empty() || refit_short {
-            Cause::ScreenedOut
+            if self.off_minimum().is_some() {
+                Cause::ScreeningOrLocalMinimum
+            } else {
+                Cause::ScreenedOut
+            }
         } else if self.fit == Fit::AboveNoise {
             match evidence.escaped {
                 Some(true) => Cause::LocalMinimum,

@@ -131,35 +131,33 @@ pub(super) fn warning(values: &[RefitValue]) -> Option<String> {
     ))
 }
 
-/// The cause line of [`super::Cause::ScreeningOrLocalMinimum`]; `budget`:
-/// the refit stopped at the budget.
-pub(super) fn cause_line(values: &[RefitValue], budget: bool) -> String {
+/// The cause line of [`super::Cause::ScreeningOrLocalMinimum`] after a
+/// refit: why its gain does not confirm the screening — the implausible
+/// values it needs, else `off_minimum` (the verdict's words for a fit that
+/// is no minimum); `budget`: the refit stopped at the budget.
+pub(super) fn cause_line(values: &[RefitValue], budget: bool, off_minimum: &str) -> String {
     let names: Vec<&str> = values.iter().map(|v| v.parameter.as_str()).collect();
     let doubted: Vec<String> = values
         .iter()
         .filter(|v| v.implausible.is_some())
         .map(RefitValue::describe)
         .collect();
+    let why = if doubted.is_empty() {
+        format!("at a fit that {off_minimum}: its gain")
+    } else {
+        format!(
+            "needs {}: a value the bound or the assumed spread holds, not the data, so the gain",
+            doubted.join("; ")
+        )
+    };
     format!(
-        "cause: the screening or a local minimum, not told apart — the refit of {} (held fixed by the screening) fitted materially better, but needs {}: a value the bound or the assumed spread holds, not the data, so the gain may be the refitted parameters compensating a wrong basin of the identified ones as well as what the screening left out; the outputs hold the refit's result (it fits better), but its refitted values and their intervals are not identified truths{} — search from other starts (`restarts`, a larger budget) or check these parameters' file values and bounds",
+        "cause: the screening or a local minimum, not told apart — the refit of {} (held fixed by the screening) fitted materially better, but {why} may be the refitted parameters compensating a wrong basin of the identified ones as well as what the screening left out; the outputs hold the refit's result (it fits better), but its refitted values and their intervals are not identified truths{} — search from other starts (`restarts`, a larger budget) or check these parameters' file values{}",
         names.join(", "),
-        doubted.join("; "),
         if budget {
             " (the refit also stopped at the budget)"
         } else {
             ""
-        }
-    )
-}
-
-/// The cause line of [`super::Cause::ScreeningOrLocalMinimum`] when a refit
-/// with plausible values ends at a fit that is no minimum (`how`: the
-/// verdict's words for it).
-pub(super) fn off_minimum_line(values: &[RefitValue], how: &str) -> String {
-    let names: Vec<&str> = values.iter().map(|v| v.parameter.as_str()).collect();
-    format!(
-        "cause: the screening or a local minimum, not told apart — the refit of {} (held fixed by the screening) fitted materially better, but at a fit that {}: its gain may be the refitted parameters compensating a wrong basin of the identified ones as well as what the screening left out; the outputs hold the refit's result (it fits better), but its refitted values and their intervals are not identified truths — search from other starts (`restarts`, a larger budget) or check these parameters' file values",
-        names.join(", "),
-        how
+        },
+        if doubted.is_empty() { "" } else { " and bounds" }
     )
 }
