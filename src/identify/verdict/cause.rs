@@ -54,13 +54,14 @@ impl Verdict {
     /// The message with the cause named (once, at the end of an update).
     pub fn explained(mut self) -> Verdict {
         let line: String;
+        // How the fit is no minimum, for the causes that doubt the screening.
+        let off = self.off_minimum().unwrap_or("has not converged");
         let why: &str = match self.cause {
             Cause::None => return self,
             Cause::Budget => "cause: the budget ran out before the fit converged — give more",
             Cause::ScreeningOrLocalMinimum if self.refit_values.is_empty() => {
                 line = format!(
-                    "cause: the screening or a local minimum, not told apart — the score test implicates the fixed parameters named above, but at a fit that {}, where a wrong basin of the identified parameters makes the residual point at fixed ones too, and no refit tested them (`refit_implicated` off, or no budget left for it): give more budget so that the refit can tell, or check these parameters' file values",
-                    self.off_minimum().unwrap_or("has not converged")
+                    "cause: the screening or a local minimum, not told apart — the score test implicates the fixed parameters named above, but at a fit that {off}, where a wrong basin of the identified parameters makes the residual point at fixed ones too, and no refit tested them (`refit_implicated` off, or no budget left for it): give more budget so that the refit can tell, or check these parameters' file values"
                 );
                 &line
             }
@@ -68,7 +69,7 @@ impl Verdict {
                 line = refit::cause_line(
                     &self.refit_values,
                     self.status == Status::BudgetExhausted,
-                    self.off_minimum().unwrap_or("has not converged"),
+                    off,
                 );
                 &line
             }
