@@ -111,9 +111,9 @@ fn coverage_text(scores: &[(u32, Score)]) -> String {
     let (n, c) = scores
         .iter()
         .fold((0, 0), |(n, c), (_, s)| (n + s.intervals, c + s.covered));
-    let below: Vec<&(u32, Score)> = scores
-        .iter()
-        .filter(|(_, s)| s.intervals > 0 && below_ninety(s.covered, s.intervals))
+    let judged = || scores.iter().filter(|(_, s)| s.intervals > 0);
+    let below: Vec<&(u32, Score)> = judged()
+        .filter(|(_, s)| below_ninety(s.covered, s.intervals))
         .collect();
     let failing: Vec<String> = below
         .iter()
@@ -125,9 +125,7 @@ fn coverage_text(scores: &[(u32, Score)]) -> String {
         .filter(|(_, s)| s.ok && s.median_error > 0.05)
         .map(|(seed, _)| seed.to_string())
         .collect();
-    let expected: f64 = scores
-        .iter()
-        .filter(|(_, s)| s.intervals > 0)
+    let expected: f64 = judged()
         .map(|(_, s)| below_ninety_if_exact(s.intervals))
         .sum();
     format!(
@@ -150,9 +148,10 @@ fn below_ninety(covered: usize, n: usize) -> bool {
 /// The probability that `n` exact, independent 95 % intervals leave a
 /// truth [`below_ninety`]: the binomial tail of the misses. It jumps where
 /// 10 % of n crosses an integer: 0.21 for 17 intervals, 0.25 for 19 (two
-/// misses are too many), 0.075 and 0.085 for 20 and 21 (three are) — checked against
-/// scipy's `binom.sf` — so the per-truth rule fails some truths even when
-/// the intervals are right; this is the yardstick for that count.
+/// misses are too many), 0.075 and 0.085 for 20 and 21 (three are; all
+/// checked against scipy's `binom.sf`). So the per-truth rule fails some
+/// truths even when the intervals are right; this is the yardstick for
+/// that count.
 fn below_ninety_if_exact(n: usize) -> f64 {
     // pmf(k) of Binomial(n, 0.05) by the recurrence pmf(k+1) = pmf(k)·(n−k)/(k+1)·p/(1−p).
     let p = 0.05_f64;
