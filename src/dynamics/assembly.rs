@@ -212,6 +212,42 @@ impl PreparedModel {
             })
     }
 
+    /// Frobenius inner products of the system matrices' derivatives with
+    /// respect to ln p, for the parameters `params` at `values`: G_ab = Σ
+    /// over configurations and over K, B and D of ⟨x_a ∂A/∂x_a, x_b
+    /// ∂A/∂x_b⟩_F. Joint terms are rank one, g gᵀ (eq. 2.47), so
+    /// ⟨g gᵀ, h hᵀ⟩_F = (gᵀh)². A direction v with vᵀ G v = 0 changes no
+    /// matrix, hence nothing the model predicts: two springs on one line of
+    /// action, whose ratio is free. A parameter that enters no joint term
+    /// has a zero row and column.
+    pub fn matrix_derivative_gram(&self, params: &[usize], values: &[f64]) -> Mat<f64> {
+        let n = params.len();
+        let mut G = Mat::<f64>::zeros(n, n);
+        let dot = |g: &[(usize, f64)], h: &[(usize, f64)]| -> f64 {
+            g.iter()
+                .map(|&(i, a)| h.iter().filter(|e| e.0 == i).map(|e| a * e.1).sum::<f64>())
+                .sum()
+        };
+        for c in &self.configurations {
+            for terms in [&c.stiffness, &c.viscous, &c.hysteretic] {
+                // (index in `params`, x·g) of the terms of those parameters.
+                let mine: Vec<(usize, &[(usize, f64)])> = terms
+                    .columns
+                    .iter()
+                    .zip(&terms.params)
+                    .filter_map(|(g, p)| Some((params.iter().position(|q| q == p)?, g.as_slice())))
+                    .collect();
+                for &(a, g) in &mine {
+                    for &(b, h) in &mine {
+                        let d = dot(g, h);
+                        G[(a, b)] += values[params[a]] * values[params[b]] * d * d;
+                    }
+                }
+            }
+        }
+        G
+    }
+
     /// Full matrices (M, K, B, D) of a configuration at the given parameter
     /// values, for direct solutions and checks.
     pub fn matrices(&self, config: usize, values: &[f64]) -> Result<[Mat<f64>; 4], DynamicsError> {

@@ -7,7 +7,9 @@
 use super::batch_means::Correlation;
 use super::consider::{ar1_inflation, bounds_spread, consider, Consider};
 use super::frf_objective::FrfReference;
-use super::identifiability::{analyze, Identifiability};
+use super::identifiability::{
+    analyze, exact_null_directions, structural_directions, without_directions, Identifiability,
+};
 use super::objective::{Match, ModalObjective, SlotPairing};
 use super::updating::{FinalPair, Plan};
 use super::verdict::{DampingJudgement, ModeCounts};
@@ -15,6 +17,7 @@ use super::IdentifyError;
 use crate::numbers::sig;
 use crate::optimize::jacobian;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// What [`assess`] finds: (identifiability, consider analysis, its cost in
 /// evaluations), the final pairs, (start RMS, end RMS, mode counts) and the
@@ -265,8 +268,27 @@ pub(super) fn identifiability_at(
         .copied()
         .chain(fixed.iter().map(|f| f.0))
         .collect();
-    let (mut columns, r0) = log_jacobian(o, x, &cols, frf, progress)?;
+    let (mut columns, r0, mut observed) = log_jacobian(o, x, &cols, frf, progress)?;
     let fixed_columns = columns.split_off(identified.len());
+    // Directions that change no system matrix are structural, exactly
+    // (the data's finite differences need not show them: a close pair's
+    // shapes turn fast enough to hide them); the columns lose them first.
+    let exact = exact_null_directions(&o.prepared().matrix_derivative_gram(identified, x));
+    columns = without_directions(&columns, &exact);
+    observed.truncate(identified.len());
+    observed = without_directions(&observed, &exact);
+    // With FRFs, the structural null directions are those of the modal
+    // residuals and of what the FRFs are a function of
+    // ([`FrfReference::modal_observables`]), not of the FRF residuals'
+    // own differences (their error at a sharp peak hides a null direction:
+    // two guide shoes that act only through their sum); the data's
+    // columns lose those directions exactly.
+    if let Some(frf) = frf.filter(|_| !observed.is_empty()) {
+        let leading = r0.len() - frf.count();
+        let modal: Vec<Vec<f64>> = columns.iter().map(|c| c[..leading].to_vec()).collect();
+        let null = structural_directions(&[modal, observed]);
+        columns = without_directions(&columns, &null);
+    }
     let correlation = correlation(&r0, frf);
     let name = |i: &usize| o.parameters()[*i].name.clone();
     let names: Vec<String> = identified.iter().map(name).collect();
@@ -288,22 +310,36 @@ pub(super) fn identifiability_at(
     Ok((analysis, considered, 2 * cols.len() + 1))
 }
 
+/// Jacobian columns ∂r/∂ln p, the residuals at the point, and the columns
+/// of the FRFs' modal observables (empty without).
+type LogJacobian = (Vec<Vec<f64>>, Vec<f64>, Vec<Vec<f64>>);
+
 /// The residuals at `x` and their central-difference Jacobian columns
 /// ∂r/∂ln p for the parameters `cols` (indices), the residuals being the
 /// usable modes' weighted ones, their damping ratios' and, when given,
-/// `frf`'s; one batch of 2·cols + 1 evaluations. An error when the model
-/// cannot be solved at `x`.
+/// `frf`'s; with `frf` also the columns of its modal observables
+/// ([`FrfReference::modal_observables`]; empty without, or when the mode
+/// count changes within the stencil). One batch of 2·cols + 1
+/// evaluations. An error when the model cannot be solved at `x`.
 fn log_jacobian(
     o: &ModalObjective,
     x: &[f64],
     cols: &[usize],
     frf: Option<&FrfReference>,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<(Vec<Vec<f64>>, Vec<f64>), IdentifyError> {
+) -> Result<LogJacobian, IdentifyError> {
     let usable = o.usable();
     let full = o.bounds()?;
     let u = full.to_unit(x);
-    // Residuals with the Jacobian's coordinates `cols` taken from `s`.
+    // The observables' basis and length at `x` (none when they cannot be
+    // had there: the structural test then rests on the data's columns).
+    let basis = frf.and_then(|f| {
+        let b = f.superposition_basis(o.prepared(), x)?;
+        let len = f.modal_observables(o.prepared(), x, &b)?.len();
+        Some((b, len))
+    });
+    let unobserved = AtomicBool::new(false);
+    // Residuals, then observables, with the coordinates `cols` from `s`.
     let residuals = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
         let v: Vec<_> = points
             .par_iter()
@@ -322,6 +358,15 @@ fn log_jacobian(
                 r.extend(e.damping);
                 if let Some(frf) = frf {
                     r.extend(frf.residuals(o.prepared(), &p)?);
+                    if let Some((b, len)) = &basis {
+                        // A mode count changed within the stencil: the
+                        // observables are not used (zeros keep the length).
+                        let v = frf.modal_observables(o.prepared(), &p, b);
+                        if v.is_none() {
+                            unobserved.store(true, Ordering::Relaxed);
+                        }
+                        r.extend(v.unwrap_or_else(|| vec![0.0; *len]));
+                    }
                 }
                 Some(r)
             })
@@ -330,13 +375,13 @@ fn log_jacobian(
         v
     };
     let sub_u: Vec<f64> = cols.iter().map(|&i| u[i]).collect();
-    let r0 = residuals(std::slice::from_ref(&sub_u))
+    let mut r0 = residuals(std::slice::from_ref(&sub_u))
         .pop()
         .flatten()
         .ok_or_else(|| IdentifyError::Model("the model cannot be solved at the result".into()))?;
     let columns_u = jacobian::central(&residuals, &sub_u, &r0, 1e-4);
     // ∂r/∂ln p = ∂r/∂u · du/d ln p.
-    let columns: Vec<Vec<f64>> = columns_u
+    let mut columns: Vec<Vec<f64>> = columns_u
         .into_iter()
         .zip(cols)
         .map(|(col, &i)| {
@@ -345,7 +390,20 @@ fn log_jacobian(
             col.into_iter().map(|v| v * du_dlnp).collect()
         })
         .collect();
-    Ok((columns, r0))
+    let observed = match basis {
+        Some((_, len)) if r0.len() > len => {
+            let m = r0.len() - len;
+            r0.truncate(m);
+            let observed: Vec<Vec<f64>> = columns.iter_mut().map(|c| c.split_off(m)).collect();
+            if unobserved.load(Ordering::Relaxed) {
+                Vec::new()
+            } else {
+                observed
+            }
+        }
+        _ => Vec::new(),
+    };
+    Ok((columns, r0, observed))
 }
 
 /// How the residuals `r0` are correlated: the FRF part (the last
@@ -451,76 +509,4 @@ pub(super) fn bound_warnings(o: &ModalObjective, x: &[f64], identified: &[usize]
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn paired(model_mode: usize) -> Option<Match> {
-        Some(Match {
-            model_mode,
-            frequency_hz: 0.0,
-            damping_ratio: 0.05,
-            mac: 1.0,
-        })
-    }
-
-    /// Unpaired used reference modes are named with their numbers and
-    /// frequencies; excluded modes (not in `idx`) and paired ones are not.
-    #[test]
-    fn unpaired_reference_modes_are_named() {
-        let idx = [0, 2, 3];
-        let rf = [17.1, 118.9, 155.5];
-        let matched = [paired(0), None, None, paired(2)];
-        let w = unpaired_text(0, &idx, &rf, &matched).unwrap();
-        assert!(w.contains("reference mode without a model partner"), "{w}");
-        assert!(
-            w.contains("mode 3 (118.90 Hz)") && !w.contains("mode 2 "),
-            "{w}"
-        );
-        assert!(!w.contains("17.10") && !w.contains("155.50"), "{w}");
-        assert!(unpaired_text(0, &[0], &[17.1], &[paired(0)]).is_none());
-    }
-
-    /// The real beam's 118.5 Hz mode paired 6.6 % away at MAC 0.61 is weak;
-    /// a close pair with a poor shape, or a far pair with a good one, is not.
-    #[test]
-    fn weak_pairs_need_both_frequency_and_shape_far_off() {
-        let m = |f: f64, mac: f64| {
-            Some(Match {
-                model_mode: 4,
-                frequency_hz: f,
-                damping_ratio: 0.01,
-                mac,
-            })
-        };
-        let idx = [0, 1, 2];
-        let rf = [118.5, 155.4, 265.2];
-        let matched = [m(126.3, 0.61), m(155.9, 0.55), m(280.0, 0.95)];
-        let w = weak_pairs(1, &idx, &rf, &matched);
-        assert_eq!(w.len(), 1, "{w:?}");
-        assert!(
-            w[0].contains("reference mode 1 (118.50 Hz)")
-                && w[0].contains("+6.6 %")
-                && w[0].contains("MAC 0.61"),
-            "{}",
-            w[0]
-        );
-        assert!(weak_pairs(1, &idx, &rf, &[None, None, None]).is_empty());
-    }
-
-    #[test]
-    fn a_model_pair_seen_as_one_reference_mode_is_named() {
-        // Model: 40, 72.1, 72.9 (1.1 % apart), 100, 150 Hz; the reference
-        // sees 40, 72.5 and 100 Hz, paired with model modes 1, 2 and 4.
-        let mf = [40.0, 72.1, 72.9, 100.0, 150.0];
-        let rf = [40.0, 72.5, 100.0];
-        let w = unresolved_pairs(0, &mf, &rf, &[paired(0), paired(1), paired(3)]);
-        assert_eq!(w.len(), 1, "{w:?}");
-        assert!(w[0].contains("model mode 3 (72.90 Hz)") && w[0].contains("reference mode 2"));
-        // 150 Hz is outside the reference band, 100 Hz is paired: no more.
-        let all = unresolved_pairs(0, &mf, &rf, &[paired(0), paired(1), paired(3)]);
-        assert!(!all.iter().any(|m| m.contains("150")));
-        // Well separated unpaired modes are not close pairs.
-        let apart = unresolved_pairs(0, &[40.0, 60.0, 100.0], &rf, &[paired(0), None, paired(2)]);
-        assert!(apart.is_empty(), "{apart:?}");
-    }
-}
+mod tests;

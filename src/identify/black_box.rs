@@ -58,7 +58,6 @@ pub(crate) mod tests {
     use super::*;
     use crate::dynamics::{Model, PreparedModel};
     use crate::identify::Weights;
-    use crate::modal::ModalModel;
 
     pub const THREE_MASS: &str = include_str!("../../pipelines/models/three_mass.yaml");
 
@@ -72,17 +71,18 @@ pub(crate) mod tests {
         vec![2.4e6, 1.3e6, 1.15e6, 4.2e5, 48.0, 25.0, 23.0, 12.0]
     }
 
-    pub fn reference(x: &[f64]) -> Vec<ModalModel> {
-        let m = model();
-        let prepared = PreparedModel::new(&m).unwrap();
-        let sol = prepared.evaluate(0, x, 3).unwrap();
-        vec![prepared.modal_model(&sol).unwrap()]
+    pub fn objective() -> ModalObjective {
+        objective_of(&model(), &truth())
     }
 
-    pub fn objective() -> ModalObjective {
+    /// The objective of `model` against its own three lowest modes at `x`.
+    pub fn objective_of(model: &Model, x: &[f64]) -> ModalObjective {
+        let prepared = PreparedModel::new(model).unwrap();
+        let sol = prepared.evaluate(0, x, 3).unwrap();
+        let reference = vec![prepared.modal_model(&sol).unwrap()];
         ModalObjective::new(
-            &model(),
-            &reference(&truth()),
+            model,
+            &reference,
             None,
             Weights::default(),
             crate::pairing::Pairing::within(0.3),

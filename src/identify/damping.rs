@@ -315,7 +315,7 @@ fn solve(q: &[Vec<f64>], c: &[f64]) -> Option<Vec<f64>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::identify::black_box::tests::{objective, truth};
+    use crate::identify::black_box::tests::{objective, objective_of, truth};
 
     #[test]
     fn bvls_known_answers() {
@@ -346,9 +346,8 @@ mod tests {
     /// off the truth; the passes that follow reach it.
     #[test]
     fn heavy_local_dampers_are_recovered_by_the_further_passes() {
-        use crate::dynamics::{Model, PreparedModel};
+        use crate::dynamics::Model;
         use crate::identify::black_box::tests::THREE_MASS;
-        use crate::identify::Weights;
         let yaml = THREE_MASS
             .replace(
                 "value: 40.0, lower: 10.0, upper: 160.0",
@@ -369,17 +368,7 @@ mod tests {
         ] {
             let mut t = truth();
             (t[4], t[5]) = (c1, c12);
-            let prepared = PreparedModel::new(&model).unwrap();
-            let sol = prepared.evaluate(0, &t, 3).unwrap();
-            let reference = vec![prepared.modal_model(&sol).unwrap()];
-            let o = ModalObjective::new(
-                &model,
-                &reference,
-                None,
-                Weights::default(),
-                crate::pairing::Pairing::within(0.3),
-            )
-            .unwrap();
+            let o = objective_of(&model, &t);
             let mut x = t.clone();
             let nominal = o.nominal();
             x[4..7].copy_from_slice(&nominal[4..7]);

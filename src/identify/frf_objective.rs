@@ -126,6 +126,14 @@ pub struct FrfReference {
     noise: FrfNoise,
 }
 
+/// The mode count and residue scale per slot that fix
+/// [`FrfReference::modal_observables`] around one point.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SuperpositionBasis {
+    modes: Vec<usize>,
+    residue_scale: Vec<f64>,
+}
+
 /// How well a model's FRFs fit the measured ones.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct FrfFit {
@@ -223,6 +231,75 @@ impl FrfReference {
             .iter()
             .map(|s| 2 * s.pairs.len() * s.lines_hz.len())
             .sum()
+    }
+
+    /// The modes behind the FRFs at `x`: per slot, how many modes its
+    /// superposition holds and its largest residue, to fix the length and
+    /// scale of [`Self::modal_observables`] around `x`.
+    pub fn superposition_basis(
+        &self,
+        model: &PreparedModel,
+        x: &[f64],
+    ) -> Option<SuperpositionBasis> {
+        let mut basis = SuperpositionBasis::default();
+        for s in &self.slots {
+            let sol = model
+                .evaluate_modes(s.config, x, ModeSelection::Below(2.0 * self.top_hz))
+                .ok()?;
+            let largest = (0..sol.eigenvalues.len())
+                .flat_map(|r| s.pairs.iter().map(move |&(j, k)| (r, j, k)))
+                .map(|(r, j, k)| (sol.sensor_shapes[(j, r)] * sol.excitation_shapes[(k, r)]).abs())
+                .fold(0.0, f64::max);
+            basis.modes.push(sol.eigenvalues.len());
+            basis
+                .residue_scale
+                .push(if largest > 0.0 { largest } else { 1.0 });
+        }
+        Some(basis)
+    }
+
+    /// What the model's FRFs at `x` are a function of: per slot and mode r
+    /// of its superposition (eq. 2.42/2.45), the coefficients of the
+    /// denominator ω_r² − ω² + j(2ζ_r ω ω_r + η_r ω_r²), i.e. ω_r², 2ζ_r ω_r
+    /// and η_r ω_r² (over ω_top², ω_top: the top line's), and the residue
+    /// φ_jr φ_kr of each channel (over the slot's largest at the basis
+    /// point). A parameter direction that leaves these unchanged leaves
+    /// every FRF unchanged, so the FRFs' structural null directions can be
+    /// read from these smooth quantities, without the error of finite
+    /// differences of the FRFs themselves at a sharp peak. `None` when the
+    /// model cannot be solved or a slot's mode count differs from the
+    /// basis's.
+    pub fn modal_observables(
+        &self,
+        model: &PreparedModel,
+        x: &[f64],
+        basis: &SuperpositionBasis,
+    ) -> Option<Vec<f64>> {
+        let w_top = 2.0 * std::f64::consts::PI * self.top_hz;
+        let mut out = Vec::new();
+        for ((s, &n), &scale) in self
+            .slots
+            .iter()
+            .zip(&basis.modes)
+            .zip(&basis.residue_scale)
+        {
+            let sol = model
+                .evaluate_modes(s.config, x, ModeSelection::Lowest(n))
+                .ok()?;
+            if sol.eigenvalues.len() != n {
+                return None;
+            }
+            for r in 0..n {
+                let l = sol.eigenvalues[r];
+                out.push(l / (w_top * w_top));
+                out.push(2.0 * sol.zeta[r] * l.sqrt() / w_top);
+                out.push(sol.eta[r] * l / (w_top * w_top));
+                out.extend(s.pairs.iter().map(|&(j, k)| {
+                    sol.sensor_shapes[(j, r)] * sol.excitation_shapes[(k, r)] / scale
+                }));
+            }
+        }
+        Some(out)
     }
 
     /// Per position (slot), its lines and each channel's reference, in
@@ -479,94 +556,4 @@ pub fn coherence_sigma(h_abs: f64, gamma2: f64, averages: usize) -> f64 {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::identify::black_box::tests::{model, truth};
-    use crate::identify::frf_refinement::tests::measured;
-
-    /// The chain with its dampers at `damping` times the truth's, and its
-    /// FRFs with 1 % noise (`seed`).
-    fn light_chain(damping: f64, seed: u64) -> (PreparedModel, Vec<f64>, FrfSet) {
-        let prepared = PreparedModel::new(&model()).unwrap();
-        let mut light = truth();
-        light[4..].iter_mut().for_each(|c| *c *= damping);
-        let set = measured(&prepared, &light, 0.01, seed);
-        (prepared, light, set)
-    }
-
-    #[test]
-    fn frequency_drift_bounds_a_lightly_damped_peaks_misfit_and_leaves_the_noise() {
-        // Dampers at 2 % of the truth's: peaks narrower than the 0.5 Hz
-        // lines, as a ball screw's.
-        let (prepared, light, set) = light_chain(0.02, 4);
-        let band = (10.0, 400.0);
-        let reference = |drift: f64| {
-            let noise = FrfNoise {
-                drift,
-                ..FrfNoise::default()
-            };
-            FrfReference::new(&prepared, std::slice::from_ref(&set), None, band, noise).unwrap()
-        };
-        let (plain, drifting) = (reference(0.0), reference(1e-4));
-        assert!(drifting
-            .noise_model()
-            .ends_with("a frequency drift of 1e-4 (relative) at each line"));
-        // At the truth the drift term changes little: the noise is the
-        // channel's almost everywhere.
-        let (a, b) = (
-            plain.fit(&prepared, &light).unwrap(),
-            drifting.fit(&prepared, &light).unwrap(),
-        );
-        assert!((0.85..1.2).contains(&a.rms), "{a:?}");
-        assert!(b.rms <= a.rms && b.rms > 0.95 * a.rms, "{a:?} {b:?}");
-        // A stiffness 0.05 % off moves the first modes by 1–2.5 δ: without
-        // the term the spikes make it 10σ off, with it it is at the noise.
-        let mut near = light.clone();
-        near[0] *= 1.0005;
-        let (a, b) = (
-            plain.fit(&prepared, &near).unwrap(),
-            drifting.fit(&prepared, &near).unwrap(),
-        );
-        assert!(a.rms > 8.0, "{a:?}");
-        assert!(b.rms < 1.1, "{b:?}");
-        // 5 % off, the measured spikes stand where the model has no peak
-        // and no drift term: far above the noise either way.
-        let mut far = light.clone();
-        far[0] *= 1.05;
-        let b = drifting.fit(&prepared, &far).unwrap();
-        assert!(b.rms > 8.0, "{b:?}");
-    }
-
-    /// The worst window finds a misplaced resonance the overall RMS
-    /// dilutes, and stays near 1 at the truth.
-    #[test]
-    fn the_local_misfit_sits_on_a_misplaced_peak() {
-        let (prepared, light, set) = light_chain(0.05, 7);
-        let r = FrfReference::new(
-            &prepared,
-            std::slice::from_ref(&set),
-            None,
-            (10.0, 400.0),
-            FrfNoise::default(),
-        )
-        .unwrap();
-        let at = r.fit(&prepared, &light).unwrap();
-        let l = at.local.unwrap();
-        assert!(l.rms < 1.8 && l.rms > at.rms, "{at:?}");
-        // One stiffness 0.3 % off: a few lines at each peak, tens of σ.
-        let mut near = light.clone();
-        near[0] *= 1.003;
-        let off = r.fit(&prepared, &near).unwrap();
-        let l = off.local.unwrap();
-        assert!(l.rms > 4.0 * off.rms && l.rms > 10.0, "{off:?}");
-        let sol = prepared
-            .evaluate_modes(0, &near, ModeSelection::Below(400.0))
-            .unwrap();
-        let nearest = sol
-            .eigenvalues
-            .iter()
-            .map(|w2| (w2.sqrt() / std::f64::consts::TAU - l.frequency_hz).abs())
-            .fold(f64::INFINITY, f64::min);
-        assert!(nearest < 2.0, "{l:?} is {nearest} Hz from the nearest mode");
-    }
-}
+mod tests;

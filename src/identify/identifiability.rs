@@ -246,6 +246,96 @@ pub fn analyze(
     }
 }
 
+/// Eigenvalues of the normalized Gram matrix of the system matrices'
+/// derivatives below this are exact null directions (rounding is 10⁻¹⁶;
+/// two springs a milliradian off one line of action are at 10⁻⁶).
+const EXACT: f64 = 1e-10;
+
+/// The directions in ln p (orthonormal) that change no system matrix,
+/// from their derivatives' Gram matrix `gram`
+/// ([`crate::dynamics::PreparedModel::matrix_derivative_gram`]): exact
+/// structural null directions, found without finite differences of any
+/// prediction. Each parameter's row is scaled to unit diagonal first, so
+/// stiffnesses and dampers of any size count alike; parameters with a
+/// zero diagonal (entering no joint term) take no part.
+pub(crate) fn exact_null_directions(gram: &Mat<f64>) -> Vec<Vec<f64>> {
+    let n = gram.nrows();
+    let active: Vec<usize> = (0..n).filter(|&i| gram[(i, i)] > 0.0).collect();
+    let d: Vec<f64> = active.iter().map(|&i| gram[(i, i)].sqrt()).collect();
+    let m = active.len();
+    let normalized = Mat::<f64>::from_fn(m, m, |a, b| gram[(active[a], active[b])] / (d[a] * d[b]));
+    let Ok((mu, W)) = symmetric_eigen(&normalized) else {
+        return Vec::new();
+    };
+    let mut out: Vec<Vec<f64>> = Vec::new();
+    for k in (0..m).filter(|&k| mu[k] <= EXACT) {
+        // Back to ln p (v = w / d), then orthonormal to those before.
+        let mut v = vec![0.0; n];
+        for (a, &i) in active.iter().enumerate() {
+            v[i] = W[(a, k)] / d[a];
+        }
+        for u in &out {
+            let c: f64 = u.iter().zip(&v).map(|(a, b)| a * b).sum();
+            v.iter_mut().zip(u).for_each(|(x, y)| *x -= c * y);
+        }
+        let norm = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        if norm > 0.0 {
+            out.push(v.into_iter().map(|x| x / norm).collect());
+        }
+    }
+    out
+}
+
+/// The structural null directions shared by every block of Jacobian rows
+/// (`blocks[b][i]`: block b's column for parameter i), as unit vectors in
+/// ln p. Each block's Gram matrix is scaled by its largest eigenvalue, so
+/// that a block of small numbers counts as much as one of large numbers;
+/// a direction is structural when the sum's eigenvalue is below
+/// [`STRUCTURAL`]² of the largest, i.e. when no block sees it.
+pub(crate) fn structural_directions(blocks: &[Vec<Vec<f64>>]) -> Vec<Vec<f64>> {
+    let n = blocks.first().map_or(0, Vec::len);
+    let mut G = Mat::<f64>::zeros(n, n);
+    for block in blocks.iter().filter(|b| b.len() == n) {
+        let B = Mat::<f64>::from_fn(n, n, |a, b| {
+            block[a].iter().zip(&block[b]).map(|(x, y)| x * y).sum()
+        });
+        let largest = match symmetric_eigen(&B) {
+            Ok((mu, _)) => mu.iter().copied().fold(0.0f64, f64::max),
+            Err(_) => continue,
+        };
+        if largest > 0.0 {
+            G += B * faer::Scale(1.0 / largest);
+        }
+    }
+    let Ok((mu, V)) = symmetric_eigen(&G) else {
+        return Vec::new();
+    };
+    let largest = mu.iter().copied().fold(0.0f64, f64::max);
+    (0..n)
+        .filter(|&k| largest > 0.0 && mu[k] <= STRUCTURAL * STRUCTURAL * largest)
+        .map(|k| (0..n).map(|i| V[(i, k)]).collect())
+        .collect()
+}
+
+/// `columns` (one per parameter) with the `directions` (orthonormal, in
+/// parameter space) removed: J (I − N Nᵀ), so J v = 0 exactly for v in
+/// their span and J v is unchanged for v orthogonal to it.
+pub(crate) fn without_directions(columns: &[Vec<f64>], directions: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let m = columns.first().map_or(0, Vec::len);
+    let mut out = columns.to_vec();
+    for d in directions {
+        // J d, then each column i loses (J d)·d_i.
+        let mut jd = vec![0.0; m];
+        for (col, &w) in columns.iter().zip(d) {
+            jd.iter_mut().zip(col).for_each(|(a, c)| *a += w * c);
+        }
+        for (col, &w) in out.iter_mut().zip(d) {
+            col.iter_mut().zip(&jd).for_each(|(c, a)| *c -= w * a);
+        }
+    }
+    out
+}
+
 /// The structural null space split into independent groups of parameters.
 /// Its basis is arbitrary (eigenvectors of a repeated zero eigenvalue mix),
 /// so the groups come from the projector P = V₀V₀ᵀ onto it, which is not:
@@ -416,5 +506,80 @@ mod tests {
             .parameters[0]
                 .identifiable
         );
+    }
+
+    #[test]
+    fn exact_null_directions_are_parallel_terms_of_any_size() {
+        // Rank-one terms g gᵀ: a = 3e8·(1, 1, 0) and b = 5e7·(2, 2, 0) lie on
+        // one line of action (scaled copies); c = 4e3·(1, −1, 0) does not.
+        // G_ab = x_a x_b (g_aᵀ g_b)² with x the values.
+        let g = [
+            [1.0, 1.0, 0.0],
+            [2.0, 2.0, 0.0],
+            [1.0, -1.0, 0.0],
+            [0.0, 0.0, 0.0],
+        ];
+        let x = [3e8, 5e7, 4e3, 1.0];
+        let gram = Mat::<f64>::from_fn(4, 4, |a, b| {
+            let d: f64 = g[a].iter().zip(&g[b]).map(|(p, q)| p * q).sum();
+            x[a] * x[b] * d * d
+        });
+        let null = exact_null_directions(&gram);
+        assert_eq!(null.len(), 1, "{null:?}");
+        let v = &null[0];
+        // x_a·4·v_a + x_b·16·v_b = 0 along (1, 1, 0): v ∝ (1/(4 x_a), −1/(16 x_b)).
+        let expect = [1.0 / (4.0 * x[0]), -1.0 / (16.0 * x[1])];
+        let ratio = v[0] / v[1];
+        assert!(
+            (ratio / (expect[0] / expect[1]) - 1.0).abs() < 1e-9,
+            "{v:?}"
+        );
+        assert!(v[2].abs() < 1e-12 && v[3] == 0.0, "{v:?}");
+        assert!((v.iter().map(|a| a * a).sum::<f64>() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_direction_one_block_sees_is_not_structural() {
+        // Block 1 cannot tell p0 from p1; block 2 can (with small numbers),
+        // and neither tells p2 from p3.
+        let b1 = vec![
+            vec![1.0, 2.0],
+            vec![1.0, 2.0],
+            vec![0.0, 1.0],
+            vec![0.0, 1.0],
+        ];
+        let b2 = vec![
+            vec![1e-6, 0.0],
+            vec![0.0, 1e-6],
+            vec![3e-6, 0.0],
+            vec![3e-6, 0.0],
+        ];
+        let null = structural_directions(&[b1.clone(), b2]);
+        assert_eq!(null.len(), 1, "{null:?}");
+        let v = &null[0];
+        assert!(v[0].abs() < 1e-6 && v[1].abs() < 1e-6, "{v:?}");
+        assert!((v[2] + v[3]).abs() < 1e-9 && v[2].abs() > 0.7, "{v:?}");
+        // Without the second block p0 and p1 form a second direction.
+        assert_eq!(structural_directions(std::slice::from_ref(&b1)).len(), 2);
+        // Taking the directions out leaves the rest of the columns alone.
+        // Columns that do see it (J v ≠ 0) lose it; the others stay.
+        let cols = vec![
+            vec![1.0, 0.0],
+            vec![0.0, 1.0],
+            vec![1.0, 0.0],
+            vec![0.0, 0.0],
+        ];
+        let cut = without_directions(&cols, &null);
+        for k in 0..2 {
+            assert!(cut[k]
+                .iter()
+                .zip(&cols[k])
+                .all(|(a, b)| (a - b).abs() < 1e-12));
+        }
+        for line in 0..2 {
+            let jv: f64 = cut.iter().zip(v).map(|(c, w)| c[line] * w).sum();
+            assert!(jv.abs() < 1e-12, "{cut:?}");
+        }
+        assert!((cut[2][0] - 0.5).abs() < 1e-6, "{cut:?}");
     }
 }

@@ -153,8 +153,15 @@ impl Kind for Identify {
     /// 28: a refit with plausible values that ends stalled or still
     /// misplacing a resonance names the screening and a local minimum as
     /// not told apart (was: the screening).
+    /// 29: used by a reverted experiment (a uniqueness search), skipped.
+    /// 30: with FRFs, the structural null directions come from the modal
+    /// residuals and what the FRFs are a function of (each mode's
+    /// denominator coefficients and residues), not from finite differences
+    /// of the FRF residuals, whose error at a sharp peak made two guide
+    /// shoes acting only through their sum look determined
+    /// (`FrfReference::modal_observables`; issue 26).
     fn version(&self) -> u32 {
-        28
+        30
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"

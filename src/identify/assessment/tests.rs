@@ -1,0 +1,140 @@
+use super::*;
+use crate::identify::batch_means::Correlation;
+
+fn paired(model_mode: usize) -> Option<Match> {
+    Some(Match {
+        model_mode,
+        frequency_hz: 0.0,
+        damping_ratio: 0.05,
+        mac: 1.0,
+    })
+}
+
+/// Unpaired used reference modes are named with their numbers and
+/// frequencies; excluded modes (not in `idx`) and paired ones are not.
+#[test]
+fn unpaired_reference_modes_are_named() {
+    let idx = [0, 2, 3];
+    let rf = [17.1, 118.9, 155.5];
+    let matched = [paired(0), None, None, paired(2)];
+    let w = unpaired_text(0, &idx, &rf, &matched).unwrap();
+    assert!(w.contains("reference mode without a model partner"), "{w}");
+    assert!(
+        w.contains("mode 3 (118.90 Hz)") && !w.contains("mode 2 "),
+        "{w}"
+    );
+    assert!(!w.contains("17.10") && !w.contains("155.50"), "{w}");
+    assert!(unpaired_text(0, &[0], &[17.1], &[paired(0)]).is_none());
+}
+
+/// The real beam's 118.5 Hz mode paired 6.6 % away at MAC 0.61 is weak;
+/// a close pair with a poor shape, or a far pair with a good one, is not.
+#[test]
+fn weak_pairs_need_both_frequency_and_shape_far_off() {
+    let m = |f: f64, mac: f64| {
+        Some(Match {
+            model_mode: 4,
+            frequency_hz: f,
+            damping_ratio: 0.01,
+            mac,
+        })
+    };
+    let idx = [0, 1, 2];
+    let rf = [118.5, 155.4, 265.2];
+    let matched = [m(126.3, 0.61), m(155.9, 0.55), m(280.0, 0.95)];
+    let w = weak_pairs(1, &idx, &rf, &matched);
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(
+        w[0].contains("reference mode 1 (118.50 Hz)")
+            && w[0].contains("+6.6 %")
+            && w[0].contains("MAC 0.61"),
+        "{}",
+        w[0]
+    );
+    assert!(weak_pairs(1, &idx, &rf, &[None, None, None]).is_empty());
+}
+
+#[test]
+fn a_model_pair_seen_as_one_reference_mode_is_named() {
+    // Model: 40, 72.1, 72.9 (1.1 % apart), 100, 150 Hz; the reference
+    // sees 40, 72.5 and 100 Hz, paired with model modes 1, 2 and 4.
+    let mf = [40.0, 72.1, 72.9, 100.0, 150.0];
+    let rf = [40.0, 72.5, 100.0];
+    let w = unresolved_pairs(0, &mf, &rf, &[paired(0), paired(1), paired(3)]);
+    assert_eq!(w.len(), 1, "{w:?}");
+    assert!(w[0].contains("model mode 3 (72.90 Hz)") && w[0].contains("reference mode 2"));
+    // 150 Hz is outside the reference band, 100 Hz is paired: no more.
+    let all = unresolved_pairs(0, &mf, &rf, &[paired(0), paired(1), paired(3)]);
+    assert!(!all.iter().any(|m| m.contains("150")));
+    // Well separated unpaired modes are not close pairs.
+    let apart = unresolved_pairs(0, &[40.0, 60.0, 100.0], &rf, &[paired(0), None, paired(2)]);
+    assert!(apart.is_empty(), "{apart:?}");
+}
+
+/// The three-mass chain with a second spring `k1b` beside `k1` (both from
+/// m1 to ground, so only their sum counts) and its dampers at 2 % of the
+/// quickstart's: peaks narrower than the 0.5 Hz lines, where finite
+/// differences of the FRFs are least accurate.
+fn parallel_springs() -> (crate::dynamics::Model, Vec<f64>) {
+    use crate::identify::black_box::tests::THREE_MASS;
+    let text = THREE_MASS
+        .replace(
+            "  # Dampers:",
+            "  - {name: k1b.k_x, value: 5.0e5, lower: 5.0e4, upper: 2.0e6, scale: log, kind: stiffness}\n  # Dampers:",
+        )
+        .replace(
+            "  - {name: k12, a:",
+            "  - {name: k1b, a: {body: m1, point: c}, connections: [{dir: x, stiffness: k1b.k_x}]}\n  - {name: k12, a:",
+        );
+    let read = |p: &str| std::fs::read(p);
+    let model = crate::dynamics::Model::from_yaml(&text, "parallel.yaml", &read).unwrap();
+    // k1 + k1b = 2.4e6, split 2.1e6 / 0.3e6; dampers light.
+    let x = vec![2.1e6, 1.3e6, 1.15e6, 4.2e5, 3.0e5, 0.96, 0.5, 0.46, 0.24];
+    (model, x)
+}
+
+/// Two springs acting only through their sum are one structural group
+/// when the FRFs are given too, although the FRF residuals' own
+/// finite-difference columns (error at the sharp peaks) are not parallel.
+#[test]
+fn parallel_springs_stay_structural_with_frfs() {
+    use super::super::frf_objective::FrfNoise;
+    use crate::identify::black_box::tests::objective_of;
+    use crate::identify::frf_refinement::tests::measured;
+    let (model, x) = parallel_springs();
+    let o = objective_of(&model, &x);
+    let prepared = o.prepared();
+    let set = measured(prepared, &x, 0.01, 3);
+    let frf =
+        FrfReference::new(prepared, &[set], None, (10.0, 400.0), FrfNoise::default()).unwrap();
+    // The stiffnesses: four dampers behind three modal damping ratios
+    // would be a structural group of their own.
+    let all: Vec<usize> = (0..5).collect();
+    let names: Vec<String> = all
+        .iter()
+        .map(|&i| o.parameters()[i].name.clone())
+        .collect();
+    let (id, _, _) = identifiability_at(&o, &x, &all, &[], 0.1, Some(&frf), &|_| {}).unwrap();
+    let structural: Vec<&str> = id
+        .parameters
+        .iter()
+        .filter(|p| p.structural)
+        .map(|p| p.parameter.as_str())
+        .collect();
+    assert_eq!(
+        structural,
+        ["k1.k_x", "k1b.k_x"],
+        "{:?}",
+        id.singular_values
+    );
+    assert!(id.parameters[1..4].iter().all(|p| p.identifiable), "{id:?}");
+    // The FRF residuals' columns alone would call the pair determined.
+    let (columns, r0, observed) = log_jacobian(&o, &x, &all, Some(&frf), &|_| {}).unwrap();
+    assert_eq!(observed.len(), all.len());
+    let naive = analyze(&columns, &r0, &names, 0.1, &Correlation::independent());
+    assert!(
+        !naive.parameters[0].structural,
+        "{:?}",
+        naive.singular_values
+    );
+}

@@ -1,0 +1,89 @@
+use super::*;
+use crate::identify::black_box::tests::{model, truth};
+use crate::identify::frf_refinement::tests::measured;
+
+/// The chain with its dampers at `damping` times the truth's, and its
+/// FRFs with 1 % noise (`seed`).
+fn light_chain(damping: f64, seed: u64) -> (PreparedModel, Vec<f64>, FrfSet) {
+    let prepared = PreparedModel::new(&model()).unwrap();
+    let mut light = truth();
+    light[4..].iter_mut().for_each(|c| *c *= damping);
+    let set = measured(&prepared, &light, 0.01, seed);
+    (prepared, light, set)
+}
+
+#[test]
+fn frequency_drift_bounds_a_lightly_damped_peaks_misfit_and_leaves_the_noise() {
+    // Dampers at 2 % of the truth's: peaks narrower than the 0.5 Hz
+    // lines, as a ball screw's.
+    let (prepared, light, set) = light_chain(0.02, 4);
+    let band = (10.0, 400.0);
+    let reference = |drift: f64| {
+        let noise = FrfNoise {
+            drift,
+            ..FrfNoise::default()
+        };
+        FrfReference::new(&prepared, std::slice::from_ref(&set), None, band, noise).unwrap()
+    };
+    let (plain, drifting) = (reference(0.0), reference(1e-4));
+    assert!(drifting
+        .noise_model()
+        .ends_with("a frequency drift of 1e-4 (relative) at each line"));
+    // At the truth the drift term changes little: the noise is the
+    // channel's almost everywhere.
+    let (a, b) = (
+        plain.fit(&prepared, &light).unwrap(),
+        drifting.fit(&prepared, &light).unwrap(),
+    );
+    assert!((0.85..1.2).contains(&a.rms), "{a:?}");
+    assert!(b.rms <= a.rms && b.rms > 0.95 * a.rms, "{a:?} {b:?}");
+    // A stiffness 0.05 % off moves the first modes by 1–2.5 δ: without
+    // the term the spikes make it 10σ off, with it it is at the noise.
+    let mut near = light.clone();
+    near[0] *= 1.0005;
+    let (a, b) = (
+        plain.fit(&prepared, &near).unwrap(),
+        drifting.fit(&prepared, &near).unwrap(),
+    );
+    assert!(a.rms > 8.0, "{a:?}");
+    assert!(b.rms < 1.1, "{b:?}");
+    // 5 % off, the measured spikes stand where the model has no peak
+    // and no drift term: far above the noise either way.
+    let mut far = light.clone();
+    far[0] *= 1.05;
+    let b = drifting.fit(&prepared, &far).unwrap();
+    assert!(b.rms > 8.0, "{b:?}");
+}
+
+/// The worst window finds a misplaced resonance the overall RMS
+/// dilutes, and stays near 1 at the truth.
+#[test]
+fn the_local_misfit_sits_on_a_misplaced_peak() {
+    let (prepared, light, set) = light_chain(0.05, 7);
+    let r = FrfReference::new(
+        &prepared,
+        std::slice::from_ref(&set),
+        None,
+        (10.0, 400.0),
+        FrfNoise::default(),
+    )
+    .unwrap();
+    let at = r.fit(&prepared, &light).unwrap();
+    let l = at.local.unwrap();
+    assert!(l.rms < 1.8 && l.rms > at.rms, "{at:?}");
+    // One stiffness 0.3 % off: a few lines at each peak, tens of σ.
+    let mut near = light.clone();
+    near[0] *= 1.003;
+    let off = r.fit(&prepared, &near).unwrap();
+    let l = off.local.unwrap();
+    assert!(l.rms > 4.0 * off.rms && l.rms > 10.0, "{off:?}");
+    let sol = prepared
+        .evaluate_modes(0, &near, ModeSelection::Below(400.0))
+        .unwrap();
+    let nearest = sol
+        .eigenvalues
+        .iter()
+        .map(|w2| (w2.sqrt() / std::f64::consts::TAU - l.frequency_hz).abs())
+        .fold(f64::INFINITY, f64::min);
+    assert!(nearest < 2.0, "{l:?} is {nearest} Hz from the nearest mode");
+}
