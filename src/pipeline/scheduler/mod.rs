@@ -178,7 +178,7 @@ pub fn wanted(plan: &Plan, targets: &[String]) -> Result<Vec<bool>, RunError> {
     let mut todo = Vec::new();
     for t in targets {
         let hits: Vec<usize> = (0..plan.nodes.len())
-            .filter(|&i| &plan.nodes[i].name == t || &plan.nodes[i].base == t)
+            .filter(|&i| selects(t, &plan.nodes[i].name, &plan.nodes[i].base))
             .collect();
         if hits.is_empty() {
             let known: Vec<&str> = plan.nodes.iter().map(|n| n.name.as_str()).collect();
@@ -195,6 +195,23 @@ pub fn wanted(plan: &Plan, targets: &[String]) -> Result<Vec<bool>, RunError> {
         }
     }
     Ok(wanted)
+}
+
+/// Whether target `t` names the stage `name` (expansion of `base`): the
+/// name itself, the base name (every expansion), or the base with some of
+/// the matrix values (`ema[measurement=noisy]`: every `s`).
+fn selects(t: &str, name: &str, base: &str) -> bool {
+    if t == name || t == base {
+        return true;
+    }
+    let inside = |s: &str, b: &str| -> Option<Vec<String>> {
+        let rest = s.strip_prefix(b)?.strip_prefix('[')?.strip_suffix(']')?;
+        Some(rest.split(',').map(|p| p.trim().to_string()).collect())
+    };
+    match (inside(t, base), inside(name, base)) {
+        (Some(wanted), Some(has)) => wanted.iter().all(|w| has.contains(w)),
+        _ => false,
+    }
 }
 
 /// Run the pipeline.
@@ -501,4 +518,23 @@ fn placeholder(plan: &Plan, u: usize) -> Option<Done> {
         outputs,
         warnings: Vec::new(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::selects;
+
+    #[test]
+    fn a_target_selects_by_name_base_or_some_matrix_values() {
+        let (name, base) = ("ema[measurement=noisy,s=12]", "ema");
+        assert!(selects(name, name, base));
+        assert!(selects("ema", name, base));
+        assert!(selects("ema[measurement=noisy]", name, base));
+        assert!(selects("ema[s=12]", name, base));
+        assert!(selects("ema[s=12, measurement=noisy]", name, base));
+        assert!(!selects("ema[measurement=hammer]", name, base));
+        assert!(!selects("ema[s=1]", name, base));
+        assert!(!selects("em[s=12]", name, base));
+        assert!(!selects("ema[measurement=noisy", name, base));
+    }
 }
