@@ -268,15 +268,14 @@ pub(super) fn identifiability_at(
         .copied()
         .chain(fixed.iter().map(|f| f.0))
         .collect();
-    let (mut columns, r0, mut observed) = log_jacobian(o, x, &cols, frf, progress)?;
+    let (mut columns, r0, observed) = log_jacobian(o, x, &cols, identified.len(), frf, progress)?;
     let fixed_columns = columns.split_off(identified.len());
     // Directions that change no system matrix are structural, exactly
     // (the data's finite differences need not show them: a close pair's
     // shapes turn fast enough to hide them); the columns lose them first.
     let exact = exact_null_directions(&o.prepared().matrix_derivative_gram(identified, x));
     columns = without_directions(&columns, &exact);
-    observed.truncate(identified.len());
-    observed = without_directions(&observed, &exact);
+    let observed = without_directions(&observed, &exact);
     // With FRFs, the structural null directions are those of the modal
     // residuals and of what the FRFs are a function of
     // ([`FrfReference::modal_observables`]), not of the FRF residuals'
@@ -317,27 +316,26 @@ type LogJacobian = (Vec<Vec<f64>>, Vec<f64>, Vec<Vec<f64>>);
 /// The residuals at `x` and their central-difference Jacobian columns
 /// ∂r/∂ln p for the parameters `cols` (indices), the residuals being the
 /// usable modes' weighted ones, their damping ratios' and, when given,
-/// `frf`'s; with `frf` also the columns of its modal observables
-/// ([`FrfReference::modal_observables`]; empty without, or when the mode
-/// count changes within the stencil). One batch of 2·cols + 1
-/// evaluations. An error when the model cannot be solved at `x`.
+/// `frf`'s; with `frf` also the columns of its modal observables for the
+/// first `observe` parameters ([`FrfReference::modal_observables`]; empty
+/// without, or when the mode count changes within their stencil). One
+/// batch of 2·cols + 1 evaluations. An error when the model cannot be
+/// solved at `x`.
 fn log_jacobian(
     o: &ModalObjective,
     x: &[f64],
     cols: &[usize],
+    observe: usize,
     frf: Option<&FrfReference>,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<LogJacobian, IdentifyError> {
     let usable = o.usable();
     let full = o.bounds()?;
     let u = full.to_unit(x);
-    // The observables' basis and length at `x` (none when they cannot be
-    // had there: the structural test then rests on the data's columns).
-    let basis = frf.and_then(|f| {
-        let b = f.superposition_basis(o.prepared(), x)?;
-        let len = f.modal_observables(o.prepared(), x, &b)?.len();
-        Some((b, len))
-    });
+    // The observables' basis at `x` (none when the model cannot be solved
+    // there: the structural test then rests on the data's columns).
+    let basis = frf.and_then(|f| f.superposition_basis(o.prepared(), x));
+    let sub_u: Vec<f64> = cols.iter().map(|&i| u[i]).collect();
     let unobserved = AtomicBool::new(false);
     // Residuals, then observables, with the coordinates `cols` from `s`.
     let residuals = |points: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
@@ -358,14 +356,20 @@ fn log_jacobian(
                 r.extend(e.damping);
                 if let Some(frf) = frf {
                     r.extend(frf.residuals(o.prepared(), &p)?);
-                    if let Some((b, len)) = &basis {
-                        // A mode count changed within the stencil: the
-                        // observables are not used (zeros keep the length).
-                        let v = frf.modal_observables(o.prepared(), &p, b);
+                    if let Some(b) = &basis {
+                        // At `x` and the first `observe` parameters' points
+                        // only (zeros keep the length at the others); a
+                        // mode count changed there leaves them unused.
+                        let moved = s.iter().zip(&sub_u).position(|(a, c)| a != c);
+                        let v = if moved.is_none_or(|j| j < observe) {
+                            frf.modal_observables(o.prepared(), &p, b)
+                        } else {
+                            Some(vec![0.0; b.len])
+                        };
                         if v.is_none() {
                             unobserved.store(true, Ordering::Relaxed);
                         }
-                        r.extend(v.unwrap_or_else(|| vec![0.0; *len]));
+                        r.extend(v.unwrap_or_else(|| vec![0.0; b.len]));
                     }
                 }
                 Some(r)
@@ -374,7 +378,6 @@ fn log_jacobian(
         progress(points.len() as u64);
         v
     };
-    let sub_u: Vec<f64> = cols.iter().map(|&i| u[i]).collect();
     let mut r0 = residuals(std::slice::from_ref(&sub_u))
         .pop()
         .flatten()
@@ -391,10 +394,11 @@ fn log_jacobian(
         })
         .collect();
     let observed = match basis {
-        Some((_, len)) if r0.len() > len => {
-            let m = r0.len() - len;
+        Some(b) if r0.len() > b.len => {
+            let m = r0.len() - b.len;
             r0.truncate(m);
-            let observed: Vec<Vec<f64>> = columns.iter_mut().map(|c| c.split_off(m)).collect();
+            let mut observed: Vec<Vec<f64>> = columns.iter_mut().map(|c| c.split_off(m)).collect();
+            observed.truncate(observe);
             if unobserved.load(Ordering::Relaxed) {
                 Vec::new()
             } else {

@@ -132,6 +132,8 @@ pub struct FrfReference {
 pub struct SuperpositionBasis {
     modes: Vec<usize>,
     residue_scale: Vec<f64>,
+    /// Length of the observables vector.
+    pub len: usize,
 }
 
 /// How well a model's FRFs fit the measured ones.
@@ -254,6 +256,7 @@ impl FrfReference {
             basis
                 .residue_scale
                 .push(if largest > 0.0 { largest } else { 1.0 });
+            basis.len += sol.eigenvalues.len() * (3 + s.pairs.len());
         }
         Some(basis)
     }

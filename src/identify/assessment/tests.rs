@@ -129,7 +129,8 @@ fn parallel_springs_stay_structural_with_frfs() {
     );
     assert!(id.parameters[1..4].iter().all(|p| p.identifiable), "{id:?}");
     // The FRF residuals' columns alone would call the pair determined.
-    let (columns, r0, observed) = log_jacobian(&o, &x, &all, Some(&frf), &|_| {}).unwrap();
+    let (columns, r0, observed) =
+        log_jacobian(&o, &x, &all, all.len(), Some(&frf), &|_| {}).unwrap();
     assert_eq!(observed.len(), all.len());
     let naive = analyze(&columns, &r0, &names, 0.1, &Correlation::independent());
     assert!(
