@@ -128,8 +128,11 @@ fn coverage_text(scores: &[(u32, Score)]) -> String {
     let expected: f64 = judged()
         .map(|(_, s)| below_ninety_if_exact(s.intervals))
         .sum();
+    let (sums, sums_covered) = scores
+        .iter()
+        .fold((0, 0), |(n, c), (_, s)| (n + s.sums, c + s.sums_covered));
     format!(
-        "Coverage: {c} of {n} stated 95 % intervals contain the truth ({:.0} %); {} of {} truths below 90 % (exact 95 % intervals, each covering independently, would leave {expected:.1} on average), of which {} fail (ok, or not naming implicated parameters){}; ok verdicts with median error > 5 %: {}.",
+        "Coverage: {c} of {n} stated 95 % intervals contain the truth ({:.0} %); {} of {} truths below 90 % (exact 95 % intervals, each covering independently, would leave {expected:.1} on average), of which {} fail (ok, or not naming implicated parameters){}; ok verdicts with median error > 5 %: {}. Sums of structural groups: {sums_covered} of {sums} intervals contain the true sum.",
         100.0 * c as f64 / n.max(1) as f64,
         below.len(),
         scores.len(),

@@ -10,6 +10,7 @@
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 use modalflow::artifacts::cost::Cost;
+use modalflow::artifacts::identifiability::{IdentifiabilityFile, FILE};
 use modalflow::artifacts::modes::read_modes;
 use modalflow::identify::verdict::Fit;
 use modalflow::metrics::mac;
@@ -32,6 +33,10 @@ pub struct Score {
     /// those intervals contain the true value (issue 26's coverage).
     pub intervals: usize,
     pub covered: usize,
+    /// Structural groups with a stated interval for their sum, and how many
+    /// contain the true sum (identifiability.json's `joint`).
+    pub sums: usize,
+    pub sums_covered: usize,
     /// The verdict names the parameters whose intervals do not hold
     /// (implicated, refitted, or dampers whose damping is not reproduced).
     pub names_implicated: bool,
@@ -156,6 +161,7 @@ fn score_model(
         .collect();
     errors.sort_by(f64::total_cmp);
     let (intervals, covered) = coverage(id_dir, &kinds);
+    let (sums, sums_covered) = sum_coverage(id_dir, &kinds);
     // Read through the schema the identify stage writes: a renamed field
     // fails here instead of scoring as a silent default.
     let cost = Cost::read(&id_dir.join("cost.json")).unwrap_or_else(|e| panic!("{e}"));
@@ -184,7 +190,30 @@ fn score_model(
         message: cost.verdict.message,
         intervals,
         covered,
+        sums,
+        sums_covered,
     }
+}
+
+/// (structural groups with a stated interval for their sum, intervals
+/// containing the true sum) of the identify results in `id_dir`.
+fn sum_coverage(id_dir: &Path, truth: &BTreeMap<String, (f64, String)>) -> (usize, usize) {
+    let file = IdentifiabilityFile::read(&id_dir.join(FILE)).unwrap_or_else(|e| panic!("{e}"));
+    let stated: Vec<(f64, f64, f64)> = file
+        .analysis
+        .undetermined
+        .iter()
+        .filter_map(|c| {
+            let j = c.joint.as_ref()?;
+            let t: f64 = c.parameters.iter().map(|(name, _)| truth[name].0).sum();
+            Some((j.ci_low?, j.ci_high?, t))
+        })
+        .collect();
+    let covered = stated
+        .iter()
+        .filter(|(lo, hi, t)| lo <= t && t <= hi)
+        .count();
+    (stated.len(), covered)
 }
 
 /// (identified parameters with a stated interval, intervals containing the

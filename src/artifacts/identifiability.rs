@@ -11,8 +11,9 @@ use std::path::Path;
 /// The file name of an `identifiability` output.
 pub const FILE: &str = "identifiability.json";
 
-/// The schema this build writes (2: `schema_version` stated).
-pub const SCHEMA_VERSION: u32 = 2;
+/// The schema this build writes (2: `schema_version` stated; 3: a
+/// structural group's determined sum, `undetermined[].joint`).
+pub const SCHEMA_VERSION: u32 = 3;
 
 /// identifiability.json: the analysis plus each undetermined combination
 /// in words.

@@ -10,6 +10,7 @@ use super::frf_objective::FrfReference;
 use super::identifiability::{
     analyze, exact_null_directions, structural_directions, without_directions, Identifiability,
 };
+use super::joint_effect::{Member, SumCoordinates};
 use super::objective::{Match, ModalObjective, SlotPairing};
 use super::updating::{FinalPair, Plan};
 use super::verdict::{DampingJudgement, ModeCounts};
@@ -291,20 +292,44 @@ pub(super) fn identifiability_at(
     let correlation = correlation(&r0, frf);
     let name = |i: &usize| o.parameters()[*i].name.clone();
     let names: Vec<String> = identified.iter().map(name).collect();
-    let analysis = analyze(&columns, &r0, &names, max_std_error, &correlation);
-    let considered = (!fixed.is_empty()).then(|| {
-        let fixed_names: Vec<String> = fixed.iter().map(|f| name(&f.0)).collect();
-        let spreads: Vec<f64> = fixed.iter().map(|f| f.1).collect();
-        consider(
-            &columns,
-            &fixed_columns,
-            &r0,
-            &fixed_names,
-            &spreads,
-            analysis.residual_variance.unwrap_or(1.0),
-            &correlation,
-        )
-    });
+    let fixed_names: Vec<String> = fixed.iter().map(|f| name(&f.0)).collect();
+    let spreads: Vec<f64> = fixed.iter().map(|f| f.1).collect();
+    // The analysis and the consider analysis of some columns.
+    let assess = |columns: &[Vec<f64>]| {
+        let analysis = analyze(columns, &r0, &names, max_std_error, &correlation);
+        let considered = (!fixed.is_empty()).then(|| {
+            consider(
+                columns,
+                &fixed_columns,
+                &r0,
+                &fixed_names,
+                &spreads,
+                analysis.residual_variance.unwrap_or(1.0),
+                &correlation,
+            )
+        });
+        (analysis, considered)
+    };
+    let (mut analysis, considered) = assess(&columns);
+    // A structural group's sum, where that is what the data determine,
+    // from the same analysis with the sum as a coordinate.
+    let members: Vec<Member> = identified
+        .iter()
+        .map(|&i| {
+            let p = &o.parameters()[i];
+            Member {
+                name: p.name.clone(),
+                value: x[i],
+                lower: p.lower,
+                upper: p.upper,
+                kind: p.kind,
+            }
+        })
+        .collect();
+    if let Some(sums) = SumCoordinates::of(&analysis, &columns, &members) {
+        let (rotated, rotated_considered) = assess(&sums.rotate(&columns));
+        sums.attach(&mut analysis, &rotated, rotated_considered.as_ref());
+    }
     let considered = considered.map(|c| cut_at_bounds(o, x, fixed, c));
     Ok((analysis, considered, 2 * cols.len() + 1))
 }

@@ -35,6 +35,7 @@ pub mod frf_refinement;
 pub mod guided;
 pub mod history;
 pub mod identifiability;
+pub mod joint_effect;
 pub mod local_misfit;
 pub mod objective;
 pub mod subproblem;

@@ -160,8 +160,12 @@ impl Kind for Identify {
     /// of the FRF residuals, whose error at a sharp peak made two guide
     /// shoes acting only through their sum look determined
     /// (`FrfReference::modal_observables`; issue 26).
+    /// 31: a structural group whose sum is what the data determine (springs
+    /// on one line of action) reports that sum with its standard errors and
+    /// 95 % interval (`undetermined[].joint` of identifiability.json, the
+    /// report; `identify::joint_effect`).
     fn version(&self) -> u32 {
-        30
+        31
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
