@@ -209,11 +209,7 @@ fn sum_coverage(id_dir: &Path, truth: &BTreeMap<String, (f64, String)>) -> (usiz
             Some((j.ci_low?, j.ci_high?, t))
         })
         .collect();
-    let covered = stated
-        .iter()
-        .filter(|(lo, hi, t)| lo <= t && t <= hi)
-        .count();
-    (stated.len(), covered)
+    covering(&stated)
 }
 
 /// (identified parameters with a stated interval, intervals containing the
@@ -229,11 +225,7 @@ fn coverage(id_dir: &Path, truth: &BTreeMap<String, (f64, String)>) -> (usize, u
             Some((lo, hi, truth[&r["parameter"]].0))
         })
         .collect();
-    let covered = stated
-        .iter()
-        .filter(|(lo, hi, t)| lo <= t && t <= hi)
-        .count();
-    (stated.len(), covered)
+    covering(&stated)
 }
 
 /// Relative frequency gap below which neighbouring true modes are one
@@ -283,4 +275,13 @@ pub fn subspace_mac(t: &[Complex64], basis: &[&[Complex64]]) -> f64 {
         return 0.0;
     }
     q.iter().map(|u| dot(u, t).norm_sqr()).sum::<f64>() / tt
+}
+
+/// (intervals, those containing their truth) of (low, high, truth) triples.
+fn covering(stated: &[(f64, f64, f64)]) -> (usize, usize) {
+    let covered = stated
+        .iter()
+        .filter(|(lo, hi, t)| lo <= t && t <= hi)
+        .count();
+    (stated.len(), covered)
 }
