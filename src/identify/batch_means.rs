@@ -305,7 +305,7 @@ fn determined(columns: &[Vec<f64>]) -> Option<(Vec<f64>, Vec<Vec<f64>>)> {
 
 /// (t_{0.975, ν}/z_{0.975})² for ν degrees of freedom (at least 1).
 fn t_widening(nu: f64) -> f64 {
-    let z = 1.959_963_984_540_054;
+    let z = super::identifiability::Z95;
     StudentsT::new(0.0, 1.0, nu.max(1.0))
         .map(|d| (d.inverse_cdf(0.975) / z).powi(2))
         .unwrap_or(1.0)

@@ -42,6 +42,18 @@ use serde::{Deserialize, Serialize};
 /// (eigenvalues of JᵀJ below its square).
 pub(crate) const STRUCTURAL: f64 = 1e-6;
 
+/// z of a two-sided 95 % interval (the normal's 0.975 quantile).
+pub const Z95: f64 = 1.959_963_984_540_054;
+
+/// The 95 % interval value·exp(∓[`Z95`] σ) of a value whose logarithm has
+/// standard error `sigma`, cut at `bounds` (the update cannot leave them).
+pub fn interval(value: f64, sigma: f64, bounds: (f64, f64)) -> (f64, f64) {
+    (
+        (value * (-Z95 * sigma).exp()).max(bounds.0),
+        (value * (Z95 * sigma).exp()).min(bounds.1),
+    )
+}
+
 /// Smallest |v_ik| for a parameter to share a structural null direction.
 pub(crate) const IN_NULL_SPACE: f64 = 0.05;
 

@@ -33,7 +33,7 @@
 //! parameter.
 
 use super::consider::Consider;
-use super::identifiability::{null_space, Identifiability};
+use super::identifiability::{interval, null_space, Identifiability};
 use crate::dynamics::ParameterKind;
 use crate::numbers::sig;
 use serde::{Deserialize, Serialize};
@@ -43,9 +43,6 @@ use serde::{Deserialize, Serialize};
 /// directions found from finite differences are accurate to ~10⁻⁵; springs
 /// a milliradian off one line of action lean by ~10⁻³).
 pub(crate) const LEAN: f64 = 1e-3;
-
-/// z of a two-sided 95 % interval.
-const Z95: f64 = 1.959_963_984_540_054;
 
 /// The determined sum of a structural group.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -189,14 +186,14 @@ impl SumCoordinates {
                 Some(c) => se.and(Some(c.std_error[a]).filter(|s| s.is_finite())),
                 None => se,
             };
-            let ci = |sign: f64| with_fixed.map(|s| g.value * (sign * Z95 * s).exp());
+            let ci = with_fixed.map(|s| interval(g.value, s, g.bounds));
             analysis.undetermined[g.combination].joint = Some(JointEffect {
                 quantity: g.quantity.clone(),
                 value: g.value,
                 std_error: se,
                 std_error_with_fixed: with_fixed,
-                ci_low: ci(-1.0).map(|v| v.max(g.bounds.0)),
-                ci_high: ci(1.0).map(|v| v.min(g.bounds.1)),
+                ci_low: ci.map(|c| c.0),
+                ci_high: ci.map(|c| c.1),
             });
         }
     }

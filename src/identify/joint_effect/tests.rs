@@ -1,7 +1,7 @@
 use super::*;
 use crate::identify::batch_means::Correlation;
 use crate::identify::consider::consider;
-use crate::identify::identifiability::analyze;
+use crate::identify::identifiability::{analyze, Z95};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -79,15 +79,10 @@ fn the_sum_of_parallel_springs_has_the_interval_of_a_direct_fit() {
     // Direct: ln a and ln S.
     let direct_cols = vec![offset.clone(), line(s)];
     let direct = analyze(&direct_cols, &r, &names(&["a", "S"]), 10.0, &correlation);
-    let direct_c = consider(
-        &direct_cols,
-        &fixed,
-        &r,
-        &fixed_names,
-        &spreads,
-        1.0,
-        &correlation,
-    );
+    // The consider analysis of some identified columns, the same fixed one.
+    let considered =
+        |cols: &[Vec<f64>]| consider(cols, &fixed, &r, &fixed_names, &spreads, 1.0, &correlation);
+    let direct_c = considered(&direct_cols);
     // Split: ln a, ln k1, ln k2 with k1 + k2 = S.
     let (k1, k2) = (0.3 * s, 0.7 * s);
     let cols = vec![offset, line(k1), line(k2)];
@@ -102,15 +97,7 @@ fn the_sum_of_parallel_springs_has_the_interval_of_a_direct_fit() {
     let sums = SumCoordinates::of(&split, &cols, &members).expect("the sum is determined");
     let rotated = sums.rotate(&cols);
     let ra = analyze(&rotated, &r, &split_names, 10.0, &correlation);
-    let rc = consider(
-        &rotated,
-        &fixed,
-        &r,
-        &fixed_names,
-        &spreads,
-        1.0,
-        &correlation,
-    );
+    let rc = considered(&rotated);
     sums.attach(&mut split, &ra, Some(&rc));
     let joint = split.undetermined[0].joint.clone().expect("a joint effect");
     assert_eq!(joint.quantity, "k1 + k2");

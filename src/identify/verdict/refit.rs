@@ -22,6 +22,7 @@
 //! The verdict's cause is then [`super::Cause::ScreeningOrLocalMinimum`].
 
 use super::nan_if_null;
+use crate::identify::identifiability::Z95;
 use crate::numbers::sig;
 use serde::{Deserialize, Serialize};
 
@@ -29,9 +30,6 @@ use serde::{Deserialize, Serialize};
 /// held by the bound (outside the central 95 % of the uniform the screening
 /// sampled).
 pub const EDGE: f64 = 0.025;
-
-/// Half-width of the central 95 % of a normal spread, in σ.
-const Z95: f64 = 1.959_963_984_540_054;
 
 /// Why a refitted value is not plausible.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -7,6 +7,7 @@ use crate::artifacts::correlation::CorrelationRow;
 use crate::artifacts::history::HistoryRow;
 use crate::artifacts::identifiability::IdentifiabilityFile;
 use crate::artifacts::parameters::ParameterRow;
+use crate::identify::identifiability::interval;
 use crate::identify::updating::Update;
 use crate::identify::ModalObjective;
 use crate::stages::StageError;
@@ -14,9 +15,6 @@ use std::path::Path;
 
 /// What the intervals assume (identifiability.json, the report).
 pub const ASSUMPTIONS: &str = "Linearized (Gauss–Newton) at the result; residuals scaled by the reference's stated uncertainty and by the residual variance when it is larger, and FRF residuals correlated along frequency counted as fewer independent lines (variance × (1 + ρ)/(1 − ρ), ρ their lag-1 correlation), and, with FRFs, each identified parameter's data variance at least the leave-one-block-out (jackknife) sandwich over blocks of neighbouring lines across the channels of one reference at one position (3 integrated correlation times long), on Student's t for the blocks that carry it (a misfit concentrated where a parameter acts, or shared by the channels of one impact); the parameters held fixed vary as `fixed_spread` says (default: uniform over their bounds), conditioned on what the data say of them, and their effect is carried in linearly (consider covariance); intervals are cut at the parameter's bounds; the model's form is right. `std_error_rel` alone assumes the fixed parameters exact.";
-
-/// z of a two-sided 95 % interval.
-const Z95: f64 = 1.959_963_984_540_054;
 
 pub fn write(path: &Path, text: &str) -> Result<(), StageError> {
     std::fs::write(path, text)
@@ -54,6 +52,7 @@ pub fn parameter_rows(o: &ModalObjective, u: &Update) -> Vec<ParameterRow> {
                 .consider
                 .as_ref()
                 .and_then(|c| c.fixed.iter().find(|f| f.parameter == p.name));
+            let ci = with_fixed.map(|s| interval(v, s, (p.lower, p.upper)));
             ParameterRow {
                 parameter: p.name.clone(),
                 value: v,
@@ -64,9 +63,8 @@ pub fn parameter_rows(o: &ModalObjective, u: &Update) -> Vec<ParameterRow> {
                 identifiable: analysis.map(|a| a.identifiable),
                 std_error_rel: se,
                 std_error_with_fixed_rel: with_fixed,
-                // Within the bounds: the update cannot leave them.
-                ci_low: with_fixed.map(|s| (v * (-Z95 * s).exp()).max(p.lower)),
-                ci_high: with_fixed.map(|s| (v * (Z95 * s).exp()).min(p.upper)),
+                ci_low: ci.map(|c| c.0),
+                ci_high: ci.map(|c| c.1),
                 score: test.map(|t| t.statistic),
                 implicated: test.map(|t| t.implicated),
                 suggested_change_rel: test.map(|t| t.change.exp_m1()),
