@@ -338,12 +338,14 @@ pub(super) fn identifiability_at(
 /// of the FRFs' modal observables (empty without).
 type LogJacobian = (Vec<Vec<f64>>, Vec<f64>, Vec<Vec<f64>>);
 
-/// The residuals at `x` and their central-difference Jacobian columns
-/// ∂r/∂ln p for the parameters `cols` (indices), the residuals being the
-/// usable modes' weighted ones, their damping ratios' and, when given,
-/// `frf`'s; with `frf` also the columns of its modal observables for the
-/// first `observe` parameters ([`FrfReference::modal_observables`]; empty
-/// without, or when the mode count changes within their stencil). One
+/// The residuals at `x` and their Jacobian columns ∂r/∂ln p for the
+/// parameters `cols` (indices), the residuals being the usable modes'
+/// weighted ones, their damping ratios' and, when given, `frf`'s; with
+/// `frf` also the columns of its modal observables for the first `observe`
+/// parameters ([`FrfReference::modal_observables`]; empty without, or when
+/// the mode count changes within the stencil). Central differences, except
+/// the FRF residuals' columns where the observables are at hand: those by
+/// the chain rule through them ([`FrfReference::residual_columns`]). One
 /// batch of 2·cols + 1 evaluations. An error when the model cannot be
 /// solved at `x`.
 fn log_jacobian(
@@ -382,15 +384,9 @@ fn log_jacobian(
                 if let Some(frf) = frf {
                     r.extend(frf.residuals(o.prepared(), &p)?);
                     if let Some(b) = &basis {
-                        // At `x` and the first `observe` parameters' points
-                        // only (zeros keep the length at the others); a
-                        // mode count changed there leaves them unused.
-                        let moved = s.iter().zip(&sub_u).position(|(a, c)| a != c);
-                        let v = if moved.is_none_or(|j| j < observe) {
-                            frf.modal_observables(o.prepared(), &p, b)
-                        } else {
-                            Some(vec![0.0; b.len])
-                        };
+                        // A mode count changed at a point leaves them
+                        // unused.
+                        let v = frf.modal_observables(o.prepared(), &p, b);
                         if v.is_none() {
                             unobserved.store(true, Ordering::Relaxed);
                         }
@@ -418,15 +414,24 @@ fn log_jacobian(
             col.into_iter().map(|v| v * du_dlnp).collect()
         })
         .collect();
-    let observed = match basis {
-        Some(b) if r0.len() > b.len => {
+    let observed = match (basis, frf) {
+        (Some(b), Some(frf)) if r0.len() >= b.len + frf.count() => {
             let m = r0.len() - b.len;
-            r0.truncate(m);
+            let obs0 = r0.split_off(m);
             let mut observed: Vec<Vec<f64>> = columns.iter_mut().map(|c| c.split_off(m)).collect();
-            observed.truncate(observe);
             if unobserved.load(Ordering::Relaxed) {
                 Vec::new()
             } else {
+                // The FRF residuals' columns by the chain rule through the
+                // observables, exact where the peaks are sharp
+                // ([`FrfReference::residual_columns`]).
+                if let Some(tangent) = frf.residual_columns(&obs0, &observed, &b) {
+                    let start = m - frf.count();
+                    for (c, t) in columns.iter_mut().zip(tangent) {
+                        c[start..].copy_from_slice(&t);
+                    }
+                }
+                observed.truncate(observe);
                 observed
             }
         }

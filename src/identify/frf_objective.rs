@@ -71,7 +71,7 @@ pub use super::local_misfit::{LocalMisfit, LOCAL_LINES};
 use super::IdentifyError;
 use crate::dynamics::frf::{superposition, superposition_with_drift};
 use crate::dynamics::reference::dof_row;
-use crate::dynamics::solve::ModeSelection;
+use crate::dynamics::solve::{ModalSolution, ModeSelection};
 use crate::dynamics::PreparedModel;
 use crate::ema::noise::channel_noise_variance;
 use crate::frf::{FrfQuantity, FrfSet};
@@ -318,10 +318,7 @@ impl FrfReference {
             .collect()
     }
 
-    /// The model's FRFs at `x` for slot `s`, per channel, signed as measured,
-    /// and with δ > 0 each line's noise σ: the channel's with the drift term
-    /// δ² s(ω)² of the model at `x` added (module docs); `None`: the
-    /// channel's σ as it is.
+    /// The model's FRFs at `x` for slot `s` ([`Self::frfs_of`]).
     fn model_frfs(
         &self,
         model: &PreparedModel,
@@ -331,9 +328,22 @@ impl FrfReference {
         let sol = model
             .evaluate_modes(s.config, x, ModeSelection::Below(2.0 * self.top_hz))
             .ok()?;
+        Some(self.frfs_of(s, &sol, &s.pairs))
+    }
+
+    /// Slot `s`'s FRFs superposed from `sol` with the rows `pairs` (one per
+    /// channel), signed as measured, and with δ > 0 each line's noise σ:
+    /// the channel's with the drift term δ² s(ω)² of `sol` added (module
+    /// docs); `None`: the channel's σ as it is.
+    fn frfs_of(
+        &self,
+        s: &FrfSlot,
+        sol: &ModalSolution,
+        pairs: &[(usize, usize)],
+    ) -> (PerChannel<Complex64>, Option<PerChannel<f64>>) {
         let drift = self.noise.drift;
         let (mut h, sigma) = if drift > 0.0 {
-            let (h, spread) = superposition_with_drift(&sol, s.quantity, &s.lines_hz, &s.pairs);
+            let (h, spread) = superposition_with_drift(sol, s.quantity, &s.lines_hz, pairs);
             let sigma = s
                 .sigma
                 .iter()
@@ -342,12 +352,12 @@ impl FrfReference {
                 .collect();
             (h, Some(sigma))
         } else {
-            (superposition(&sol, s.quantity, &s.lines_hz, &s.pairs), None)
+            (superposition(sol, s.quantity, &s.lines_hz, pairs), None)
         };
         for (v, &sign) in h.iter_mut().zip(&s.signs) {
             v.iter_mut().for_each(|z| *z *= sign);
         }
-        Some((h, sigma))
+        (h, sigma)
     }
 
     /// Per slot and channel, the noise-scaled misfit d = (H^model −
@@ -359,9 +369,22 @@ impl FrfReference {
         model: &PreparedModel,
         x: &[f64],
     ) -> Option<Vec<(usize, Vec<Complex64>, f64)>> {
+        let frfs = self
+            .slots
+            .iter()
+            .map(|s| self.model_frfs(model, s, x))
+            .collect::<Option<Vec<_>>>()?;
+        Some(self.misfits_of(frfs))
+    }
+
+    /// [`Self::misfits`] of the model FRFs `frfs` (per slot, as from
+    /// [`Self::frfs_of`]).
+    fn misfits_of(
+        &self,
+        frfs: Vec<(PerChannel<Complex64>, Option<PerChannel<f64>>)>,
+    ) -> Vec<(usize, Vec<Complex64>, f64)> {
         let mut out = Vec::new();
-        for (k, s) in self.slots.iter().enumerate() {
-            let (h, drifting) = self.model_frfs(model, s, x)?;
+        for (k, (s, (h, drifting))) in self.slots.iter().zip(frfs).enumerate() {
             let sigmas = drifting.as_ref().unwrap_or(&s.sigma);
             for ((m, meas), sigma) in h.iter().zip(&s.measured).zip(sigmas) {
                 let d: Vec<Complex64> = m
@@ -373,15 +396,21 @@ impl FrfReference {
                 out.push((k, d, crate::metrics::frac(meas, m)));
             }
         }
-        Some(out)
+        out
     }
 
     /// The noise-scaled residuals at `x`, Huber-transformed per line and
     /// channel (½‖r‖² is the robust cost), or `None` when the model cannot
     /// be solved there.
     pub fn residuals(&self, model: &PreparedModel, x: &[f64]) -> Option<Vec<f64>> {
+        self.robust(self.misfits(model, x)?)
+    }
+
+    /// The Huber-transformed residuals of `misfits`; `None` when one is
+    /// not finite.
+    fn robust(&self, misfits: Vec<(usize, Vec<Complex64>, f64)>) -> Option<Vec<f64>> {
         let mut out = Vec::with_capacity(self.count());
-        for (_, d, _) in self.misfits(model, x)? {
+        for (_, d, _) in misfits {
             for v in d {
                 let w = huber_factor(v.norm());
                 out.extend([w * v.re, w * v.im]);
@@ -558,5 +587,6 @@ pub fn coherence_sigma(h_abs: f64, gamma2: f64, averages: usize) -> f64 {
     h_abs * ((1.0 - g) / (averages as f64 * g)).sqrt()
 }
 
+mod sensitivity;
 #[cfg(test)]
 mod tests;

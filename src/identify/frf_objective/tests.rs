@@ -4,7 +4,7 @@ use crate::identify::frf_refinement::tests::measured;
 
 /// The chain with its dampers at `damping` times the truth's, and its
 /// FRFs with 1 % noise (`seed`).
-fn light_chain(damping: f64, seed: u64) -> (PreparedModel, Vec<f64>, FrfSet) {
+pub(super) fn light_chain(damping: f64, seed: u64) -> (PreparedModel, Vec<f64>, FrfSet) {
     let prepared = PreparedModel::new(&model()).unwrap();
     let mut light = truth();
     light[4..].iter_mut().for_each(|c| *c *= damping);
