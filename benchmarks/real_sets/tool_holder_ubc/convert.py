@@ -9,10 +9,14 @@ for both response and reference.
 Run:  /tmp/aeenv/bin/python convert.py
 """
 import os
+import sys
 import numpy as np
 import pyuff
 
 here = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(here))
+from uff58 import frf_record  # noqa: E402
+
 src = os.path.join(here, "Point_1_Channel_1_CH1.txt")
 out = os.path.join(here, "frf.uff")
 
@@ -23,43 +27,15 @@ assert np.allclose(np.diff(freq), 1.0) and freq[0] == 0.0 and len(freq) == 5001
 
 if os.path.exists(out):
     os.remove(out)
-ds = pyuff.prepare_58(
-    binary=0,
-    id1="H11 tool holder (leekunhwee/Vibration-Signal-Processing)",
-    id2="Point_1_Channel_1_CH1.txt, receptance m/N",
-    id3="hammer at point 1, accelerometer at point 1",
-    id4="NONE",
-    id5="NONE",
-    func_type=4,          # frequency response function
-    ver_num=1,
-    load_case_id=0,
-    rsp_ent_name="TOOLHOLDER",
-    rsp_node=1,
-    rsp_dir=1,
-    ref_ent_name="TOOLHOLDER",
-    ref_node=1,
-    ref_dir=1,
-    ord_data_type=5,      # complex single precision
-    num_pts=len(freq),
-    abscissa_spacing=1,   # even spacing
-    abscissa_min=float(freq[0]),
-    abscissa_inc=float(freq[1] - freq[0]),
-    z_axis_value=0.0,
-    abscissa_spec_data_type=18,   # frequency
-    abscissa_len_unit_exp=0, abscissa_force_unit_exp=0, abscissa_temp_unit_exp=0,
-    abscissa_axis_units_lab="Hz",
-    ordinate_spec_data_type=8,    # displacement
-    ordinate_len_unit_exp=1, ordinate_force_unit_exp=0, ordinate_temp_unit_exp=0,
-    ordinate_axis_units_lab="m",
-    orddenom_spec_data_type=13,   # excitation force
-    orddenom_len_unit_exp=0, orddenom_force_unit_exp=1, orddenom_temp_unit_exp=0,
-    orddenom_axis_units_lab="N",
-    z_axis_spec_data_type=0,
-    z_axis_len_unit_exp=0, z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0,
-    z_axis_axis_units_lab="NONE",
-    data=frf,
-    x=freq,
-)
+ds = frf_record(
+    frf, freq,
+    ids=("H11 tool holder (leekunhwee/Vibration-Signal-Processing)",
+         "Point_1_Channel_1_CH1.txt, receptance m/N",
+         "hammer at point 1, accelerometer at point 1"),
+    rsp=("TOOLHOLDER", 1, 1), ref=("TOOLHOLDER", 1, 1),
+    ordinate=(8, 1, 0, "m"),  # displacement
+    denominator=(13, 0, 1, "N"),  # excitation force
+    ord_data_type=5)  # complex single precision
 pyuff.UFF(out).write_sets([ds], mode="add")
 
 # round-trip check

@@ -19,52 +19,25 @@ and is imported uncalibrated (`calibrated: false`). The two channels are written
 Run:  /tmp/aeenv/bin/python convert.py      (numpy, scipy, pyuff)
 """
 import os
+import sys
 
 import numpy as np
 import pyuff
 import scipy.io as sio
 
 HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.dirname(HERE))
+from uff58 import frf_record  # noqa: E402
 
 
 def record(func_type, data, freq, name, ord_type, label):
-    return pyuff.prepare_58(
-        binary=0,
-        id1=f"vibration_toolbox {name}: {label}",
-        id2=f"vibration-toolbox 0.6.10 data/{name}.mat ({'Hf_chan_2' if func_type == 4 else 'Hf_coh_chan_2'})",
-        id3="channel 1 (hammer) -> channel 2 (response); units not stored",
-        id4="NONE",
-        id5="NONE",
-        func_type=func_type,
-        ver_num=1,
-        load_case_id=0,
-        rsp_ent_name="VTB",
-        rsp_node=2,
-        rsp_dir=3,
-        ref_ent_name="VTB",
-        ref_node=1,
-        ref_dir=3,
-        ord_data_type=ord_type,
-        num_pts=len(data),
-        abscissa_spacing=1,
-        abscissa_min=0.0,
-        abscissa_inc=float(freq[1] - freq[0]),
-        z_axis_value=0.0,
-        abscissa_spec_data_type=18,  # frequency
-        abscissa_len_unit_exp=0, abscissa_force_unit_exp=0, abscissa_temp_unit_exp=0,
-        abscissa_axis_units_lab="Hz",
-        ordinate_spec_data_type=0,   # unknown
-        ordinate_len_unit_exp=0, ordinate_force_unit_exp=0, ordinate_temp_unit_exp=0,
-        ordinate_axis_units_lab="NONE",
-        orddenom_spec_data_type=0,
-        orddenom_len_unit_exp=0, orddenom_force_unit_exp=0, orddenom_temp_unit_exp=0,
-        orddenom_axis_units_lab="NONE",
-        z_axis_spec_data_type=0,
-        z_axis_len_unit_exp=0, z_axis_force_unit_exp=0, z_axis_temp_unit_exp=0,
-        z_axis_axis_units_lab="NONE",
-        data=data,
-        x=freq,
-    )
+    return frf_record(
+        data, freq,
+        ids=(f"vibration_toolbox {name}: {label}",
+             f"vibration-toolbox 0.6.10 data/{name}.mat ({'Hf_chan_2' if func_type == 4 else 'Hf_coh_chan_2'})",
+             "channel 1 (hammer) -> channel 2 (response); units not stored"),
+        rsp=("VTB", 2, 3), ref=("VTB", 1, 3),
+        func_type=func_type, ord_data_type=ord_type)
 
 
 def main():
