@@ -67,6 +67,18 @@ ERR_XI = 0.05         # relative damping tolerance (sdypy-EMA default)
 MIN_FRACTION = 0.4    # fraction of the upper-half orders a cluster must appear in
 PUB5_INIT, PUB5_ITER = 20, 20
 
+# The building's two layouts share everything but the file and the note.
+BUILDING = {
+    "files": [os.path.join(HERE, "ufsc_three_storey", "frf_1x3.uff")],
+    "band": (5.0, 395.0),
+    "published": None,
+    "source": "none published: consensus of the two tools",
+    "note": "Three-storey building model of a UFSC vibration course (GitHub Daniel-Sottovia/Grupo-6, FRF.csv, "
+            "2023): H1 accelerance of floors 1-3 against one force, 0-400 Hz at 0.5 Hz, as measured (1 x 3). "
+            "Lightly damped: the first resonance (about 20.4 Hz) is one line wide. No licence in the "
+            "repository: local benchmark only (convert.py).",
+}
+
 SETS = {
     "beam_ufsc_hammer": {
         "files": [os.path.join(SHARED, "frf_hammer_as_measured.uff")],
@@ -120,21 +132,10 @@ SETS = {
                 "3-5 % damping the published list is probably incomplete. A further mode near 3890 Hz lies "
                 "outside the band. No licence in the repository: local benchmark only.",
     },
-    "building_1x3": {
-        "files": [os.path.join(HERE, "ufsc_three_storey", "frf_1x3.uff")],
-        "band": (5.0, 395.0),
-        "published": None,
-        "source": "none published: consensus of the two tools",
-        "note": "Three-storey building model of a UFSC vibration course (GitHub Daniel-Sottovia/Grupo-6, FRF.csv, "
-                "2023): H1 accelerance of floors 1-3 against one force, 0-400 Hz at 0.5 Hz, as measured (1 x 3). "
-                "Lightly damped: the first resonance (about 20.4 Hz) is one line wide. No licence in the "
-                "repository: local benchmark only (convert.py).",
-    },
+    "building_1x3": BUILDING,
     "building_3x1": {
+        **BUILDING,
         "files": [os.path.join(HERE, "ufsc_three_storey", "frf_3x1.uff")],
-        "band": (5.0, 395.0),
-        "published": None,
-        "source": "none published: consensus of the two tools",
         "note": "The same three FRFs transposed by reciprocity (3 references x 1 response, a roving-hammer layout).",
     },
     "vtb_case1": {
