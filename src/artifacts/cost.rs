@@ -11,8 +11,10 @@ use std::path::Path;
 /// The file name of a `cost` output.
 pub const FILE: &str = "cost.json";
 
-/// The schema this build writes (2: `schema_version` stated).
-pub const SCHEMA_VERSION: u32 = 2;
+/// The schema this build writes (2: `schema_version` stated; 3: the
+/// verdict's cause may be `minimum_or_model_error`, which a build of
+/// schema 2 cannot read).
+pub const SCHEMA_VERSION: u32 = 3;
 
 /// Model evaluations per phase of the guided strategy (and the assessment
 /// every strategy ends with).

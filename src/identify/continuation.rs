@@ -91,6 +91,9 @@ pub struct ContinuationParams {
     /// The order in which reference modes enter: `isolation` (the mode
     /// farthest from its neighbours first) or `frequency` (lowest first).
     pub order: ModeOrder,
+    /// Secant Jacobians between forward-difference ones
+    /// ([`crate::optimize::levenberg_marquardt`]'s `secant`).
+    pub secant: bool,
 }
 
 /// The order in which the continuation brings reference modes in.
@@ -114,6 +117,7 @@ impl Default for ContinuationParams {
             outlier: 3.0,
             regularization: 0.25,
             order: ModeOrder::default(),
+            secant: true,
         }
     }
 }

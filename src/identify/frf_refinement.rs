@@ -39,6 +39,9 @@ pub struct FrfRefinementParams {
     /// How many of the best points start a Levenberg–Marquardt run (beside
     /// the modal fit).
     pub starts: usize,
+    /// Secant Jacobians between forward-difference ones
+    /// ([`crate::optimize::levenberg_marquardt`]'s `secant`).
+    pub secant: bool,
 }
 
 impl Default for FrfRefinementParams {
@@ -50,6 +53,7 @@ impl Default for FrfRefinementParams {
             max_step: 0.05,
             samples: 128,
             starts: 7,
+            secant: true,
         }
     }
 }
@@ -146,6 +150,7 @@ pub fn frf_refinement(
     };
     let params = LmParams {
         max_step: settings.max_step,
+        secant: settings.secant,
         ..LmParams::default()
     };
     // Exploration: the undetermined parameters over their box, the others

@@ -18,11 +18,8 @@ pub type Batch<'a> = dyn Fn(&[Vec<f64>]) -> Vec<Option<Vec<f64>>> + 'a;
 
 /// Forward differences at `u` with residuals `r`: columns ∂r/∂u_j.
 pub fn forward(residuals: &Batch, u: &[f64], r: &[f64], step: f64) -> Vec<Vec<f64>> {
-    let n = u.len();
-    let steps: Vec<f64> = (0..n)
-        .map(|j| if u[j] + step <= 1.0 { step } else { -step })
-        .collect();
-    let stencil: Vec<Vec<f64>> = (0..n).map(|j| shifted(u, j, steps[j])).collect();
+    let (stencil, steps): (Vec<Vec<f64>>, Vec<f64>) =
+        (0..u.len()).map(|j| forward_point(u, j, step)).unzip();
     residuals(&stencil)
         .into_iter()
         .zip(&steps)
@@ -56,6 +53,20 @@ pub fn central(residuals: &Batch, u: &[f64], r: &[f64], step: f64) -> Vec<Vec<f6
             }
         })
         .collect()
+}
+
+/// The forward-difference stencil point of column `j` at `u` and its
+/// signed step (the other way where `u_j + step` would leave the box), for
+/// a caller that evaluates it in a batch of its own.
+pub fn forward_point(u: &[f64], j: usize, step: f64) -> (Vec<f64>, f64) {
+    let h = if u[j] + step <= 1.0 { step } else { -step };
+    (shifted(u, j, h), h)
+}
+
+/// Column ∂r/∂u_j from the residuals `rp` at [`forward_point`] (step `h`)
+/// and `r` at `u`; zeros where the point failed.
+pub fn forward_column(rp: Option<&[f64]>, r: &[f64], h: f64) -> Vec<f64> {
+    difference(rp, Some(r), h, r.len())
 }
 
 fn shifted(u: &[f64], j: usize, h: f64) -> Vec<f64> {

@@ -32,6 +32,8 @@
 //! gives a zero Jacobian column. Deterministic: the only parallel part is
 //! the caller's batch evaluation.
 
+mod secant;
+
 use super::error::OptimizeError;
 use super::jacobian::{forward as jacobian, Batch};
 use super::problem::{Bounds, HistoryPoint, Termination};
@@ -60,6 +62,11 @@ pub struct LmParams {
     /// crawling along a bound or in a flat valley, far from any tolerance.
     pub stall_window: usize,
     pub stall_decrease: f64,
+    /// Secant Jacobian ([`secant`]): after one forward-difference Jacobian,
+    /// Broyden's rank-one update from every step and one refreshed column
+    /// per step, a full Jacobian again only where the secant one fails or
+    /// a stopping test must be confirmed. Off: a full Jacobian every step.
+    pub secant: bool,
 }
 
 impl Default for LmParams {
@@ -73,6 +80,7 @@ impl Default for LmParams {
             gtol: 1e-4,
             stall_window: 20,
             stall_decrease: 1e-2,
+            secant: false,
         }
     }
 }
@@ -136,55 +144,54 @@ pub fn minimize(
     budget: usize,
     params: &LmParams,
 ) -> Result<LmResult, OptimizeError> {
+    if params.secant {
+        return secant::minimize(bounds, residuals, x0, budget, params);
+    }
     check_inputs(bounds, x0, budget, params)?;
     let n = bounds.dim();
-    let eval = |u: &[Vec<f64>]| -> Vec<Option<Vec<f64>>> {
-        let x: Vec<Vec<f64>> = u.iter().map(|u| bounds.to_physical(u)).collect();
-        residuals(&x)
-    };
+    let eval = unit_batch(bounds, residuals);
     let search = StepSearch {
         eval: &eval,
         budget,
         params,
     };
-    let mut u = bounds.to_unit(x0);
-    let mut r = eval(std::slice::from_ref(&u)).pop().flatten();
-    let mut evaluations = 1;
-    let mut cost = half_norm2(&r);
-    let mut history = vec![HistoryPoint {
-        evaluation: 1,
-        f_best: cost,
-    }];
+    let mut it = Iterate::start(&eval, bounds, x0);
     let mut lambda = params.lambda;
-    let mut iterations = 0;
     let termination = loop {
-        let Some(res) = r.as_ref() else {
+        let Some(res) = it.r.as_ref() else {
             break Termination::Failed {
                 message: "the residuals cannot be computed at the start point".into(),
             };
         };
-        if iterations >= params.max_iterations {
+        if it.iterations >= params.max_iterations {
             break Termination::MaxIterations;
         }
-        if evaluations + n + 1 > budget {
+        if it.evaluations + n + 1 > budget {
             break Termination::BudgetExhausted;
         }
-        if cost == 0.0 {
+        if it.cost == 0.0 {
             break Termination::Converged;
         }
         // Jacobian, column-major: one forward-difference batch.
-        let columns = jacobian(&eval, &u, res, params.step);
-        evaluations += n;
+        let columns = jacobian(&eval, &it.u, res, params.step);
+        it.evaluations += n;
         let normal = NormalEquations::new(&columns, res);
         let largest = normal.largest_diagonal();
         if largest == 0.0 {
             break Termination::Converged;
         }
-        if normal.gradient_cosine(&u, cost) <= params.gtol {
+        if normal.gradient_cosine(&it.u, it.cost) <= params.gtol {
             break Termination::Converged;
         }
         let floor = 1e-12 * largest;
-        let accepted = search.trial_steps(&u, &normal, floor, cost, &mut lambda, &mut evaluations);
+        let accepted = search.trial_steps(
+            &it.u,
+            &normal,
+            floor,
+            it.cost,
+            &mut lambda,
+            &mut it.evaluations,
+        );
         let Some((trial, rt, ct)) = accepted else {
             break if lambda > 1e12 {
                 Termination::Converged
@@ -192,30 +199,92 @@ pub fn minimize(
                 Termination::BudgetExhausted
             };
         };
-        let decrease = (cost - ct) / cost;
-        u = trial;
-        r = rt;
-        cost = ct;
-        iterations += 1;
-        history.push(HistoryPoint {
-            evaluation: evaluations,
-            f_best: cost,
-        });
-        if decrease < params.ftol {
+        if it.accept(trial, rt, ct) < params.ftol {
             break Termination::Converged;
         }
-        if stalled(&history, cost, params) {
+        if stalled(&it.history, it.cost, params) {
             break Termination::Stalled;
         }
     };
-    Ok(LmResult {
-        x_best: bounds.to_physical(&u),
-        cost,
-        evaluations,
-        iterations,
-        history,
-        termination,
-    })
+    Ok(it.finish(bounds, termination))
+}
+
+/// The residuals of a batch of unit-box points.
+fn unit_batch<'a>(
+    bounds: &'a Bounds,
+    residuals: &'a Residuals,
+) -> impl Fn(&[Vec<f64>]) -> Vec<Option<Vec<f64>>> + 'a {
+    move |u: &[Vec<f64>]| {
+        let x: Vec<Vec<f64>> = u.iter().map(|u| bounds.to_physical(u)).collect();
+        residuals(&x)
+    }
+}
+
+/// The iterate and what both iterations (full and [`secant`]) count: the
+/// unit-box point, its residuals and cost ½‖r‖², the evaluations spent,
+/// the accepted steps and the cost after each.
+struct Iterate {
+    u: Vec<f64>,
+    r: Option<Vec<f64>>,
+    cost: f64,
+    evaluations: usize,
+    iterations: usize,
+    history: Vec<HistoryPoint>,
+}
+
+impl Iterate {
+    /// At the physical point `x0`: one evaluation.
+    fn start(eval: &Batch, bounds: &Bounds, x0: &[f64]) -> Iterate {
+        let u = bounds.to_unit(x0);
+        let r = eval(std::slice::from_ref(&u)).pop().flatten();
+        let cost = half_norm2(&r);
+        Iterate {
+            u,
+            r,
+            cost,
+            evaluations: 1,
+            iterations: 0,
+            history: vec![HistoryPoint {
+                evaluation: 1,
+                f_best: cost,
+            }],
+        }
+    }
+
+    /// Moves to the accepted `trial` (residuals `rt`, cost `ct` below the
+    /// current one); returns the cost's relative decrease.
+    fn accept(&mut self, trial: Vec<f64>, rt: Option<Vec<f64>>, ct: f64) -> f64 {
+        let decrease = (self.cost - ct) / self.cost;
+        self.u = trial;
+        self.r = rt;
+        self.cost = ct;
+        self.iterations += 1;
+        self.history.push(HistoryPoint {
+            evaluation: self.evaluations,
+            f_best: ct,
+        });
+        decrease
+    }
+
+    fn finish(self, bounds: &Bounds, termination: Termination) -> LmResult {
+        LmResult {
+            x_best: bounds.to_physical(&self.u),
+            cost: self.cost,
+            evaluations: self.evaluations,
+            iterations: self.iterations,
+            history: self.history,
+            termination,
+        }
+    }
+}
+
+/// `u + δ`, each coordinate of δ clipped to ±`max_step` (the trust region)
+/// and the point then to the box.
+fn clipped_trial(u: &[f64], delta: &[f64], max_step: f64) -> Vec<f64> {
+    u.iter()
+        .zip(delta)
+        .map(|(a, b)| (a + b.clamp(-max_step, max_step)).clamp(0.0, 1.0))
+        .collect()
 }
 
 /// The settings, start point and budget checked before the first
@@ -338,11 +407,7 @@ impl StepSearch<'_> {
                 *lambda *= 4.0;
                 continue;
             };
-            let trial: Vec<f64> = u
-                .iter()
-                .zip(&delta)
-                .map(|(a, b)| (a + b.clamp(-params.max_step, params.max_step)).clamp(0.0, 1.0))
-                .collect();
+            let trial = clipped_trial(u, &delta, params.max_step);
             let rt = (self.eval)(std::slice::from_ref(&trial)).pop().flatten();
             *evaluations += 1;
             let ct = half_norm2(&rt);
@@ -375,7 +440,8 @@ mod tests {
     use super::*;
     use crate::parameter::Scale;
 
-    fn batch<'a>(
+    /// A batch evaluator from a residual function of one point.
+    pub(super) fn batch<'a>(
         f: impl Fn(&[f64]) -> Option<Vec<f64>> + Sync + 'a,
     ) -> impl Fn(&[Vec<f64>]) -> Vec<Option<Vec<f64>>> + Sync + 'a {
         move |xs: &[Vec<f64>]| xs.iter().map(|x| f(x)).collect()

@@ -100,6 +100,7 @@ impl Runner<'_> {
                 self.settings.stage_tolerance
             },
             max_step: self.settings.max_step,
+            secant: self.settings.secant,
             ..LmParams::default()
         };
         let start: Vec<f64> = self.free.iter().map(|&i| x[i]).collect();

@@ -181,6 +181,20 @@ fn the_cause_is_classified_on_small_cases() {
         "{}",
         model.message
     );
+    // ... but only at a minimum: stalled, further starts that ended no
+    // better do not tell a basin they did not leave from model error.
+    let stalled = Verdict::judge(Status::Stalled, 9.0, 5.0, counts(), 5, 5, vec![])
+        .classified(held)
+        .explained();
+    assert_eq!(stalled.cause, Cause::MinimumOrModelError);
+    assert!(
+        stalled
+            .message
+            .contains("a local minimum or model error, not told apart")
+            && stalled.message.contains("stalled before converging"),
+        "{}",
+        stalled.message
+    );
     // No further search: not told apart, and the message says so.
     let unsearched = above.classified(SearchEvidence::default()).explained();
     assert_eq!(unsearched.cause, Cause::NotSearched);
@@ -356,6 +370,26 @@ fn a_refit_is_evidence_for_the_screening_only_with_plausible_values() {
         .with_refitted(seed_12());
     assert!(w.ok && w.cause == Cause::None, "{w:?}");
     assert!(w.warnings.iter().any(|t| t.contains("cpl.k_ry 4×")));
+    // ... unless fixed parameters are still implicated there: a refit that
+    // needed values at their bounds is no evidence that the score test's
+    // parameters are what the screening left out either (the vertical
+    // mill's impact seed 9 at identify 33, the truth in the model class).
+    let implicated = [("colj.c_z".to_string(), (0.25f64).ln(), 226.0)];
+    let still = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+        .with_refitted(seed_12())
+        .with_implicated(&implicated)
+        .explained();
+    assert_eq!(still.cause, Cause::ScreeningOrLocalMinimum, "{still:?}");
+    assert!(
+        still.message.contains("cpl.k_ry 4× its file value"),
+        "{}",
+        still.message
+    );
+    // With plausible refitted values the screening is named, as before.
+    let named = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+        .with_refitted(vec![plausible("lb.k_y")])
+        .with_implicated(&implicated);
+    assert_eq!(named.cause, Cause::ScreenedOut);
 }
 
 /// The edges of the plausible range: the central 95 % of the bounds, and

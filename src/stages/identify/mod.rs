@@ -169,8 +169,15 @@ impl Kind for Identify {
     /// from central differences of the FRF residuals, which at peaks a few
     /// lines wide erred by up to 100 % (standard errors, consider intervals,
     /// the score test's sensitivities; `FrfReference::residual_columns`).
+    /// 33: the modal continuation and the FRF refinement run
+    /// Levenberg–Marquardt with a secant Jacobian (Broyden's update, one
+    /// refreshed column per step) instead of a forward-difference Jacobian
+    /// every step (`continuation.secant`, `frf_refinement.secant`); the
+    /// verdict names model error only at a minimum (else
+    /// `minimum_or_model_error`), and doubts the score test's parameters
+    /// after a refit that needed values at their bounds wherever it ended.
     fn version(&self) -> u32 {
-        32
+        33
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"

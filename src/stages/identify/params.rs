@@ -179,7 +179,8 @@ crate::params! {
         /// sensitivity_guided settings: {subproblem_budget: 200,
         /// subproblem_share: 0.25, spread_limit: 0.05, refine: true,
         /// restarts: 3, smoothing: 1e-3, others: random|fixed, continuation:
-        /// {first: 2, step: 1, stage_tolerance: 1e-3, max_step: 0.05}}
+        /// {first: 2, step: 1, stage_tolerance: 1e-3, max_step: 0.05,
+        /// secant: true}}
         pub guided: Given<GuidedParams> = Given::default(),
         /// modes of the model at its start values to leave out, e.g.
         /// [p0.mode7] (numbered as the GSA numbers them); their reference
@@ -222,7 +223,8 @@ crate::params! {
         /// with the `frf` input: the last step refines the identified
         /// parameters on the measured FRFs: {enabled: true, share: 0.4
         /// (of the budget), regularization: 0.25, max_step: 0.05,
-        /// samples: 128 (search over what the modes left open), starts: 7}
+        /// samples: 128 (search over what the modes left open), starts: 7,
+        /// secant: true (Broyden Jacobians between finite-difference ones)}
         pub frf_refinement: FrfRefinementParams = FrfRefinementParams::default(),
         /// with the `frf` input: the band [low, high] Hz of the FRF lines
         /// fitted (default: every line of the input)
