@@ -7,7 +7,8 @@
 //! steps such a path takes.
 //!
 //! * The first Jacobian J is one forward-difference batch at the start.
-//! * Every evaluated step h updates J by Broyden's rank-one formula
+//! * Every accepted step h, and every failed one once J is no longer a
+//!   fresh difference Jacobian, updates J by Broyden's rank-one formula
 //!   (eq. 3.32), J ← J + (r(u + h) − r(u) − J h) hᵀ/(hᵀh), so J reproduces
 //!   the last difference exactly and is unchanged across h.
 //! * J drifts from the tangent in directions no step explored: each step
@@ -29,7 +30,7 @@ use super::{
     NormalEquations, Residuals,
 };
 use crate::optimize::error::OptimizeError;
-use crate::optimize::jacobian::{forward, forward_column, forward_point};
+use crate::optimize::jacobian::{forward, forward_column, forward_point, Batch};
 use crate::optimize::problem::{Bounds, Termination};
 
 /// Failed trials in a row with a secant J after which J is recomputed.
@@ -65,6 +66,36 @@ impl Secant {
     fn expire(&mut self) {
         self.fresh = false;
         self.failures = FAILURES_BEFORE_REFRESH;
+    }
+
+    /// Evaluates the trial `trial` = `u` + h with, when h hardly explores
+    /// the next coordinate k of the cycle (|h_k| < 0.8‖h‖, eq. 3.33) and J
+    /// has been updated, the forward-difference point of column k in the
+    /// same batch, which refreshes that column. The trial's residuals and
+    /// the evaluations spent.
+    fn evaluate_trial(
+        &mut self,
+        eval: &Batch,
+        (u, res): (&[f64], &[f64]),
+        trial: &[f64],
+        h: &[f64],
+        step: f64,
+    ) -> (Option<Vec<f64>>, usize) {
+        let h_norm = h.iter().map(|v| v * v).sum::<f64>().sqrt();
+        let k = self.cycle % h.len().max(1);
+        self.cycle += 1;
+        let refresh = !self.fresh && h[k].abs() < 0.8 * h_norm;
+        let mut batch = vec![trial.to_vec()];
+        let (point, step_k) = forward_point(u, k, step);
+        if refresh {
+            batch.push(point);
+        }
+        let mut out = eval(&batch).into_iter();
+        let rt = out.next().flatten();
+        if refresh {
+            self.columns[k] = forward_column(out.next().flatten().as_deref(), res, step_k);
+        }
+        (rt, batch.len())
     }
 
     /// Broyden's update (eq. 3.32) from the step `h` and the residual change
@@ -110,7 +141,7 @@ pub(super) fn minimize(
     let mut lambda = params.lambda;
     let mut j = Secant::expired();
     let termination = loop {
-        let Some(res) = it.r.clone() else {
+        let Some(res) = it.r.as_ref() else {
             break Termination::Failed {
                 message: "the residuals cannot be computed at the start point".into(),
             };
@@ -125,14 +156,14 @@ pub(super) fn minimize(
             if it.evaluations + n + 1 > budget {
                 break Termination::BudgetExhausted;
             }
-            j.columns = forward(&eval, &it.u, &res, params.step);
+            j.columns = forward(&eval, &it.u, res, params.step);
             j.fresh = true;
             j.failures = 0;
             it.evaluations += n;
         } else if it.evaluations + 2 > budget {
             break Termination::BudgetExhausted;
         }
-        let normal = NormalEquations::new(&j.columns, &res);
+        let normal = NormalEquations::new(&j.columns, res);
         let largest = normal.largest_diagonal();
         if largest == 0.0 || normal.gradient_cosine(&it.u, it.cost) <= params.gtol {
             if j.fresh {
@@ -153,22 +184,8 @@ pub(super) fn minimize(
         };
         let trial = clipped_trial(&it.u, &delta, params.max_step);
         let h: Vec<f64> = trial.iter().zip(&it.u).map(|(a, b)| a - b).collect();
-        let h_norm = h.iter().map(|v| v * v).sum::<f64>().sqrt();
-        // eq. 3.33: refresh column k when the step hardly explores e_k.
-        let k = j.cycle % n;
-        j.cycle += 1;
-        let refresh = !j.fresh && h[k].abs() < 0.8 * h_norm;
-        let mut batch = vec![trial.clone()];
-        let (point, step_k) = forward_point(&it.u, k, params.step);
-        if refresh {
-            batch.push(point);
-        }
-        let mut out = eval(&batch).into_iter();
-        let rt = out.next().flatten();
-        it.evaluations += batch.len();
-        if refresh {
-            j.columns[k] = forward_column(out.next().flatten().as_deref(), &res, step_k);
-        }
+        let (rt, spent) = j.evaluate_trial(&eval, (&it.u, res), &trial, &h, params.step);
+        it.evaluations += spent;
         let used_fresh = j.fresh;
         let ct = half_norm2(&rt);
         let improved = ct < it.cost;
@@ -176,7 +193,7 @@ pub(super) fn minimize(
         // that J is wrong: J is kept as the tangent.
         if improved || !used_fresh {
             if let Some(rt) = rt.as_ref() {
-                let dr: Vec<f64> = rt.iter().zip(&res).map(|(a, b)| a - b).collect();
+                let dr: Vec<f64> = rt.iter().zip(res).map(|(a, b)| a - b).collect();
                 j.broyden(&h, &dr);
             }
         }
