@@ -158,14 +158,10 @@ pub fn minimize(
     let mut it = Iterate::start(&eval, bounds, x0);
     let mut lambda = params.lambda;
     let termination = loop {
-        let Some(res) = it.r.as_ref() else {
-            break Termination::Failed {
-                message: "the residuals cannot be computed at the start point".into(),
-            };
+        let res = match next_step_from(&it.r, it.iterations, params) {
+            Ok(res) => res,
+            Err(stop) => break stop,
         };
-        if it.iterations >= params.max_iterations {
-            break Termination::MaxIterations;
-        }
         if it.evaluations + n + 1 > budget {
             break Termination::BudgetExhausted;
         }
@@ -276,6 +272,26 @@ impl Iterate {
             termination,
         }
     }
+}
+
+/// The residuals `r` to take the next step from, or why no step is taken:
+/// none at the start point, or `max_iterations` reached after `iterations`.
+/// (A function of the two fields, so that the iterate's other fields stay
+/// free to change while the residuals are borrowed.)
+fn next_step_from<'a>(
+    r: &'a Option<Vec<f64>>,
+    iterations: usize,
+    params: &LmParams,
+) -> Result<&'a [f64], Termination> {
+    let Some(res) = r.as_deref() else {
+        return Err(Termination::Failed {
+            message: "the residuals cannot be computed at the start point".into(),
+        });
+    };
+    if iterations >= params.max_iterations {
+        return Err(Termination::MaxIterations);
+    }
+    Ok(res)
 }
 
 /// `u + δ`, each coordinate of δ clipped to ±`max_step` (the trust region)

@@ -1,29 +1,39 @@
 //! Known answers for the continuation's budget and mode order.
 
-use super::{continuation, minimum_budget, ContinuationParams};
+use super::{continuation, minimum_budget, ContinuationParams, ContinuationResult};
 use super::{mode_order as order, ModeOrder};
 use crate::identify::black_box::tests::objective;
 use crate::identify::history::Recorder;
-use crate::identify::IdentifyError;
+use crate::identify::{IdentifyError, ModalObjective};
+
+/// The continuation of the four stiffnesses from the file's nominal values
+/// (the start and the prior's centre) with `budget` and `settings`.
+fn from_nominal(
+    o: &ModalObjective,
+    budget: usize,
+    settings: &ContinuationParams,
+) -> Result<ContinuationResult, IdentifyError> {
+    continuation(
+        o,
+        &FREE,
+        &o.nominal(),
+        &o.nominal(),
+        budget,
+        settings,
+        &Recorder::default(),
+        &|_| {},
+    )
+}
+
+/// The three-mass chain's stiffnesses.
+const FREE: [usize; 4] = [0, 1, 2, 3];
 
 #[test]
 fn the_minimum_budget_is_exactly_what_the_continuation_runs_with() {
     let o = objective();
     let settings = ContinuationParams::default();
-    let free = [0, 1, 2, 3];
-    let minimum = minimum_budget(&o, free.len(), &settings);
-    let run = |budget| {
-        continuation(
-            &o,
-            &free,
-            &o.nominal(),
-            &o.nominal(),
-            budget,
-            &settings,
-            &Recorder::default(),
-            &|_| {},
-        )
-    };
+    let minimum = minimum_budget(&o, FREE.len(), &settings);
+    let run = |budget| from_nominal(&o, budget, &settings);
     let r = run(minimum).expect("runs at its minimum");
     assert!(r.evaluations <= minimum, "{} > {minimum}", r.evaluations);
     assert!(matches!(run(minimum - 1), Err(IdentifyError::Invalid(_))));
@@ -48,27 +58,16 @@ fn secant_jacobians_reach_the_same_stiffness_as_full_ones() {
     // stiffness values as with a full Jacobian at every step.
     let o = objective();
     let truth = crate::identify::black_box::tests::truth();
-    let free = [0, 1, 2, 3];
     let run = |secant| {
         let settings = ContinuationParams {
             secant,
             ..ContinuationParams::default()
         };
-        continuation(
-            &o,
-            &free,
-            &o.nominal(),
-            &o.nominal(),
-            4000,
-            &settings,
-            &Recorder::default(),
-            &|_| {},
-        )
-        .expect("runs")
+        from_nominal(&o, 4000, &settings).expect("runs")
     };
     let (full, secant) = (run(false), run(true));
     for r in [&full, &secant] {
-        for &i in &free {
+        for &i in &FREE {
             let e = r.x[i] / truth[i] - 1.0;
             assert!(e.abs() < 1e-4, "parameter {i}: {e:e} ({:?})", r.x);
         }

@@ -26,8 +26,8 @@
 //! iteration count alone.
 
 use super::{
-    check_inputs, clipped_trial, half_norm2, stalled, unit_batch, Iterate, LmParams, LmResult,
-    NormalEquations, Residuals,
+    check_inputs, clipped_trial, half_norm2, next_step_from, stalled, unit_batch, Iterate,
+    LmParams, LmResult, NormalEquations, Residuals,
 };
 use crate::optimize::error::OptimizeError;
 use crate::optimize::jacobian::{forward, forward_column, forward_point, Batch};
@@ -86,13 +86,14 @@ impl Secant {
         self.cycle += 1;
         let refresh = !self.fresh && h[k].abs() < 0.8 * h_norm;
         let mut batch = vec![trial.to_vec()];
-        let (point, step_k) = forward_point(u, k, step);
-        if refresh {
+        let step_k = refresh.then(|| {
+            let (point, step_k) = forward_point(u, k, step);
             batch.push(point);
-        }
+            step_k
+        });
         let mut out = eval(&batch).into_iter();
         let rt = out.next().flatten();
-        if refresh {
+        if let Some(step_k) = step_k {
             self.columns[k] = forward_column(out.next().flatten().as_deref(), res, step_k);
         }
         (rt, batch.len())
@@ -141,14 +142,10 @@ pub(super) fn minimize(
     let mut lambda = params.lambda;
     let mut j = Secant::expired();
     let termination = loop {
-        let Some(res) = it.r.as_ref() else {
-            break Termination::Failed {
-                message: "the residuals cannot be computed at the start point".into(),
-            };
+        let res = match next_step_from(&it.r, it.iterations, params) {
+            Ok(res) => res,
+            Err(stop) => break stop,
         };
-        if it.iterations >= params.max_iterations {
-            break Termination::MaxIterations;
-        }
         if it.cost == 0.0 {
             break Termination::Converged;
         }
