@@ -4,6 +4,9 @@
 //! squares for LSFD (Golub & Van Loan, "Matrix Computations", alg. 5.3.2). Sequential and
 //! in a fixed operation order, so results are bit-identical on any thread count.
 
+use faer::linalg::matmul::matmul;
+use faer::{Accum, Mat, Par};
+
 /// In-place Cholesky factorization of the symmetric `n × n` matrix `a`
 /// (row-major, lower triangle read): on success the lower triangle holds L
 /// with A = L Lᵀ and the strict upper triangle is zeroed. Returns `false` when
@@ -83,6 +86,65 @@ pub fn solve_spd(a: &[f64], n: usize, b: &[f64], m: usize) -> Option<Vec<f64>> {
     forward_substitute(&l, n, &mut x, m, n);
     backward_substitute_t(&l, n, &mut x, m);
     Some(x)
+}
+
+/// The normal equations of a least-squares problem with Jacobian J (given
+/// as its `columns`, each m long) and residuals r: G = JᵀJ (row-major
+/// n × n, exactly symmetric) and g = Jᵀr. One blocked matrix product (faer,
+/// sequential: a fixed operation order, so bit-identical on any thread
+/// count) instead of n²/2 passes over m-long columns: with FRF residuals
+/// (m ≈ 60,000, n ≈ 24) those passes read the whole Jacobian from memory
+/// n/2 times and were 13 % of an update's CPU time.
+pub fn normal_equations(columns: &[Vec<f64>], r: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let n = columns.len();
+    let p = transposed_product(columns, Some(r));
+    let mut g = vec![0.0; n * n];
+    for i in 0..n {
+        for j in 0..n {
+            // The lower triangle mirrored: exactly symmetric.
+            g[i * n + j] = p[(i.max(j), i.min(j))];
+        }
+    }
+    (g, (0..n).map(|j| p[(n, j)]).collect())
+}
+
+/// G = JᵀJ of [`normal_equations`] as a matrix (exactly symmetric).
+pub fn gram(columns: &[Vec<f64>]) -> Mat<f64> {
+    let p = transposed_product(columns, None);
+    Mat::from_fn(columns.len(), columns.len(), |i, j| p[(i.max(j), i.min(j))])
+}
+
+/// [J r]ᵀ J for J's `columns` (and r, when given, as a last row).
+fn transposed_product(columns: &[Vec<f64>], r: Option<&[f64]>) -> Mat<f64> {
+    let n = columns.len();
+    let m = columns.first().map_or(r.map_or(0, <[f64]>::len), Vec::len);
+    assert!(
+        columns
+            .iter()
+            .map(Vec::len)
+            .chain(r.map(<[f64]>::len))
+            .all(|l| l == m),
+        "normal equations: every column and r need the same number of rows"
+    );
+    let extra = usize::from(r.is_some());
+    let mut a = Mat::<f64>::zeros(m, n + extra);
+    for (j, c) in columns
+        .iter()
+        .chain(r.map(|r| r.to_vec()).as_ref())
+        .enumerate()
+    {
+        a.col_as_slice_mut(j).copy_from_slice(c);
+    }
+    let mut p = Mat::<f64>::zeros(n + extra, n);
+    matmul(
+        p.as_mut(),
+        Accum::Replace,
+        a.as_ref().transpose(),
+        a.as_ref().subcols(0, n),
+        1.0,
+        Par::Seq,
+    );
+    p
 }
 
 /// Least-squares solution of A X ≈ B by Householder QR. `a` is `rows × cols`
@@ -183,5 +245,37 @@ mod tests {
             "{x:?}"
         );
         assert!(least_squares(&mut [1.0, 1.0, 0.0, 0.0], 2, 2, &mut [1.0, 1.0], 1).is_none());
+    }
+
+    #[test]
+    fn normal_equations_match_the_column_dot_products() {
+        // J = [[1, 2], [3, 4], [5, 6]], r = [1, -1, 2]:
+        // JᵀJ = [[35, 44], [44, 56]], Jᵀr = [8, 10].
+        let columns = vec![vec![1.0, 3.0, 5.0], vec![2.0, 4.0, 6.0]];
+        let (g, jr) = normal_equations(&columns, &[1.0, -1.0, 2.0]);
+        assert_eq!(g, vec![35.0, 44.0, 44.0, 56.0]);
+        assert_eq!(jr, vec![8.0, 10.0]);
+        let gm = gram(&columns);
+        assert_eq!((gm[(0, 1)], gm[(1, 0)], gm[(1, 1)]), (44.0, 44.0, 56.0));
+        // Long random columns: the blocked product against plain sums.
+        let m = 5003;
+        let c: Vec<Vec<f64>> = (0..7)
+            .map(|j| {
+                (0..m)
+                    .map(|i| ((i * 7 + j * 13) % 17) as f64 - 8.0)
+                    .collect()
+            })
+            .collect();
+        let r: Vec<f64> = (0..m).map(|i| (i % 5) as f64 - 2.0).collect();
+        let (g, jr) = normal_equations(&c, &r);
+        for a in 0..7 {
+            let want: f64 = c[a].iter().zip(&r).map(|(x, y)| x * y).sum();
+            assert_eq!(jr[a], want, "integer-valued sums are exact");
+            for b in 0..7 {
+                let want: f64 = c[a].iter().zip(&c[b]).map(|(x, y)| x * y).sum();
+                assert_eq!(g[a * 7 + b], want);
+            }
+        }
+        assert!(normal_equations(&[], &[]).0.is_empty());
     }
 }

@@ -62,6 +62,38 @@ fn test_bench_modes_move_with_wpt_position() {
     assert!(moved, "{:?} vs {:?}", first[0], last);
 }
 
+/// A guessed mode count changes where the search for the modes below a
+/// frequency starts, never which modes come back: too few (the doubling
+/// takes over), about right, or far too many give the same frequencies as
+/// `Below` (to 1e-10; the Krylov spaces differ, so rounding does).
+#[test]
+fn a_guessed_mode_count_returns_the_same_modes_below_a_frequency() {
+    use modalflow::dynamics::ModeSelection;
+    let p = load("uniaxial_test_bench.yaml");
+    let v: Vec<f64> = p.parameters.iter().map(|q| q.value).collect();
+    let f = |s: ModeSelection| p.evaluate_modes(1, &v, s).unwrap().frequencies_hz();
+    let want = f(ModeSelection::Below(400.0));
+    assert!(
+        want.len() > 16,
+        "{} modes: the plain search needs two solves",
+        want.len()
+    );
+    assert!(*want.last().unwrap() <= 400.0);
+    for expected in [0, 5, want.len(), 3 * want.len()] {
+        let got = f(ModeSelection::BelowAbout {
+            hz: 400.0,
+            expected,
+        });
+        assert_eq!(got.len(), want.len(), "expected {expected}");
+        for (a, b) in got.iter().zip(&want) {
+            assert!(
+                (a / b - 1.0).abs() < 1e-10,
+                "expected {expected}: {a} vs {b}"
+            );
+        }
+    }
+}
+
 fn values(p: &PreparedModel) -> Vec<f64> {
     p.parameters.iter().map(|q| q.value).collect()
 }

@@ -287,9 +287,7 @@ pub fn sandwich_variance(columns: &[Vec<f64>], r: &[f64], blocks: &[Block]) -> V
 /// decomposition fails.
 fn determined(columns: &[Vec<f64>]) -> Option<(Vec<f64>, Vec<Vec<f64>>)> {
     let n = columns.len();
-    let g = Mat::<f64>::from_fn(n, n, |a, b| {
-        columns[a].iter().zip(&columns[b]).map(|(x, y)| x * y).sum()
-    });
+    let g = crate::dense::gram(columns);
     let (mu, vecs) = symmetric_eigen(&g).ok()?;
     let largest = mu.iter().copied().fold(0.0f64, f64::max);
     let keep: Vec<usize> = (0..n)

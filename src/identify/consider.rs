@@ -358,9 +358,7 @@ pub(super) fn pseudo_inverse(columns: &[Vec<f64>]) -> (Mat<f64>, Vec<bool>) {
     if n == 0 {
         return (Mat::zeros(0, 0), Vec::new());
     }
-    let G = Mat::<f64>::from_fn(n, n, |a, b| {
-        columns[a].iter().zip(&columns[b]).map(|(x, y)| x * y).sum()
-    });
+    let G = crate::dense::gram(columns);
     let (mu, V) =
         symmetric_eigen(&G).unwrap_or_else(|_| (vec![0.0; n], Mat::<f64>::identity(n, n)));
     let largest = mu.iter().copied().fold(0.0f64, f64::max);

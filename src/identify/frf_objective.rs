@@ -103,6 +103,11 @@ struct FrfSlot {
     from_coherence: usize,
     /// Channels with coherence but no `averages` to use it with.
     coherence_unused: usize,
+    /// Modes below twice the top line at the model file's values: where
+    /// the superposition's eigensolution starts looking
+    /// ([`ModeSelection::BelowAbout`]); 14 (a first solve of 16) when
+    /// that point cannot be solved.
+    expected_modes: usize,
 }
 
 /// How the noise of the measured FRFs is estimated.
@@ -184,6 +189,12 @@ impl FrfReference {
             .iter()
             .filter_map(|s| s.lines_hz.last().copied())
             .fold(0.0, f64::max);
+        let file_values: Vec<f64> = model.parameters.iter().map(|p| p.value).collect();
+        for s in &mut slots {
+            s.expected_modes = model
+                .evaluate_modes(s.config, &file_values, ModeSelection::Below(2.0 * top))
+                .map_or(14, |sol| sol.eigenvalues.len());
+        }
         Ok(FrfReference {
             slots,
             top_hz: top,
@@ -222,6 +233,14 @@ impl FrfReference {
         })
     }
 
+    /// The modes slot `s`'s FRFs superpose: all up to twice the top line.
+    fn superposed(&self, s: &FrfSlot) -> ModeSelection {
+        ModeSelection::BelowAbout {
+            hz: 2.0 * self.top_hz,
+            expected: s.expected_modes,
+        }
+    }
+
     /// The highest line fitted, Hz.
     pub fn top_hz(&self) -> f64 {
         self.top_hz
@@ -245,9 +264,7 @@ impl FrfReference {
     ) -> Option<SuperpositionBasis> {
         let mut basis = SuperpositionBasis::default();
         for s in &self.slots {
-            let sol = model
-                .evaluate_modes(s.config, x, ModeSelection::Below(2.0 * self.top_hz))
-                .ok()?;
+            let sol = model.evaluate_modes(s.config, x, self.superposed(s)).ok()?;
             let largest = (0..sol.eigenvalues.len())
                 .flat_map(|r| s.pairs.iter().map(move |&(j, k)| (r, j, k)))
                 .map(|(r, j, k)| (sol.sensor_shapes[(j, r)] * sol.excitation_shapes[(k, r)]).abs())
@@ -325,9 +342,7 @@ impl FrfReference {
         s: &FrfSlot,
         x: &[f64],
     ) -> Option<(PerChannel<Complex64>, Option<PerChannel<f64>>)> {
-        let sol = model
-            .evaluate_modes(s.config, x, ModeSelection::Below(2.0 * self.top_hz))
-            .ok()?;
+        let sol = model.evaluate_modes(s.config, x, self.superposed(s)).ok()?;
         Some(self.frfs_of(s, &sol, &s.pairs))
     }
 
@@ -572,6 +587,7 @@ fn slot(
         sigma,
         from_coherence,
         coherence_unused,
+        expected_modes: 14,
     })
 }
 

@@ -268,9 +268,7 @@ fn gram_eigen(columns: &[Vec<f64>]) -> (Vec<f64>, Mat<f64>) {
     if n == 0 {
         return (Vec::new(), Mat::<f64>::zeros(0, 0));
     }
-    let G = Mat::<f64>::from_fn(n, n, |a, b| {
-        columns[a].iter().zip(&columns[b]).map(|(x, y)| x * y).sum()
-    });
+    let G = crate::dense::gram(columns);
     symmetric_eigen(&G).unwrap_or_else(|_| (vec![0.0; n], Mat::<f64>::identity(n, n)))
 }
 

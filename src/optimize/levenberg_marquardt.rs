@@ -37,7 +37,7 @@ mod secant;
 use super::error::OptimizeError;
 use super::jacobian::{forward as jacobian, Batch};
 use super::problem::{Bounds, HistoryPoint, Termination};
-use crate::dense::solve_spd;
+use crate::dense::{normal_equations, solve_spd};
 use serde::{Deserialize, Serialize};
 
 /// Settings of Levenberg–Marquardt.
@@ -341,18 +341,12 @@ struct NormalEquations {
 impl NormalEquations {
     /// JᵀJ and Jᵀr from the Jacobian's `columns` and the residuals `res`.
     fn new(columns: &[Vec<f64>], res: &[f64]) -> Self {
-        let n = columns.len();
-        let mut jtj = vec![0.0; n * n];
-        let mut g = vec![0.0; n];
-        for a in 0..n {
-            g[a] = columns[a].iter().zip(res).map(|(x, y)| x * y).sum();
-            for b in 0..=a {
-                let v: f64 = columns[a].iter().zip(&columns[b]).map(|(x, y)| x * y).sum();
-                jtj[a * n + b] = v;
-                jtj[b * n + a] = v;
-            }
+        let (jtj, g) = normal_equations(columns, res);
+        NormalEquations {
+            n: columns.len(),
+            jtj,
+            g,
         }
-        NormalEquations { n, jtj, g }
     }
 
     /// The largest diagonal entry of JᵀJ (0: no direction moves r).

@@ -176,8 +176,13 @@ impl Kind for Identify {
     /// verdict names model error only at a minimum (else
     /// `minimum_or_model_error`), and doubts the score test's parameters
     /// after a refit that needed values at their bounds wherever it ended.
+    /// 34: no refit of the score test's parameters at an FRF fit within the
+    /// noise below 1.04σ, which no refit can improve materially
+    /// (`judging::NOISE_FLOOR_BOUND`); the normal equations of every
+    /// least-squares step by one blocked product (`dense::normal_equations`;
+    /// results differ from 33 in rounding).
     fn version(&self) -> u32 {
-        33
+        34
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
