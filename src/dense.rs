@@ -128,12 +128,11 @@ fn transposed_product(columns: &[Vec<f64>], r: Option<&[f64]>) -> Mat<f64> {
     );
     let extra = usize::from(r.is_some());
     let mut a = Mat::<f64>::zeros(m, n + extra);
-    for (j, c) in columns
-        .iter()
-        .chain(r.map(|r| r.to_vec()).as_ref())
-        .enumerate()
-    {
+    for (j, c) in columns.iter().enumerate() {
         a.col_as_slice_mut(j).copy_from_slice(c);
+    }
+    if let Some(r) = r {
+        a.col_as_slice_mut(n).copy_from_slice(r);
     }
     let mut p = Mat::<f64>::zeros(n + extra, n);
     matmul(
