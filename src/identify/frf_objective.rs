@@ -70,12 +70,12 @@
 pub use super::local_misfit::{LocalMisfit, LOCAL_LINES};
 use super::IdentifyError;
 use crate::dynamics::frf::{superposition, superposition_with_drift};
-use crate::dynamics::reference::dof_row;
 use crate::dynamics::solve::{ModalSolution, ModeSelection};
 use crate::dynamics::PreparedModel;
-use crate::ema::noise::channel_noise_variance;
 use crate::frf::{FrfQuantity, FrfSet};
 use num_complex::Complex64;
+pub use slot::coherence_sigma;
+use slot::slot;
 
 /// Per channel, one value per line.
 type PerChannel<T> = Vec<Vec<T>>;
@@ -491,118 +491,7 @@ fn huber_factor(d: f64) -> f64 {
     }
 }
 
-/// One position's FRFs matched to the model.
-fn slot(
-    model: &PreparedModel,
-    set: &FrfSet,
-    band: (f64, f64),
-    noise: FrfNoise,
-) -> Result<FrfSlot, IdentifyError> {
-    let index = set.position.index;
-    let config = model.config_of_position(index).ok_or_else(|| {
-        IdentifyError::Invalid(format!(
-            "frf: position {index} is not a configuration of the model, which has {}",
-            model.configurations.len()
-        ))
-    })?;
-    let lines: Vec<usize> = (0..set.frequencies_hz.len())
-        .filter(|&f| (band.0..=band.1).contains(&set.frequencies_hz[f]))
-        .collect();
-    if lines.len() < 8 {
-        return Err(IdentifyError::Invalid(format!(
-            "frf: position {index} has {} lines in the band [{}, {}] Hz; at least 8 are needed",
-            lines.len(),
-            band.0,
-            band.1
-        )));
-    }
-    let lines_hz: Vec<f64> = lines.iter().map(|&f| set.frequencies_hz[f]).collect();
-    let (mut pairs, mut signs, mut measured, mut sigma) = (vec![], vec![], vec![], vec![]);
-    let (mut from_coherence, mut coherence_unused) = (0, 0);
-    for c in &set.channels {
-        let (Some((j, sj)), Some((k, sk))) = (
-            dof_row(&model.sensors, c.response),
-            dof_row(&model.excitations, c.reference),
-        ) else {
-            continue;
-        };
-        let values: Vec<Complex64> = lines.iter().map(|&f| c.values[f]).collect();
-        if values
-            .iter()
-            .any(|v| !v.re.is_finite() || !v.im.is_finite())
-        {
-            return Err(IdentifyError::Invalid(format!(
-                "frf: position {index}, channel {}/{} has non-finite values",
-                c.response, c.reference
-            )));
-        }
-        // Noise-free data (synthesized without noise) estimate σ ≈ 0: a floor
-        // of 1e-9 of the channel's RMS keeps the residuals finite; an
-        // all-zero channel carries nothing and is left out.
-        let power = values.iter().map(|v| v.norm_sqr()).sum::<f64>() / values.len() as f64;
-        if power == 0.0 {
-            continue;
-        }
-        let white = channel_noise_variance(&lines_hz, &values)
-            .max(1e-18 * power)
-            .sqrt();
-        let coherence: Option<Vec<f64>> = c.coherence.as_ref().map(|g| {
-            lines
-                .iter()
-                .map(|&f| g.get(f).copied().unwrap_or(f64::NAN))
-                .collect()
-        });
-        let line_sigma = match (coherence, noise.averages) {
-            (Some(g), Some(n)) => {
-                from_coherence += 1;
-                values
-                    .iter()
-                    .zip(&g)
-                    .map(|(h, &g)| coherence_sigma(h.norm(), g, n).max(white))
-                    .collect()
-            }
-            (g, _) => {
-                coherence_unused += usize::from(g.is_some());
-                vec![white; values.len()]
-            }
-        };
-        pairs.push((j, k));
-        signs.push(sj * sk);
-        sigma.push(line_sigma);
-        measured.push(values);
-    }
-    if pairs.is_empty() {
-        return Err(IdentifyError::Invalid(format!(
-            "frf: position {index} shares no channel (response and reference node and axis) with the model's sensors and excitations"
-        )));
-    }
-    Ok(FrfSlot {
-        position: index,
-        config,
-        quantity: set.quantity,
-        lines_hz,
-        pairs,
-        signs,
-        measured,
-        sigma,
-        from_coherence,
-        coherence_unused,
-        expected_modes: 14,
-    })
-}
-
-/// Random error σ of an FRF estimate |H| from n averages with coherence γ²
-/// (module docs; Bendat & Piersol eq. 9.73/9.90): √((1 − γ²)/(nγ²))·|H|.
-/// A coherence at or below 0 (no signal) or not finite gives an infinite σ,
-/// so the line does not count.
-pub fn coherence_sigma(h_abs: f64, gamma2: f64, averages: usize) -> f64 {
-    if !(gamma2.is_finite() && gamma2 > 0.0) {
-        return f64::INFINITY;
-    }
-    let g = gamma2.min(1.0);
-    h_abs * ((1.0 - g) / (averages as f64 * g)).sqrt()
-}
-
 mod sensitivity;
+mod slot;
 #[cfg(test)]
 mod tests;
