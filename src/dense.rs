@@ -256,7 +256,8 @@ mod tests {
         assert_eq!(jr, vec![8.0, 10.0]);
         let gm = gram(&columns);
         assert_eq!((gm[(0, 1)], gm[(1, 0)], gm[(1, 1)]), (44.0, 44.0, 56.0));
-        // Long random columns: the blocked product against plain sums.
+        // Long integer-valued columns (every sum exact in any order): the
+        // blocked product against plain sums, entry for entry.
         let m = 5003;
         let c: Vec<Vec<f64>> = (0..7)
             .map(|j| {
