@@ -14,6 +14,11 @@
 //! ≥ 90 % do or its verdict is not ok naming implicated parameters, and no
 //! ok verdict may have a median error above 5 %.
 //!
+//! Each success count comes with the 95 % Clopper–Pearson interval of the
+//! rate behind it ([`modalflow::binomial`]): 19 of 20 is consistent with
+//! 75–99.9 %, so a change that moves a family by one or two truths has not
+//! shown that it changes the rate.
+//!
 //! Run: `cargo bench --bench model_updating_families` (add `-- --score` to
 //! rescore existing results without running the pipeline, and
 //! `--pipeline FILE` for another machine laid out the same way, e.g.
@@ -22,6 +27,7 @@
 
 mod scoring;
 
+use modalflow::binomial::clopper_pearson;
 use scoring::{score, score_start, significant, Score};
 use std::fmt::Write as _;
 use std::path::PathBuf;
@@ -305,11 +311,16 @@ not run yet.
                 100.0 * f.max_error
             )
         };
+        // What the count says about the rate behind it (issue 26 asks for
+        // ≥ 95 %): with 20 truths one or two either way is within it.
+        let (low, high) = clopper_pearson(n_ok as u64, scores.len() as u64, 0.95);
         let _ = writeln!(
             md,
-            "## {}\n\n{n_ok} of {} {goal}; verdict ok on {}.\n",
+            "## {}\n\n{n_ok} of {} {goal} (success rate {:.0}–{:.0} %, 95 % Clopper–Pearson interval); verdict ok on {}.\n",
             f.name,
             scores.len(),
+            100.0 * low,
+            100.0 * high,
             scores.iter().filter(|(_, s)| s.ok).count()
         );
         let _ = writeln!(md, "{}\n", coverage_text(&scores));

@@ -6,6 +6,7 @@
 //! in [`modal`]) knows nothing of pipelines.
 
 pub mod artifacts;
+pub mod binomial;
 pub mod dense;
 pub mod dynamics;
 pub mod ema;

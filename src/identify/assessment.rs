@@ -13,7 +13,7 @@ use super::identifiability::{
 use super::joint_effect::{Member, SumCoordinates};
 use super::objective::{Match, ModalObjective, SlotPairing};
 use super::updating::{FinalPair, Plan};
-use super::verdict::{DampingJudgement, ModeCounts};
+use super::verdict::{DampingJudgement, ModeCounts, EDGE};
 use super::IdentifyError;
 use crate::numbers::sig;
 use crate::optimize::jacobian;
@@ -482,11 +482,16 @@ fn cut_at_bounds(
     mut c: Consider,
 ) -> Consider {
     // A linearized change is cut at the parameter's bounds (a column the
-    // data barely see can ask for any value).
+    // data barely see can ask for any value). Where it takes the parameter
+    // to the outer EDGE of its range, the value it asks for is one the
+    // model file calls barely possible, as a refitted value there is
+    // (`verdict::refit`).
     for (f, &(i, _)) in c.fixed.iter_mut().zip(fixed) {
         let p = &o.parameters()[i];
         if x[i] > 0.0 && p.lower > 0.0 {
             f.change = f.change.clamp((p.lower / x[i]).ln(), (p.upper / x[i]).ln());
+            let u = p.scale.to_unit(x[i] * f.change.exp(), p.lower, p.upper);
+            f.at_bound = f.change != 0.0 && (u <= EDGE || u >= 1.0 - EDGE);
         }
     }
     c

@@ -83,6 +83,11 @@ pub struct FixedParameter {
     /// parameters re-adjusted; 0 when the residual cannot see it.
     #[serde(deserialize_with = "nan_if_null")]
     pub change: f64,
+    /// The change takes it to the outer 2.5 % of its range at either end,
+    /// where the bound holds it, not the data (set where the bounds are
+    /// known: `assessment`; see [`super::verdict::Implication`]).
+    #[serde(default)]
+    pub at_bound: bool,
     /// T_j above the Bonferroni-corrected χ²₁ quantile.
     pub implicated: bool,
     /// Its largest contribution to an identified parameter's standard error
@@ -194,6 +199,7 @@ pub fn consider(
             statistic: 0.0,
             p_value: 1.0,
             change: 0.0,
+            at_bound: false,
             implicated: false,
             influence: follow[j]
                 .iter()

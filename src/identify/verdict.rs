@@ -29,7 +29,7 @@
 //! error), not noise.
 
 use super::frf_objective::{FrfFit, LocalMisfit, LOCAL_LINES};
-pub use refit::{Implausible, RefitValue};
+pub use refit::{Implausible, RefitValue, EDGE};
 use serde::{Deserialize, Serialize};
 
 mod cause;
@@ -138,6 +138,10 @@ pub struct Verdict {
     /// ([`super::consider`]), with the change the data point to.
     #[serde(default)]
     pub implicated: Vec<String>,
+    /// Those of them whose suggested change its bounds hold
+    /// ([`Implication::at_bound`]).
+    #[serde(default)]
+    pub implicated_at_bound: Vec<String>,
     /// Fixed parameters the score test implicated earlier that a refit
     /// identified too ([`super::follow_up`]).
     #[serde(default)]
@@ -356,6 +360,7 @@ impl Verdict {
             identifiable,
             frf: None,
             implicated: Vec::new(),
+            implicated_at_bound: Vec::new(),
             refitted: Vec::new(),
             refit_values: Vec::new(),
             damping: None,
@@ -408,9 +413,8 @@ impl Verdict {
     }
 
     /// The verdict with the score test's implicated fixed parameters
-    /// (`(name, change of ln p, statistic)`, largest first): not ok, and
-    /// they are named in the message.
-    pub fn with_implicated(mut self, implicated: &[(String, f64, f64)]) -> Verdict {
+    /// (largest statistic first): not ok, and they are named in the message.
+    pub fn with_implicated(mut self, implicated: &[Implication]) -> Verdict {
         if implicated.is_empty() {
             return self;
         }
@@ -418,9 +422,7 @@ impl Verdict {
         let mut named: Vec<String> = implicated
             .iter()
             .take(NAMED_IMPLICATED)
-            .map(|(name, change, t)| {
-                format!("{name} ({:+.0} %, χ² {t:.0})", 100.0 * change.exp_m1())
-            })
+            .map(Implication::describe)
             .collect();
         if implicated.len() > NAMED_IMPLICATED {
             named.push(format!(
@@ -433,8 +435,23 @@ impl Verdict {
             if named.len() == 1 { "" } else { "s" },
             named.join(", "),
         ));
-        self.implicated = implicated.iter().map(|i| i.0.clone()).collect();
+        self.implicated = implicated.iter().map(|i| i.parameter.clone()).collect();
+        self.implicated_at_bound = implicated
+            .iter()
+            .filter(|i| i.at_bound)
+            .map(|i| i.parameter.clone())
+            .collect();
         self.classified(SearchEvidence::default())
+    }
+
+    /// The most implicated fixed parameter asks for a change its bounds
+    /// hold: the data point at a value the model file calls barely
+    /// possible, which a wrong basin of the identified parameters explains
+    /// as well as the screening does.
+    fn leading_at_bound(&self) -> bool {
+        self.implicated
+            .first()
+            .is_some_and(|n| self.implicated_at_bound.contains(n))
     }
 
     /// The verdict with the identified damping judged against the
@@ -463,6 +480,53 @@ impl Verdict {
         self.warnings.extend(refit::warning(&values));
         self.refit_values = values;
         self.classified(SearchEvidence::default())
+    }
+}
+
+/// A fixed parameter the score test implicates ([`super::consider`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Implication {
+    pub parameter: String,
+    /// The change of ln p the data point to (linearized, cut at its bounds).
+    pub change: f64,
+    /// The score statistic, χ²₁ under "its value is right".
+    pub statistic: f64,
+    /// The change takes it to the outer [`refit::EDGE`] of its range, as a
+    /// refitted value held by its bound ([`Implausible`]).
+    pub at_bound: bool,
+}
+
+impl Implication {
+    /// An implication whose change stays inside the bounds.
+    pub fn new(parameter: impl Into<String>, change: f64, statistic: f64) -> Implication {
+        Implication {
+            parameter: parameter.into(),
+            change,
+            statistic,
+            at_bound: false,
+        }
+    }
+
+    /// "cpl.k_ry (+300 % to its bound, χ² 374)".
+    fn describe(&self) -> String {
+        format!(
+            "{} ({:+.0} %{}, χ² {:.0})",
+            self.parameter,
+            100.0 * self.change.exp_m1(),
+            if self.at_bound { " to its bound" } else { "" },
+            self.statistic
+        )
+    }
+}
+
+impl From<&super::consider::FixedParameter> for Implication {
+    fn from(f: &super::consider::FixedParameter) -> Implication {
+        Implication {
+            parameter: f.parameter.clone(),
+            change: f.change,
+            statistic: f.statistic,
+            at_bound: f.at_bound,
+        }
     }
 }
 

@@ -185,6 +185,7 @@ fn the_analysis_survives_json_with_non_finite_numbers() {
             statistic: 3.0,
             p_value: f64::NAN,
             change: 0.1,
+            at_bound: false,
             implicated: false,
             influence: 0.01,
         }],

@@ -12,7 +12,7 @@ use super::super::follow_up::{
 use super::super::guided::GuidedResult;
 use super::super::identifiability::Identifiability;
 use super::super::objective::ModalObjective;
-use super::super::verdict::{Fit, FrfJudgement, RefitValue, Status, Verdict};
+use super::super::verdict::{Fit, FrfJudgement, Implication, RefitValue, Status, Verdict};
 use super::super::IdentifyError;
 use super::{FinalPair, Plan};
 use crate::numbers::sig;
@@ -358,11 +358,11 @@ impl Judged {
     /// it refuted are not implicated again (what else the score test
     /// implicates here is), and its warning stays.
     fn keep_refutation(&mut self, r: &Refutation) {
-        let kept: Vec<(String, f64, f64)> = self.consider.as_ref().map_or(Vec::new(), |c| {
+        let kept: Vec<Implication> = self.consider.as_ref().map_or(Vec::new(), |c| {
             c.implicated()
-                .iter()
+                .into_iter()
                 .filter(|f| !r.names.contains(&f.parameter))
-                .map(|f| (f.parameter.clone(), f.change, f.statistic))
+                .map(Implication::from)
                 .collect()
         });
         self.untested.warnings.push(r.warning.clone());
@@ -434,11 +434,8 @@ fn judge(
         (None, Some(d)) => verdict.with_damping(d),
         (None, None) => verdict,
     };
-    let implicated: Vec<(String, f64, f64)> = consider.as_ref().map_or(Vec::new(), |c| {
-        c.implicated()
-            .iter()
-            .map(|f| (f.parameter.clone(), f.change, f.statistic))
-            .collect()
+    let implicated: Vec<Implication> = consider.as_ref().map_or(Vec::new(), |c| {
+        c.implicated().into_iter().map(Implication::from).collect()
     });
     Ok(Judged {
         untested: verdict.clone(),
@@ -490,7 +487,7 @@ mod tests {
     fn a_refutation_holds_on_later_judgements() {
         use super::super::super::consider::{Consider, FixedParameter};
         use super::super::super::identifiability::Identifiability;
-        use super::super::super::verdict::{ModeCounts, Verdict};
+        use super::super::super::verdict::{Implication, ModeCounts, Verdict};
         use super::{Judged, Refutation};
         let fixed = |name: &str, statistic: f64| FixedParameter {
             parameter: name.into(),
@@ -498,6 +495,7 @@ mod tests {
             statistic,
             p_value: 1e-9,
             change: 0.2,
+            at_bound: false,
             implicated: true,
             influence: 0.0,
         };
@@ -510,7 +508,10 @@ mod tests {
             4,
             vec![],
         );
-        let implicated = [("a".to_string(), 0.2, 90.0), ("c".to_string(), 0.2, 40.0)];
+        let implicated = [
+            Implication::new("a", 0.2, 90.0),
+            Implication::new("c", 0.2, 40.0),
+        ];
         let mut judged = Judged {
             verdict: untested.clone().with_implicated(&implicated),
             untested,

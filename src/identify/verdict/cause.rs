@@ -19,7 +19,8 @@ pub enum Cause {
     /// bound, or beyond the assumed `fixed_spread`; [`super::RefitValue`]), or the
     /// score test implicates fixed parameters at a fit that stalled,
     /// misplaces a resonance or an escape search just reached, and no refit
-    /// tested them, or the refit that did ends at such a fit itself: the
+    /// tested them, or the refit that did ends at such a fit itself, or the
+    /// most implicated one asks for a change that reaches its bound: the
     /// screening and a local minimum are not told apart.
     ScreeningOrLocalMinimum,
     /// The residual points at parameters the update held fixed (score
@@ -64,6 +65,20 @@ impl Verdict {
         let why: &str = match self.cause {
             Cause::None => return self,
             Cause::Budget => "cause: the budget ran out before the fit converged — give more",
+            Cause::ScreeningOrLocalMinimum
+                if self.leading_at_bound() && !refit::any_implausible(&self.refit_values) =>
+            {
+                line = format!(
+                    "cause: the screening or a local minimum, not told apart — the score test implicates {}{}, with changes that reach their bounds: the data point at values the model file calls barely possible, which a wrong basin of the identified parameters gives (their columns then point at whatever compensates its error) as readily as a screening that left something out — search from other starts (`restarts`, a larger budget), or check these parameters' file values and bounds",
+                    self.implicated_at_bound.join(", "),
+                    if self.refitted.is_empty() {
+                        String::new()
+                    } else {
+                        format!(" after the refit of {}", self.refitted.join(", "))
+                    }
+                );
+                &line
+            }
             Cause::ScreeningOrLocalMinimum if self.refit_values.is_empty() => {
                 line = format!(
                     "cause: the screening or a local minimum, not told apart — the score test implicates the fixed parameters named above, but at a fit that {off}, where a wrong basin of the identified parameters makes the residual point at fixed ones too, and no refit tested them (`refit_implicated` off, or no budget left for it): give more budget so that the refit can tell, or check these parameters' file values"
@@ -144,7 +159,12 @@ impl Verdict {
             // vertical mill's families, identify 26, all three such verdicts
             // named the screening while the truth had moved no fixed
             // parameter).
-            if self.off_minimum().is_some() {
+            // Nor does a residual that points at a value the bounds hold
+            // (vertical mill, identify 34, 1 % seed 1: after two refits to
+            // 1.25σ the score test asked cpl.k_ry, cpl.c_ry and cpl.k_x for
+            // +300 %, their bounds, while the truth had moved no fixed
+            // parameter).
+            if self.off_minimum().is_some() || self.leading_at_bound() {
                 Cause::ScreeningOrLocalMinimum
             } else {
                 Cause::ScreenedOut

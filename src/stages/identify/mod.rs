@@ -181,8 +181,13 @@ impl Kind for Identify {
     /// (`judging::NOISE_FLOOR_BOUND`); the normal equations of every
     /// least-squares step by one blocked product (`dense::normal_equations`;
     /// results differ from 33 in rounding).
+    /// 35: an implication of the score test whose leading parameter's
+    /// suggested change reaches its bound (outer 2.5 % of its range) is
+    /// cause `screening_or_local_minimum`, not `screened_out`; the message
+    /// says "to its bound", cost.json lists them (`implicated_at_bound`),
+    /// identifiability.json marks them (`at_bound`).
     fn version(&self) -> u32 {
-        34
+        35
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
