@@ -65,8 +65,12 @@ impl Verdict {
         let why: &str = match self.cause {
             Cause::None => return self,
             Cause::Budget => "cause: the budget ran out before the fit converged — give more",
+            // Named for the value at a bound only where nothing else doubts
+            // the fit: off a minimum, the lines below say why first.
             Cause::ScreeningOrLocalMinimum
-                if self.leading_at_bound() && !refit::any_implausible(&self.refit_values) =>
+                if self.leading_at_bound()
+                    && self.off_minimum().is_none()
+                    && !refit::any_implausible(&self.refit_values) =>
             {
                 line = format!(
                     "cause: the screening or a local minimum, not told apart — the score test implicates {}{}, with changes that reach their bounds: the data point at values the model file calls barely possible, which a wrong basin of the identified parameters gives (their columns then point at whatever compensates its error) as readily as a screening that left something out — search from other starts (`restarts`, a larger budget), or check these parameters' file values and bounds",

@@ -425,10 +425,22 @@ fn an_implication_that_needs_a_value_at_a_bound_does_not_name_the_screening() {
     assert_eq!(v.cause, Cause::ScreenedOut, "{v:?}");
     // Without a refit too: the rule is the implication's, not the refit's.
     let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
-        .with_implicated(&[at_bound])
+        .with_implicated(&[at_bound.clone()])
         .explained();
     assert_eq!(v.cause, Cause::ScreeningOrLocalMinimum, "{v:?}");
     assert!(!v.message.contains("after the refit"), "{}", v.message);
+    // At a stalled fit the stall is what the cause line names first.
+    let v = Verdict::judge(Status::Stalled, 9.0, 4.0, counts(), 5, 5, vec![])
+        .with_implicated(&[at_bound])
+        .explained();
+    assert_eq!(v.cause, Cause::ScreeningOrLocalMinimum, "{v:?}");
+    assert!(
+        v.message
+            .contains("at a fit that stalled before converging")
+            && !v.message.contains("with changes that reach their bounds"),
+        "{}",
+        v.message
+    );
 }
 
 /// The edges of the plausible range: the central 95 % of the bounds, and
