@@ -313,7 +313,8 @@ not run yet.
         };
         // What the count says about the rate behind it (issue 26 asks for
         // ≥ 95 %): with 20 truths one or two either way is within it.
-        let (low, high) = clopper_pearson(n_ok as u64, scores.len() as u64, 0.95);
+        let (low, high) = clopper_pearson(n_ok as u64, scores.len() as u64, 0.95)
+            .expect("a family with seeds and at most as many successes");
         let _ = writeln!(
             md,
             "## {}\n\n{n_ok} of {} {goal} (success rate {:.0}–{:.0} %, 95 % Clopper–Pearson interval); verdict ok on {}.\n",

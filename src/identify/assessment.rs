@@ -491,7 +491,9 @@ fn cut_at_bounds(
         if x[i] > 0.0 && p.lower > 0.0 {
             f.change = f.change.clamp((p.lower / x[i]).ln(), (p.upper / x[i]).ln());
             let u = p.scale.to_unit(x[i] * f.change.exp(), p.lower, p.upper);
-            f.at_bound = f.change != 0.0 && (u <= EDGE || u >= 1.0 - EDGE);
+            // Toward that edge: a file value already near a bound is not
+            // what the data ask for.
+            f.at_bound = (f.change > 0.0 && u >= 1.0 - EDGE) || (f.change < 0.0 && u <= EDGE);
         }
     }
     c

@@ -217,3 +217,49 @@ fn sum_matches_one_spring(damping_factor: f64) {
         "dampers ×{damping_factor}: {got} vs {want}"
     );
 }
+
+/// A suggested change is cut at the bounds and marked `at_bound` only where
+/// it takes the parameter into the outer 2.5 % of its range in the
+/// direction it moves: far beyond the upper bound, to just inside the lower
+/// one; not a small change, nor a small one away from a bound the file
+/// value already sits at.
+#[test]
+fn a_suggested_change_is_marked_where_it_reaches_a_bound() {
+    use crate::identify::consider::FixedParameter;
+    let o = crate::identify::black_box::tests::objective();
+    let p = &o.parameters()[..4];
+    let mut x = o.nominal();
+    // Parameter 3 sits at 1.001 × its lower bound.
+    x[3] = p[3].lower * 1.001;
+    let span = |i: usize| (p[i].upper / x[i]).ln();
+    let changes = [
+        10.0 * span(0),                   // far beyond the upper bound
+        0.1,                              // inside
+        (p[2].lower / x[2]).ln() * 0.999, // to just inside the lower one
+        0.05,                             // away from the bound it sits at
+    ];
+    let fixed_parameter = |i: usize| FixedParameter {
+        parameter: p[i].name.clone(),
+        spread: 0.3,
+        statistic: 50.0,
+        p_value: 1e-9,
+        change: changes[i],
+        at_bound: false,
+        implicated: true,
+        influence: 0.0,
+    };
+    let c = Consider {
+        std_error: Vec::new(),
+        fixed: (0..4).map(fixed_parameter).collect(),
+        critical: 10.0,
+    };
+    let fixed: Vec<(usize, f64)> = (0..4).map(|i| (i, 0.3)).collect();
+    let c = cut_at_bounds(&o, &x, &fixed, c);
+    let marks: Vec<bool> = c.fixed.iter().map(|f| f.at_bound).collect();
+    assert_eq!(marks, [true, false, true, false], "{:?}", c.fixed);
+    assert!(
+        (c.fixed[0].change - span(0)).abs() < 1e-12,
+        "cut at the upper bound"
+    );
+    assert_eq!(c.fixed[1].change, 0.1);
+}
