@@ -13,7 +13,7 @@ use super::identifiability::{
 use super::joint_effect::{Member, SumCoordinates};
 use super::objective::{Match, ModalObjective, SlotPairing};
 use super::updating::{FinalPair, Plan};
-use super::verdict::{DampingJudgement, ModeCounts, EDGE};
+use super::verdict::{at_edge, DampingJudgement, Implausible, ModeCounts};
 use super::IdentifyError;
 use crate::numbers::sig;
 use crate::optimize::jacobian;
@@ -483,9 +483,9 @@ fn cut_at_bounds(
 ) -> Consider {
     // A linearized change is cut at the parameter's bounds (a column the
     // data barely see can ask for any value). Where it takes the parameter
-    // to the outer EDGE of its range, the value it asks for is one the
-    // model file calls barely possible, as a refitted value there is
-    // (`verdict::refit`).
+    // into the outer 2.5 % of its range (`verdict::at_edge`, the test a
+    // refitted value fails), it asks for a value the model file calls
+    // barely possible.
     for (f, &(i, _)) in c.fixed.iter_mut().zip(fixed) {
         let p = &o.parameters()[i];
         if x[i] > 0.0 && p.lower > 0.0 {
@@ -493,7 +493,11 @@ fn cut_at_bounds(
             let u = p.scale.to_unit(x[i] * f.change.exp(), p.lower, p.upper);
             // Toward that edge: a file value already near a bound is not
             // what the data ask for.
-            f.at_bound = (f.change > 0.0 && u >= 1.0 - EDGE) || (f.change < 0.0 && u <= EDGE);
+            f.at_bound = match at_edge(u) {
+                Some(Implausible::AtUpperBound) => f.change > 0.0,
+                Some(Implausible::AtLowerBound) => f.change < 0.0,
+                _ => false,
+            };
         }
     }
     c

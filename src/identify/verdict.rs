@@ -29,7 +29,7 @@
 //! error), not noise.
 
 use super::frf_objective::{FrfFit, LocalMisfit, LOCAL_LINES};
-pub use refit::{Implausible, RefitValue, EDGE};
+pub use refit::{at_edge, Implausible, RefitValue};
 use serde::{Deserialize, Serialize};
 
 mod cause;

@@ -73,15 +73,11 @@ impl RefitValue {
         determined: bool,
         spread: Option<f64>,
     ) -> RefitValue {
-        let implausible = if position <= EDGE {
-            Some(Implausible::AtLowerBound)
-        } else if position >= 1.0 - EDGE {
-            Some(Implausible::AtUpperBound)
-        } else if spread.is_some_and(|s| s > 0.0 && ratio.ln().abs() > Z95 * s) {
-            Some(Implausible::BeyondSpread)
-        } else {
-            None
-        };
+        let implausible = at_edge(position).or_else(|| {
+            spread
+                .is_some_and(|s| s > 0.0 && ratio.ln().abs() > Z95 * s)
+                .then_some(Implausible::BeyondSpread)
+        });
         RefitValue {
             parameter,
             ratio,
@@ -105,6 +101,20 @@ impl RefitValue {
             self.parameter,
             sig(self.ratio, 3)
         )
+    }
+}
+
+/// Which bound holds a value at `position` in its range (0 at the lower
+/// bound, 1 at the upper, the screening's unit coordinate): within [`EDGE`]
+/// of either end, else `None`. The one test of "held by its bound", for
+/// refitted values and the score test's suggested changes alike.
+pub fn at_edge(position: f64) -> Option<Implausible> {
+    if position <= EDGE {
+        Some(Implausible::AtLowerBound)
+    } else if position >= 1.0 - EDGE {
+        Some(Implausible::AtUpperBound)
+    } else {
+        None
     }
 }
 
