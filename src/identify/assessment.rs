@@ -6,6 +6,7 @@
 
 use super::batch_means::Correlation;
 use super::consider::{ar1_inflation, bounds_spread, consider, Consider};
+use super::curvature;
 use super::frf_objective::FrfReference;
 use super::identifiability::{
     analyze, exact_null_directions, structural_directions, without_directions, Identifiability,
@@ -92,8 +93,25 @@ pub(super) fn assess(
     let damping = damping_judgement(o, &matched, &usable, identified);
     let frf = plan.frf.map(|(r, _)| r);
     let fixed = fixed_parameters(o, x, identified, plan.fixed_spread);
-    let identifiability =
+    let ((mut analysis, mut considered, evaluations), columns) =
         identifiability_at(o, x, identified, &fixed, plan.max_std_error, frf, progress)?;
+    // The final intervals are checked against the cost ([`curvature`])
+    // where the budget keeps the evaluations for it.
+    let checks = super::updating::checks_intervals(o.parameters().len(), plan.budget);
+    let checked = if checks {
+        curvature::widen(
+            o,
+            frf,
+            x,
+            identified,
+            &columns,
+            (&mut analysis, considered.as_mut()),
+            progress,
+        )
+    } else {
+        0
+    };
+    let identifiability = (analysis, considered, evaluations + checked);
     Ok((
         identifiability,
         pairs,
@@ -254,7 +272,8 @@ fn unresolved_pairs(p: usize, mf: &[f64], rf: &[f64], matched: &[Option<Match>])
 /// with respect to ln p, and the consider analysis of the `fixed`
 /// parameters (index, assumed σ of ln p; [`super::consider`]) from the same
 /// Jacobian extended to them: one batch of 2·(identified + fixed)
-/// evaluations (+1 at `x`).
+/// evaluations (+1 at `x`); returned with the Jacobian columns of the identified parameters the
+/// analysis rests on (∂r/∂ln θ, structural directions removed).
 pub(super) fn identifiability_at(
     o: &ModalObjective,
     x: &[f64],
@@ -263,7 +282,7 @@ pub(super) fn identifiability_at(
     max_std_error: f64,
     frf: Option<&FrfReference>,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<(Identifiability, Option<Consider>, usize), IdentifyError> {
+) -> Result<IdentifiabilityAt, IdentifyError> {
     let cols: Vec<usize> = identified
         .iter()
         .copied()
@@ -331,8 +350,11 @@ pub(super) fn identifiability_at(
         sums.attach(&mut analysis, &rotated, rotated_considered.as_ref());
     }
     let considered = considered.map(|c| cut_at_bounds(o, x, fixed, c));
-    Ok((analysis, considered, 2 * cols.len() + 1))
+    Ok(((analysis, considered, 2 * cols.len() + 1), columns))
 }
+
+/// What [`identifiability_at`] returns.
+type IdentifiabilityAt = ((Identifiability, Option<Consider>, usize), Vec<Vec<f64>>);
 
 /// Jacobian columns ∂r/∂ln p, the residuals at the point, and the columns
 /// of the FRFs' modal observables (empty without).

@@ -72,8 +72,15 @@ pub struct ParameterUncertainty {
     #[serde(deserialize_with = "super::verdict::nan_if_null")]
     pub prior_std_error: f64,
     /// Relative standard error (identifiable only): σ̂ √(τ C₀,ii), or the
-    /// batch-means sandwich's when larger ([`super::batch_means`]).
+    /// batch-means sandwich's when larger ([`super::batch_means`]),
+    /// widened where the cost is flatter than its quadratic
+    /// ([`super::curvature`]).
     pub std_error: Option<f64>,
+    /// ρ of [`super::curvature`]: the cost's rise at ±2σ along the
+    /// parameter's conditional direction over the quadratic's (1 for a
+    /// linear model; `None` where not checked).
+    #[serde(default)]
+    pub curvature: Option<f64>,
 }
 
 /// A combination of parameters the data do not determine.
@@ -218,6 +225,7 @@ pub fn analyze(
                 structural: structural[i],
                 prior_std_error: prior[i],
                 std_error: identifiable.then(|| data[i].max(0.0).sqrt()),
+                curvature: None,
             }
         })
         .collect();

@@ -28,6 +28,7 @@ pub mod black_box;
 pub mod consider;
 pub mod continuation;
 pub mod correspondence;
+pub mod curvature;
 pub mod damping;
 pub mod follow_up;
 pub mod frf_objective;

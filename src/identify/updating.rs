@@ -235,6 +235,27 @@ fn pair_at_start(
     Ok(correspondence)
 }
 
+/// The evaluations the assessment of a result over `n` parameters may
+/// need within `budget`, kept from it: the final pairing (3), J (1), a
+/// Jacobian over at most every parameter (2n + 1), and, where the budget
+/// affords it ([`checks_intervals`]), the check of at most n intervals
+/// against the cost (2n + 1, [`super::curvature`]).
+pub fn assessment_reserve(n: usize, budget: usize) -> usize {
+    (2 * n + 5)
+        + if checks_intervals(n, budget) {
+            2 * n + 1
+        } else {
+            0
+        }
+}
+
+/// Whether an update over `n` parameters with `budget` evaluations checks
+/// its intervals against the cost: when that costs at most 5 % of the
+/// budget, so that a small budget goes to the search.
+pub fn checks_intervals(n: usize, budget: usize) -> bool {
+    20 * (2 * n + 1) <= budget
+}
+
 /// How an update's budget is shared out.
 struct Budgets {
     /// Kept for the assessment of the result.
@@ -250,9 +271,8 @@ impl Budgets {
     /// refinement's share of the rest, the strategy the remainder; an error
     /// when the budget cannot pay the assessment and a strategy.
     fn split(o: &ModalObjective, plan: &Plan) -> Result<Budgets, IdentifyError> {
-        // The assessment's evaluations come out of the same budget: the final
-        // pairing (3), J (1) and a Jacobian over at most every parameter (2n + 1).
-        let reserve = 2 * o.parameters().len() + 5;
+        // The assessment's evaluations come out of the same budget.
+        let reserve = assessment_reserve(o.parameters().len(), plan.budget);
         let budget = plan
             .budget
             .checked_sub(reserve + 1)
@@ -361,7 +381,7 @@ fn refine_on_frfs(
     };
     let (x, identified) = (&searched.x, &searched.identified);
     // What the modes left undetermined is searched on the FRFs first.
-    let (modal, _, cost) =
+    let ((modal, _, cost), _) =
         identifiability_at(o, x, identified, &[], plan.max_std_error, None, progress)?;
     let evaluations = searched.evaluations + cost;
     let explore: Vec<usize> = identified

@@ -114,7 +114,7 @@ fn parallel_springs_stay_structural_with_frfs() {
         .iter()
         .map(|&i| o.parameters()[i].name.clone())
         .collect();
-    let (id, _, _) = identifiability_at(&o, &x, &all, &[], 0.1, Some(&frf), &|_| {}).unwrap();
+    let ((id, _, _), _) = identifiability_at(&o, &x, &all, &[], 0.1, Some(&frf), &|_| {}).unwrap();
     let structural: Vec<&str> = id
         .parameters
         .iter()
@@ -172,7 +172,8 @@ fn sum_std_error(model: &crate::dynamics::Model, x: &[f64], pair: bool) -> f64 {
     )
     .unwrap();
     let identified: Vec<usize> = (0..if pair { 5 } else { 4 }).collect();
-    let (id, _, _) = identifiability_at(&o, x, &identified, &[], 0.1, Some(&frf), &|_| {}).unwrap();
+    let ((id, _, _), _) =
+        identifiability_at(&o, x, &identified, &[], 0.1, Some(&frf), &|_| {}).unwrap();
     if pair {
         id.undetermined[0]
             .joint

@@ -186,8 +186,12 @@ impl Kind for Identify {
     /// cause `screening_or_local_minimum`, not `screened_out`; the message
     /// says "to its bound", cost.json lists them (`implicated_at_bound`),
     /// identifiability.json marks them (`at_bound`).
+    /// 36: every interval is checked against the cost at ±2σ along its
+    /// parameter's conditional direction and widened by 1/√ρ where the cost
+    /// is flatter than the Jacobian's quadratic, none where it does not rise
+    /// (`identify::curvature`; identifiability.json `curvature`).
     fn version(&self) -> u32 {
-        35
+        36
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -377,10 +381,11 @@ fn update_error(e: IdentifyError) -> StageError {
 }
 
 /// The fewest evaluations an identification over `n` parameters can run
-/// with: the assessment of the result (the final pairing 3, J 1, a
-/// Jacobian 2n + 1; `crate::identify::updating`) and one for a strategy.
+/// with: the assessment of the result without the intervals' check
+/// ([`crate::identify::updating::assessment_reserve`]), the result's J and
+/// one for a strategy.
 fn minimum_budget(n: usize) -> usize {
-    2 * n + 5 + 2
+    crate::identify::updating::assessment_reserve(n, 0) + 2
 }
 
 /// Write every output into the scratch directory.
