@@ -38,7 +38,9 @@
 //! bench's exact-mode family every one of 340 intervals, where without
 //! this floor 18 had ρ between −21 and −0.2).
 //!
-//! Cost: two model evaluations per identified parameter, one batch.
+//! Cost: two model evaluations per identified parameter, one batch, run
+//! where that is at most 5 % of the update's budget, which keeps them
+//! ([`super::updating::checks_intervals`]).
 
 use super::consider::{pseudo_inverse, Consider};
 use super::frf_objective::FrfReference;
