@@ -12,7 +12,7 @@ use super::identifiability::{
     analyze, exact_null_directions, structural_directions, without_directions, Identifiability,
 };
 use super::joint_effect::{Member, SumCoordinates};
-use super::objective::{Match, ModalObjective, SlotPairing};
+use super::objective::{Match, ModalObjective, ModeSet, SlotPairing};
 use super::updating::{FinalPair, Plan};
 use super::verdict::{at_edge, DampingJudgement, Implausible, ModeCounts};
 use super::IdentifyError;
@@ -400,11 +400,8 @@ fn log_jacobian(
                 for &i in cols {
                     p[i] = phys[i];
                 }
-                let e = o.evaluate(&p, &usable)?;
-                let mut r = e.residuals;
-                r.extend(e.damping);
+                let mut r = residuals_at(o, &usable, frf, &p)?;
                 if let Some(frf) = frf {
-                    r.extend(frf.residuals(o.prepared(), &p)?);
                     if let Some(b) = &basis {
                         // A mode count changed at a point leaves them
                         // unused.
@@ -460,6 +457,24 @@ fn log_jacobian(
         _ => Vec::new(),
     };
     Ok((columns, r0, observed))
+}
+
+/// The residuals the analysis at a result rests on, at `p`: the `usable`
+/// modes' weighted ones, their damping ratios' and, when given, `frf`'s;
+/// `None` where the model cannot be solved.
+pub(super) fn residuals_at(
+    o: &ModalObjective,
+    usable: &ModeSet,
+    frf: Option<&FrfReference>,
+    p: &[f64],
+) -> Option<Vec<f64>> {
+    let e = o.evaluate(p, usable)?;
+    let mut r = e.residuals;
+    r.extend(e.damping);
+    if let Some(frf) = frf {
+        r.extend(frf.residuals(o.prepared(), p)?);
+    }
+    Some(r)
 }
 
 /// How the residuals `r0` are correlated: the FRF part (the last

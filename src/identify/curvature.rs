@@ -42,10 +42,11 @@
 //! where that is at most 5 % of the update's budget, which keeps them
 //! ([`super::updating::checks_intervals`]).
 
+use super::assessment::residuals_at;
 use super::consider::{pseudo_inverse, Consider};
 use super::frf_objective::FrfReference;
 use super::identifiability::Identifiability;
-use super::objective::ModalObjective;
+use super::objective::{ModalObjective, ModeSet};
 use rayon::prelude::*;
 
 /// Step of the check, in standard errors.
@@ -114,19 +115,15 @@ struct Plan {
     up: f64,
 }
 
-/// The cost S = ‖r‖² of the residuals the intervals come from (the usable
-/// modes', their damping ratios' and, when given, the FRFs') at `p`.
-fn cost(o: &ModalObjective, frf: Option<&FrfReference>, p: &[f64]) -> Option<f64> {
-    let e = o.evaluate(p, &o.usable())?;
-    let mut s: f64 = e.residuals.iter().chain(&e.damping).map(|v| v * v).sum();
-    if let Some(frf) = frf {
-        s += frf
-            .residuals(o.prepared(), p)?
-            .iter()
-            .map(|v| v * v)
-            .sum::<f64>();
-    }
-    Some(s)
+/// The cost S = ‖r‖² of the residuals the intervals come from
+/// ([`super::assessment::residuals_at`]) at `p`.
+fn cost(
+    o: &ModalObjective,
+    usable: &ModeSet,
+    frf: Option<&FrfReference>,
+    p: &[f64],
+) -> Option<f64> {
+    Some(residuals_at(o, usable, frf, p)?.iter().map(|v| v * v).sum())
 }
 
 /// ρ_i for every identified parameter with a standard error (`std_errors`,
@@ -145,7 +142,8 @@ fn check(
     progress: &(dyn Fn(u64) + Sync),
 ) -> (Vec<Option<f64>>, usize) {
     let (g_plus, _) = pseudo_inverse(columns);
-    let Some(s0) = cost(o, frf, x) else {
+    let usable = o.usable();
+    let Some(s0) = cost(o, &usable, frf, x) else {
         return (vec![None; identified.len()], 1);
     };
     let bounds: (Vec<f64>, Vec<f64>) = o.parameters().iter().map(|p| (p.lower, p.upper)).unzip();
@@ -171,7 +169,10 @@ fn check(
         .flatten()
         .flat_map(|p| [-p.down, p.up].map(|t| moved(x, identified, &p.step, t, &bounds)))
         .collect();
-    let costs: Vec<Option<f64>> = points.par_iter().map(|p| cost(o, frf, p)).collect();
+    let costs: Vec<Option<f64>> = points
+        .par_iter()
+        .map(|p| cost(o, &usable, frf, p))
+        .collect();
     progress(points.len() as u64 + 1);
     let mut next = costs.into_iter();
     let ratios = plans
