@@ -8,13 +8,15 @@
 //! hyperparameter search by Bayesian optimization over a box fitted to the
 //! data ([`search`], [`hyperbox`]) maximizing the mean FRAC (eq. 2.66) of
 //! the validated modes ([`selection`]). The final fit is checked for
-//! residual structure above the noise ([`residual`]).
+//! residual structure above the noise ([`residual`]) and for a FRAC the
+//! noise does not explain ([`adequacy`]).
 //!
 //! The poles are computed once for the highest order and each pole's
 //! projections on the data once ([`projection`]); every hyperparameter
 //! candidate only re-selects from them, so one optimization step costs
 //! milliseconds even on hundreds of FRFs.
 
+pub mod adequacy;
 pub mod clustering;
 pub mod design;
 pub mod families;

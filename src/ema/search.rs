@@ -24,7 +24,7 @@ use super::selection::{
     final_fit, refine_selection, select_modes, Hyperparameters, Screening, Selection,
     SelectionParams, HYPERPARAMETER_NAMES,
 };
-use super::{whitening, EmaError, FrfData};
+use super::{adequacy, whitening, EmaError, FrfData};
 use std::collections::BTreeMap;
 
 /// Settings of [`auto_ema`].
@@ -409,7 +409,8 @@ fn analyse(
     let mut best = refine_selection(&mut screening, &orders, &best);
     let mut fit = final_fit(data, &orders, &best)?;
     let (relative_error, residual_peaks) = check_fit(&screening, &orders, &best, &fit);
-    let warnings = warnings(&screening, &orders, &best, &at_bound, &residual_peaks);
+    let mut warnings = warnings(&screening, &orders, &best, &at_bound, &residual_peaks);
+    let noise_frac = adequacy::noise_limited_frac(&data.h, data.n_lines(), &screening.noise);
     let mut cmif = screening.cmif;
     if data.is_whitened() {
         // σ_k(u·H) = u·σ_k(H) line by line: the CMIF of the FRFs as given;
@@ -420,6 +421,12 @@ fn analyse(
         data.unwhiten(&mut fit.reconstructed);
         best.mean_frac = fit.mean_frac(raw);
     }
+    warnings.extend(adequacy::warning(
+        best.mean_frac,
+        noise_frac,
+        &identified_modes(&orders, &best),
+        data.line_spacing_hz(),
+    ));
     Ok(AutoEmaResult {
         orders,
         best,

@@ -5,6 +5,7 @@
 //! `autoema` stage writes these into its metrics.json; nothing here is only
 //! in a log.
 
+use super::adequacy::bandwidth_lines;
 use super::hyperbox::{AtBound, DataSummary};
 use super::layout::Layout;
 use super::residual::ResidualPeak;
@@ -23,6 +24,10 @@ pub struct ModeSummary {
     pub multiplicity: usize,
     /// Model orders in the root's stable column.
     pub stable_orders: usize,
+    /// Half-power band 2ζf in line spacings ([`super::adequacy`]): below
+    /// about 2 the line spacing biases the damping, below 1 the lines cannot
+    /// show the peak.
+    pub bandwidth_lines: f64,
     /// Why it was kept: its own CMIF peak, or significance alone.
     #[serde(flatten)]
     pub acceptance: Option<Acceptance>,
@@ -119,6 +124,11 @@ impl PositionSummary {
                         damping_ratio: p.damping_ratio,
                         multiplicity: root.multiplicity,
                         stable_orders: root.n_orders,
+                        bandwidth_lines: bandwidth_lines(
+                            p.frequency_hz,
+                            p.damping_ratio,
+                            r.summary.line_spacing_hz,
+                        ),
                         acceptance: r.best.accepted.get(k).cloned(),
                     }
                 })

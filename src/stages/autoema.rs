@@ -87,8 +87,11 @@ impl Kind for AutoEma {
     /// 17: the pole refinement's normal equations by one blocked product
     /// (`dense::normal_equations`); results may differ from 16 in rounding
     /// (the quickstart's modes are byte-identical).
+    /// 18: a fit whose FRAC the noise does not explain is warned about
+    /// (`ema::adequacy`); each mode reports its half-power band in lines.
+    /// The modes are those of 17.
     fn version(&self) -> u32 {
-        17
+        18
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"
