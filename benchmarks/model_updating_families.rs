@@ -80,7 +80,7 @@ const FAMILIES: [Family; 6] = [
     Family {
         name: "AutoEMA, impact test",
         truth: |s| format!("hammer[s={s}]"),
-        identify: |s| format!("measured[measurement=hammer,s={s}]"),
+        identify: |s| format!("measured_hammer[s={s}]"),
         seeds: 20,
         min_mac: 0.99,
         max_error: 0.05,

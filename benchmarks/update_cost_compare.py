@@ -9,7 +9,7 @@ median child CPU time and wall time, and the stage's evaluations and
 verdict from its cost.json, so a speed-up that changed the result shows.
 
     python3 benchmarks/update_cost_compare.py BEFORE AFTER \\
-        [--stage 'measured[measurement=hammer,s=10]'] \\
+        [--stage 'measured_hammer[s=10]'] \\
         [--pipeline model_updating_families.yaml] [--rounds 3] [--jobs 1]
 
 Measured for identify 34 (normal equations by one blocked product, no refit
@@ -65,7 +65,7 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("before")
     ap.add_argument("after")
-    ap.add_argument("--stage", default="measured[measurement=hammer,s=10]")
+    ap.add_argument("--stage", default="measured_hammer[s=10]")
     ap.add_argument("--pipeline", default="model_updating_families.yaml")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--jobs", type=int, default=1)

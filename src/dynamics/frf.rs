@@ -12,7 +12,8 @@
 
 use super::assembly::PreparedModel;
 use super::error::DynamicsError;
-use super::solve::ModalSolution;
+use super::solve::{mode_pole, ModalSolution};
+use super::truncation::Truncation;
 use crate::frf::{FrfChannel, FrfQuantity, FrfSet};
 use faer::linalg::solvers::Solve;
 use faer::Mat;
@@ -72,7 +73,7 @@ impl PreparedModel {
         let ne = self.excitations.len().max(1);
         let pairs: Vec<(usize, usize)> =
             (0..set.channels.len()).map(|c| (c / ne, c % ne)).collect();
-        let values = superposition(sol, quantity, frequencies_hz, &pairs);
+        let values = superposition(sol, quantity, frequencies_hz, &pairs, None);
         for (ch, v) in set.channels.iter_mut().zip(values) {
             ch.values = v;
         }
@@ -114,13 +115,17 @@ impl PreparedModel {
 /// the (sensor row, excitation row) `pairs`: one value vector per pair.
 /// α_jk(ω) = Σ_r φ_jr φ_kr / (ω_r² − ω² + j(2 ζ_r ω ω_r + η_r ω_r²)); a mode
 /// whose denominator vanishes (a rigid-body mode at 0 Hz) contributes nothing.
+/// With `cut_after_s`, each mode's impulse response is cut that many
+/// seconds after the hit, as an impact test's record without an exponential
+/// window cuts it ([`super::truncation`]).
 pub fn superposition(
     sol: &ModalSolution,
     quantity: FrfQuantity,
     frequencies_hz: &[f64],
     pairs: &[(usize, usize)],
+    cut_after_s: Option<f64>,
 ) -> Vec<Vec<Complex64>> {
-    superpose(sol, quantity, frequencies_hz, pairs, false).0
+    superpose(sol, quantity, frequencies_hz, pairs, false, cut_after_s).0
 }
 
 /// [`superposition`] and, per pair and line, how far the value moves when
@@ -136,8 +141,26 @@ pub fn superposition_with_drift(
     quantity: FrfQuantity,
     frequencies_hz: &[f64],
     pairs: &[(usize, usize)],
+    cut_after_s: Option<f64>,
 ) -> (Vec<Vec<Complex64>>, Vec<Vec<f64>>) {
-    superpose(sol, quantity, frequencies_hz, pairs, true)
+    superpose(sol, quantity, frequencies_hz, pairs, true, cut_after_s)
+}
+
+/// The truncation of `sol`'s modes cut `after_s` seconds after the hit, in
+/// `quantity` ([`super::truncation`]); `None` where no mode outlasts it.
+fn truncation(sol: &ModalSolution, quantity: FrfQuantity, after_s: f64) -> Option<Truncation> {
+    let poles: Vec<Option<Complex64>> = sol
+        .eigenvalues
+        .iter()
+        .zip(sol.zeta.iter().zip(&sol.eta))
+        .map(|(&l, (&z, &e))| (l > 0.0).then(|| mode_pole(l.sqrt(), z, e)))
+        .collect();
+    let power = match quantity {
+        FrfQuantity::Receptance => 0,
+        FrfQuantity::Mobility => 1,
+        FrfQuantity::Accelerance => 2,
+    };
+    Some(Truncation::new(&poles, after_s, power)).filter(|t| !t.is_negligible())
 }
 
 fn superpose(
@@ -146,7 +169,11 @@ fn superpose(
     frequencies_hz: &[f64],
     pairs: &[(usize, usize)],
     drift: bool,
+    cut_after_s: Option<f64>,
 ) -> (Vec<Vec<Complex64>>, Vec<Vec<f64>>) {
+    let truncation = cut_after_s.and_then(|t| truncation(sol, quantity, t));
+    let cut_modes: Vec<usize> = truncation.iter().flat_map(|t| t.modes()).collect();
+    let mut cut = vec![Complex64::new(0.0, 0.0); cut_modes.len()];
     let mut out: Vec<Vec<Complex64>> = pairs
         .iter()
         .map(|_| Vec::with_capacity(frequencies_hz.len()))
@@ -183,9 +210,14 @@ fn superpose(
                 slopes[r] = -dden * poles[r] * poles[r];
             }
         }
+        if let Some(t) = &truncation {
+            t.terms(w, &mut cut);
+        }
         for (c, res) in residues.iter().enumerate() {
             let a: Complex64 = poles.iter().zip(res).map(|(p, r)| p * r).sum();
-            out[c].push(convert(a, w, quantity));
+            // Only the few modes that outlast the record carry a term.
+            let cut_a: Complex64 = cut.iter().zip(&cut_modes).map(|(t, &r)| t * res[r]).sum();
+            out[c].push(convert(a, w, quantity) + cut_a);
             if drift {
                 let s2: f64 = slopes
                     .iter()
@@ -227,14 +259,17 @@ mod tests {
             FrfQuantity::Mobility,
             FrfQuantity::Accelerance,
         ] {
-            let (h, s) = superposition_with_drift(&two_modes(w1, w2), q, &lines, &[(0, 0)]);
-            assert_eq!(h, superposition(&two_modes(w1, w2), q, &lines, &[(0, 0)]));
+            let (h, s) = superposition_with_drift(&two_modes(w1, w2), q, &lines, &[(0, 0)], None);
+            assert_eq!(
+                h,
+                superposition(&two_modes(w1, w2), q, &lines, &[(0, 0)], None)
+            );
             // Central differences of H in each mode's relative frequency.
             let d = 1e-6;
             let diff = |a: &ModalSolution, b: &ModalSolution| -> Vec<Complex64> {
                 let (ha, hb) = (
-                    superposition(a, q, &lines, &[(0, 0)]),
-                    superposition(b, q, &lines, &[(0, 0)]),
+                    superposition(a, q, &lines, &[(0, 0)], None),
+                    superposition(b, q, &lines, &[(0, 0)], None),
                 );
                 ha[0]
                     .iter()

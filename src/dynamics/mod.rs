@@ -67,6 +67,7 @@ pub mod sparse;
 pub mod storage;
 pub mod superelement;
 pub mod templates;
+pub mod truncation;
 
 pub use assembly::{Configuration, JointTerms, PreparedModel};
 pub use error::DynamicsError;

@@ -108,9 +108,13 @@ struct FrfSlot {
     /// ([`ModeSelection::BelowAbout`]); 14 (a first solve of 16) when
     /// that point cannot be solved.
     expected_modes: usize,
+    /// Record length T = 1/Δf over which each mode's impulse response is
+    /// cut (`FrfNoise::truncated`); `None`: the FRFs are not truncated.
+    record_s: Option<f64>,
 }
 
-/// How the noise of the measured FRFs is estimated.
+/// How the measured FRFs depart from the model's modal superposition: how
+/// their noise is estimated, and how they were recorded.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct FrfNoise {
     /// Averages n behind each FRF estimate: with coherence on a channel,
@@ -120,6 +124,12 @@ pub struct FrfNoise {
     /// Relative standard deviation δ of every natural frequency between
     /// the averages of the test (module docs); 0: no drift term.
     pub drift: f64,
+    /// Whether the FRFs are impact-test estimates over a record of 1/Δf
+    /// with no exponential window: the model's modes are then truncated
+    /// alike ([`crate::dynamics::truncation`]).
+    pub truncated: bool,
+    /// With `truncated`: time from the record's start to the hit, s.
+    pub pre_trigger_s: f64,
 }
 
 /// Measured FRFs prepared as a reference for a model.
@@ -212,14 +222,24 @@ impl FrfReference {
             ),
             _ => format!("fourth differences on {channels} channels"),
         };
+        let mut text = channel;
         if self.noise.drift > 0.0 {
-            format!(
-                "{channel}, with a frequency drift of {:e} (relative) at each line",
+            text.push_str(&format!(
+                ", with a frequency drift of {:e} (relative) at each line",
                 self.noise.drift
-            )
-        } else {
-            channel
+            ));
         }
+        let mut records: Vec<f64> = self.slots.iter().filter_map(|s| s.record_s).collect();
+        records.dedup();
+        if !records.is_empty() {
+            let list: Vec<String> = records.iter().map(|t| format!("{t}")).collect();
+            text.push_str(&format!(
+                "; every mode cut at the end of an impact test's record of {} s (1/Δf, no exponential window), {} s after the hit's pre-trigger",
+                list.join(" / "),
+                self.noise.pre_trigger_s
+            ));
+        }
+        text
     }
 
     /// A warning when the data carry coherence that could not be used
@@ -346,6 +366,12 @@ impl FrfReference {
         Some(self.frfs_of(s, &sol, &s.pairs))
     }
 
+    /// How long after the hit slot `s`'s record ends (T − t₀), when its
+    /// FRFs are truncated.
+    fn cut_after(&self, s: &FrfSlot) -> Option<f64> {
+        s.record_s.map(|t| t - self.noise.pre_trigger_s)
+    }
+
     /// Slot `s`'s FRFs superposed from `sol` with the rows `pairs` (one per
     /// channel), signed as measured, and with δ > 0 each line's noise σ:
     /// the channel's with the drift term δ² s(ω)² of `sol` added (module
@@ -358,7 +384,8 @@ impl FrfReference {
     ) -> (PerChannel<Complex64>, Option<PerChannel<f64>>) {
         let drift = self.noise.drift;
         let (mut h, sigma) = if drift > 0.0 {
-            let (h, spread) = superposition_with_drift(sol, s.quantity, &s.lines_hz, pairs);
+            let (h, spread) =
+                superposition_with_drift(sol, s.quantity, &s.lines_hz, pairs, self.cut_after(s));
             let sigma = s
                 .sigma
                 .iter()
@@ -367,7 +394,10 @@ impl FrfReference {
                 .collect();
             (h, Some(sigma))
         } else {
-            (superposition(sol, s.quantity, &s.lines_hz, pairs), None)
+            (
+                superposition(sol, s.quantity, &s.lines_hz, pairs, self.cut_after(s)),
+                None,
+            )
         };
         for (v, &sign) in h.iter_mut().zip(&s.signs) {
             v.iter_mut().for_each(|z| *z *= sign);

@@ -103,7 +103,8 @@ impl FrfBands {
                     let count = ((hi - lo) / options.step).floor() as usize + 1;
                     let lines: Vec<f64> =
                         (0..count).map(|i| lo + i as f64 * options.step).collect();
-                    let reference = superposition(&sol, FrfQuantity::Receptance, &lines, &pairs);
+                    let reference =
+                        superposition(&sol, FrfQuantity::Receptance, &lines, &pairs, None);
                     Band { lines, reference }
                 })
                 .collect();
@@ -212,7 +213,7 @@ impl FrfBands {
     pub fn criteria(&self, slot: usize, sol: &ModalSolution, out: &mut Vec<f64>) {
         let p = &self.positions[slot];
         for band in &p.bands {
-            let model = superposition(sol, p.quantity, &band.lines, &p.pairs);
+            let model = superposition(sol, p.quantity, &band.lines, &p.pairs, None);
             let n = model.len() as f64;
             let (mut fr, mut cs) = (0.0, 0.0);
             for (h, r) in model.iter().zip(&band.reference) {

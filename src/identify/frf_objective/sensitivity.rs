@@ -124,8 +124,8 @@ impl FrfReference {
 
 #[cfg(test)]
 mod tests {
-    use super::super::tests::light_chain;
-    use super::super::{FrfNoise, FrfReference};
+    use super::super::tests::{light_chain, one_set};
+    use super::super::FrfNoise;
 
     /// At a point's own observables the superposition from them gives the
     /// point's residuals; and the chain rule's columns equal central
@@ -144,14 +144,7 @@ mod tests {
                 drift,
                 ..FrfNoise::default()
             };
-            let frf = FrfReference::new(
-                &prepared,
-                std::slice::from_ref(&set),
-                None,
-                (10.0, 400.0),
-                noise,
-            )
-            .unwrap();
+            let frf = one_set(&prepared, &set, noise);
             let basis = frf.superposition_basis(&prepared, &x).unwrap();
             let obs = |x: &[f64]| frf.modal_observables(&prepared, x, &basis).unwrap();
             let r = frf.residuals(&prepared, &x).unwrap();

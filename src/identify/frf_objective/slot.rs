@@ -37,6 +37,22 @@ pub(super) fn slot(
         )));
     }
     let lines_hz: Vec<f64> = lines.iter().map(|&f| set.frequencies_hz[f]).collect();
+    let record_s = if noise.truncated {
+        let t = record_length(&set.frequencies_hz).ok_or_else(|| {
+            IdentifyError::Invalid(format!(
+                "frf: position {index}'s lines are not evenly spaced, so they are no DFT's and `frf_truncated` cannot know the record length; leave `frf_truncated` off for these FRFs"
+            ))
+        })?;
+        if noise.pre_trigger_s >= t {
+            return Err(IdentifyError::Invalid(format!(
+                "frf: `frf_pre_trigger_s` {} s is not shorter than position {index}'s record of {t} s (1/Δf); give the time from the record's start to the hit",
+                noise.pre_trigger_s
+            )));
+        }
+        Some(t)
+    } else {
+        None
+    };
     let (mut pairs, mut signs, mut measured, mut sigma) = (vec![], vec![], vec![], vec![]);
     let (mut from_coherence, mut coherence_unused) = (0, 0);
     for c in &set.channels {
@@ -108,7 +124,24 @@ pub(super) fn slot(
         from_coherence,
         coherence_unused,
         expected_modes: 14,
+        record_s,
     })
+}
+
+/// The record length T = 1/Δf of FRFs on the DFT lines `frequencies_hz`:
+/// `None` unless they are evenly spaced (to 10⁻⁶ of the spacing).
+fn record_length(frequencies_hz: &[f64]) -> Option<f64> {
+    let (first, last) = (frequencies_hz.first()?, frequencies_hz.last()?);
+    let n = frequencies_hz.len();
+    if n < 2 {
+        return None;
+    }
+    let step = (last - first) / (n - 1) as f64;
+    let even = step > 0.0
+        && frequencies_hz
+            .windows(2)
+            .all(|w| ((w[1] - w[0]) - step).abs() <= 1e-6 * step);
+    even.then(|| 1.0 / step)
 }
 
 /// Random error σ of an FRF estimate |H| from n averages with coherence γ²

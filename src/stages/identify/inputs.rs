@@ -83,6 +83,8 @@ pub(super) fn frf_reference(
             let noise = FrfNoise {
                 averages: spec.frf_averages,
                 drift: spec.frf_drift,
+                truncated: spec.frf_truncated,
+                pre_trigger_s: spec.frf_pre_trigger_s,
             };
             FrfReference::new(
                 prepared,

@@ -243,6 +243,19 @@ crate::params! {
         /// standard deviations a drift makes of it, not hundreds; default 0
         /// (synthesized FRFs have no drift): give it for a real test
         pub frf_drift: f64 = 0.0; range Range::closed(0.0, 0.01),
+        /// with the `frf` input: the FRFs are impact-test estimates over a
+        /// record of 1/Δf seconds (Δf the line spacing) with no exponential
+        /// window, so a lightly damped mode that has not decayed by the
+        /// record's end is measured truncated; the model's modes are then cut
+        /// at the record's end too, instead of that leakage counting as
+        /// misfit (up to 60σ at a 0.07 % mode); default false (shaker tests,
+        /// exponential windows, synthesized FRFs without an impact test)
+        pub frf_truncated: bool = false,
+        /// with `frf_truncated`: time from the record's start to the hit's
+        /// centre (the analyser's pre-trigger plus half the hammer pulse), s;
+        /// it turns the truncation's phase away from each mode, so give it
+        /// (the simulated impact test of `synthesize`: 20/2048 + 0.0015/2)
+        pub frf_pre_trigger_s: f64 = 0.0; range Range::at_least(0.0),
     }
 }
 

@@ -54,6 +54,8 @@ pub struct Spec {
     pub frf_band: (f64, f64),
     pub frf_averages: Option<usize>,
     pub frf_drift: f64,
+    pub frf_truncated: bool,
+    pub frf_pre_trigger_s: f64,
     /// Nominal-model modes to leave out: (position, number).
     pub exclude: Vec<(u32, usize)>,
 }
@@ -94,6 +96,8 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
             frf_band,
             frf_averages: p.frf_averages,
             frf_drift: p.frf_drift,
+            frf_truncated: p.frf_truncated,
+            frf_pre_trigger_s: p.frf_pre_trigger_s,
             exclude: p
                 .exclude_modes
                 .iter()
