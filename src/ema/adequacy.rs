@@ -31,6 +31,7 @@
 //! ([`bandwidth_lines`]); the warning names the modes below one line, as
 //! the likely cause and what resolves them.
 
+use super::FrfData;
 use num_complex::Complex64;
 
 /// Share of the noise-limited FRAC below which the fit is called poor.
@@ -64,6 +65,20 @@ pub fn noise_limited_frac(h: &[Complex64], n_lines: usize, noise: &[f64]) -> f64
         }
     });
     per_channel.sum::<f64>() / noise.len() as f64
+}
+
+/// The warning for a fit of `data` (as analysed: whitened when they are,
+/// with their noise variance per channel `noise`) whose mean FRAC is
+/// `mean_frac`, its identified `modes` (frequency Hz, damping ratio)
+/// ([`warning`] against [`noise_limited_frac`]).
+pub fn check(
+    data: &FrfData,
+    noise: &[f64],
+    mean_frac: f64,
+    modes: &[(f64, f64)],
+) -> Option<String> {
+    let noise_frac = noise_limited_frac(&data.h, data.n_lines(), noise);
+    warning(mean_frac, noise_frac, modes, data.line_spacing_hz())
 }
 
 /// The warning for a fit whose `mean_frac` lies below [`MIN_FRAC_SHARE`]

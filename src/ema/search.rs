@@ -321,20 +321,19 @@ fn warnings(
     at_bound: &[AtBound],
     residual_peaks: &[ResidualPeak],
 ) -> Vec<String> {
-    // Warnings ask the user to act: a box that limits the result (widen
-    // `bounds`), a mode the data show and the fit misses (look at that band).
-    // A bound the result does not depend on, and residual structure below
-    // the visibility limit, stay in metrics.json only.
+    // Warnings ask the user to act: a box that limits the result, a mode the
+    // data show and the fit misses, a fit the noise does not explain. Bounds
+    // and residual structure that do not matter stay in metrics.json only.
     let mut warnings: Vec<String> = at_bound
         .iter()
         .filter(|b| b.sensitive)
         .map(AtBound::warning)
         .collect();
-    warnings.extend(missing_mode_warnings(
-        residual_peaks,
-        &identified_modes(orders, best),
-    ));
+    let modes = identified_modes(orders, best);
+    warnings.extend(missing_mode_warnings(residual_peaks, &modes));
     warnings.extend(inconsistent_references(screening, orders, best));
+    let (data, noise) = (screening.data, &screening.noise);
+    warnings.extend(adequacy::check(data, noise, best.mean_frac, &modes));
     warnings
 }
 
@@ -409,24 +408,17 @@ fn analyse(
     let mut best = refine_selection(&mut screening, &orders, &best);
     let mut fit = final_fit(data, &orders, &best)?;
     let (relative_error, residual_peaks) = check_fit(&screening, &orders, &best, &fit);
-    let mut warnings = warnings(&screening, &orders, &best, &at_bound, &residual_peaks);
-    let noise_frac = adequacy::noise_limited_frac(&data.h, data.n_lines(), &screening.noise);
-    let mut cmif = screening.cmif;
     if data.is_whitened() {
-        // σ_k(u·H) = u·σ_k(H) line by line: the CMIF of the FRFs as given;
-        // the reconstruction and its FRAC too.
-        for curve in &mut cmif {
-            data.unwhiten_lines(curve);
-        }
+        // σ_k(u·H) = u·σ_k(H) line by line: the reconstruction of the FRFs
+        // as given and its FRAC, and below their CMIF.
         data.unwhiten(&mut fit.reconstructed);
         best.mean_frac = fit.mean_frac(raw);
     }
-    warnings.extend(adequacy::warning(
-        best.mean_frac,
-        noise_frac,
-        &identified_modes(&orders, &best),
-        data.line_spacing_hz(),
-    ));
+    let warnings = warnings(&screening, &orders, &best, &at_bound, &residual_peaks);
+    let mut cmif = screening.cmif;
+    if data.is_whitened() {
+        cmif.iter_mut().for_each(|curve| data.unwhiten_lines(curve));
+    }
     Ok(AutoEmaResult {
         orders,
         best,
