@@ -158,6 +158,8 @@ fn bad_params_are_rejected_before_anything_runs() {
     rejected("{exclude_modes: [mode7]}", "p<position>.mode<r>");
     rejected("{guided: {spread_limit: -1}}", "spread_limit");
     rejected("{guided: {repeat: 2}}", "guided");
+    // A hit time for a truncation that is off would be silently ignored.
+    rejected("{frf_pre_trigger_s: 0.01}", "frf_truncated: true");
 }
 
 /// A budget below what the assessment of the result alone costs (2n + 7

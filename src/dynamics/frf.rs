@@ -155,12 +155,7 @@ fn truncation(sol: &ModalSolution, quantity: FrfQuantity, after_s: f64) -> Optio
         .zip(sol.zeta.iter().zip(&sol.eta))
         .map(|(&l, (&z, &e))| (l > 0.0).then(|| mode_pole(l.sqrt(), z, e)))
         .collect();
-    let power = match quantity {
-        FrfQuantity::Receptance => 0,
-        FrfQuantity::Mobility => 1,
-        FrfQuantity::Accelerance => 2,
-    };
-    Some(Truncation::new(&poles, after_s, power)).filter(|t| !t.is_negligible())
+    Some(Truncation::new(&poles, after_s, quantity.order())).filter(|t| !t.is_negligible())
 }
 
 fn superpose(

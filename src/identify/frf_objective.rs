@@ -109,7 +109,7 @@ struct FrfSlot {
     /// that point cannot be solved.
     expected_modes: usize,
     /// Record length T = 1/Δf over which each mode's impulse response is
-    /// cut (`FrfNoise::truncated`); `None`: the FRFs are not truncated.
+    /// cut (`FrfNoise::truncation`); `None`: the FRFs are not truncated.
     record_s: Option<f64>,
 }
 
@@ -124,12 +124,11 @@ pub struct FrfNoise {
     /// Relative standard deviation δ of every natural frequency between
     /// the averages of the test (module docs); 0: no drift term.
     pub drift: f64,
-    /// Whether the FRFs are impact-test estimates over a record of 1/Δf
-    /// with no exponential window: the model's modes are then truncated
-    /// alike ([`crate::dynamics::truncation`]).
-    pub truncated: bool,
-    /// With `truncated`: time from the record's start to the hit, s.
-    pub pre_trigger_s: f64,
+    /// `Some(t₀)`: the FRFs are impact-test estimates over a record of 1/Δf
+    /// with no exponential window and the hit's centre t₀ seconds into it;
+    /// the model's modes are then truncated alike
+    /// ([`crate::dynamics::truncation`]).
+    pub truncation: Option<f64>,
 }
 
 /// Measured FRFs prepared as a reference for a model.
@@ -231,12 +230,11 @@ impl FrfReference {
         }
         let mut records: Vec<f64> = self.slots.iter().filter_map(|s| s.record_s).collect();
         records.dedup();
-        if !records.is_empty() {
+        if let (false, Some(t0)) = (records.is_empty(), self.noise.truncation) {
             let list: Vec<String> = records.iter().map(|t| format!("{t}")).collect();
             text.push_str(&format!(
-                "; every mode cut at the end of an impact test's record of {} s (1/Δf, no exponential window), {} s after the hit's pre-trigger",
-                list.join(" / "),
-                self.noise.pre_trigger_s
+                "; every mode cut at the end of an impact test's record of {} s (1/Δf, no exponential window), the hit's centre {t0} s into it",
+                list.join(" / ")
             ));
         }
         text
@@ -369,7 +367,7 @@ impl FrfReference {
     /// How long after the hit slot `s`'s record ends (T − t₀), when its
     /// FRFs are truncated.
     fn cut_after(&self, s: &FrfSlot) -> Option<f64> {
-        s.record_s.map(|t| t - self.noise.pre_trigger_s)
+        Some(s.record_s? - self.noise.truncation?)
     }
 
     /// Slot `s`'s FRFs superposed from `sol` with the rows `pairs` (one per

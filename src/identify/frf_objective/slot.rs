@@ -37,16 +37,15 @@ pub(super) fn slot(
         )));
     }
     let lines_hz: Vec<f64> = lines.iter().map(|&f| set.frequencies_hz[f]).collect();
-    let record_s = if noise.truncated {
+    let record_s = if let Some(t0) = noise.truncation {
         let t = record_length(&set.frequencies_hz).ok_or_else(|| {
             IdentifyError::Invalid(format!(
                 "frf: position {index}'s lines are not evenly spaced, so they are no DFT's and `frf_truncated` cannot know the record length; leave `frf_truncated` off for these FRFs"
             ))
         })?;
-        if noise.pre_trigger_s >= t {
+        if t0 >= t {
             return Err(IdentifyError::Invalid(format!(
-                "frf: `frf_pre_trigger_s` {} s is not shorter than position {index}'s record of {t} s (1/Δf); give the time from the record's start to the hit",
-                noise.pre_trigger_s
+                "frf: `frf_pre_trigger_s` {t0} s is not shorter than position {index}'s record of {t} s (1/Δf); give the time from the record's start to the hit"
             )));
         }
         Some(t)

@@ -103,7 +103,7 @@ fn the_local_misfit_sits_on_a_misplaced_peak() {
 /// An impact test without an exponential window, of the chain with its
 /// dampers at 1/40 of the truth's (ζ 0.03–0.05 %: e^{−ζωT} 0.2–0.5 at the
 /// record's end, T = 4 s): the estimate is the FRF of the truncated
-/// impulse responses. Modelled as such (`truncated`, the hit's centre
+/// impulse responses. Modelled as such (`truncation`, the hit's centre
 /// 10.5 ms into the record), the truth fits at the noise; as the plain
 /// superposition, the same truth is 9.3σ off.
 #[test]
@@ -128,12 +128,12 @@ fn an_impact_tests_truncated_record_is_modelled() {
     let fit = |truncated: bool| {
         let noise = FrfNoise {
             averages: Some(params.averages),
-            truncated,
             // The hit's centre: the pulse starts at the sample nearest the
             // pre-trigger (20/2048 s), plus half the pulse.
-            pre_trigger_s: (params.pre_trigger_s * params.sample_rate_hz).round()
-                / params.sample_rate_hz
-                + 0.5 * params.pulse_duration_s,
+            truncation: truncated.then_some(
+                (params.pre_trigger_s * params.sample_rate_hz).round() / params.sample_rate_hz
+                    + 0.5 * params.pulse_duration_s,
+            ),
             ..FrfNoise::default()
         };
         let r = one_set(&prepared, &set, noise);
@@ -153,7 +153,7 @@ fn truncation_refuses_unevenly_spaced_lines() {
     let mut set = measured(&prepared, &truth(), 0.01, 1);
     set.frequencies_hz[5] += 0.1;
     let noise = FrfNoise {
-        truncated: true,
+        truncation: Some(0.0),
         ..FrfNoise::default()
     };
     let e = FrfReference::new(&prepared, &[set], None, (10.0, 400.0), noise)
@@ -162,8 +162,7 @@ fn truncation_refuses_unevenly_spaced_lines() {
     assert!(e.to_string().contains("frf_truncated"), "{e}");
     // A hit after the record's end (0.5 Hz lines: T = 2 s) is refused too.
     let late = FrfNoise {
-        truncated: true,
-        pre_trigger_s: 2.0,
+        truncation: Some(2.0),
         ..FrfNoise::default()
     };
     let set = measured(&prepared, &truth(), 0.01, 1);

@@ -83,8 +83,7 @@ pub(super) fn frf_reference(
             let noise = FrfNoise {
                 averages: spec.frf_averages,
                 drift: spec.frf_drift,
-                truncated: spec.frf_truncated,
-                pre_trigger_s: spec.frf_pre_trigger_s,
+                truncation: spec.frf_truncation,
             };
             FrfReference::new(
                 prepared,

@@ -54,8 +54,8 @@ pub struct Spec {
     pub frf_band: (f64, f64),
     pub frf_averages: Option<usize>,
     pub frf_drift: f64,
-    pub frf_truncated: bool,
-    pub frf_pre_trigger_s: f64,
+    /// `Some(t₀)`: impact-test records truncated, the hit t₀ into them.
+    pub frf_truncation: Option<f64>,
     /// Nominal-model modes to leave out: (position, number).
     pub exclude: Vec<(u32, usize)>,
 }
@@ -96,8 +96,7 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
             frf_band,
             frf_averages: p.frf_averages,
             frf_drift: p.frf_drift,
-            frf_truncated: p.frf_truncated,
-            frf_pre_trigger_s: p.frf_pre_trigger_s,
+            frf_truncation: p.frf_truncated.then_some(p.frf_pre_trigger_s),
             exclude: p
                 .exclude_modes
                 .iter()
@@ -237,6 +236,13 @@ fn frf_settings(p: &Params, out: &mut Vec<ParamProblem>) -> (f64, f64) {
             &["frf_refinement"],
             m,
             "see the FRF refinement in docs/stage-kinds.md (`identify`)",
+        ));
+    }
+    if p.frf_pre_trigger_s > 0.0 && !p.frf_truncated {
+        out.push(problem(
+            &["frf_pre_trigger_s"],
+            "places the hit for the record's truncation, which is off",
+            "add `frf_truncated: true` (impact tests without an exponential window), or drop `frf_pre_trigger_s`",
         ));
     }
     let frf_band = p.frf_band.unwrap_or((0.0, f64::INFINITY));
