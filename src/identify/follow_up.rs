@@ -216,6 +216,7 @@ pub(super) fn escape(
     let escaped = r.summary.end.robust_cost < ESCAPED * before.robust_cost;
     let evidence = SearchEvidence {
         escaped: (escaped || thorough).then_some(escaped),
+        short: (!escaped && !thorough).then_some((cost, first)),
     };
     let better = r.summary.end.robust_cost < before.robust_cost;
     let next = if better {
@@ -269,6 +270,7 @@ fn restart_evidence(ends: &[f64], on_frfs: bool) -> SearchEvidence {
     let escaped = best < ESCAPED * ends[0];
     SearchEvidence {
         escaped: (escaped || !on_frfs).then_some(escaped),
+        short: None,
     }
 }
 
@@ -380,6 +382,8 @@ mod tests {
             .unwrap()
             .outcome;
         assert_eq!(short.evidence.escaped, None);
+        assert_eq!(short.evidence.short.map(|s| s.1), Some(first));
+        assert_eq!(held.evidence.short, None);
     }
 
     #[test]

@@ -214,6 +214,10 @@ pub struct SearchEvidence {
     /// A further search ran because the fit ended above the noise; `Some(true)`
     /// when it found a better fit.
     pub escaped: Option<bool>,
+    /// A search that found nothing better with fewer evaluations than the
+    /// refinement it second-guessed (its own, the first's): it ran, but its
+    /// failure is no evidence (`escaped` stays `None`).
+    pub short: Option<(usize, usize)>,
 }
 
 /// The worst window of `fit` when it is above [`LOCAL_NOISE_RMS`].

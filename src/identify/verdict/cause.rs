@@ -118,7 +118,15 @@ impl Verdict {
                 );
                 &line
             }
-            Cause::NotSearched => "cause: not told apart — the fit ends above the noise with no fixed parameter implicated, and no further search from other starts ran (budget or strategy), so a local minimum and model error are both possible",
+            Cause::NotSearched => match self.search.short {
+                Some((ran, first)) => {
+                    line = format!(
+                        "cause: not told apart — the fit ends above the noise with no fixed parameter implicated; a further search from other starts ran on what the budget left ({ran} evaluations, fewer than the {first} of the refinement it second-guessed) and found nothing better, which is no evidence either way, so a local minimum and model error are both possible: give more budget"
+                    );
+                    &line
+                }
+                None => "cause: not told apart — the fit ends above the noise with no fixed parameter implicated, and no further search from other starts ran (budget or strategy), so a local minimum and model error are both possible",
+            },
             Cause::UnreproducedModes => "cause: reference modes the model does not reproduce (named in the warnings)",
             Cause::Optimizer => "cause: the optimizer did not converge (stalled or ended worse than its start)",
             Cause::Damping => "cause: the damping — frequencies and shapes fit, but the identified dampers cannot reproduce the damping ratios: dampers held fixed off their values, a damping model the structure does not follow, a mode shape wrong where the damper sits, or reference damping ratios poorer than stated",

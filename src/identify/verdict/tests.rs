@@ -169,9 +169,11 @@ fn the_cause_is_classified_on_small_cases() {
     let above = Verdict::judge(Status::Converged, 9.0, 5.0, counts(), 5, 5, vec![]);
     let escaped = SearchEvidence {
         escaped: Some(true),
+        short: None,
     };
     let held = SearchEvidence {
         escaped: Some(false),
+        short: None,
     };
     assert_eq!(above.clone().classified(escaped).cause, Cause::LocalMinimum);
     let model = above.clone().classified(held).explained();
@@ -196,12 +198,34 @@ fn the_cause_is_classified_on_small_cases() {
         stalled.message
     );
     // No further search: not told apart, and the message says so.
-    let unsearched = above.classified(SearchEvidence::default()).explained();
+    let unsearched = above
+        .clone()
+        .classified(SearchEvidence::default())
+        .explained();
     assert_eq!(unsearched.cause, Cause::NotSearched);
     assert!(
-        unsearched.message.contains("not told apart"),
+        unsearched.message.contains("not told apart")
+            && unsearched.message.contains("no further search"),
         "{}",
         unsearched.message
+    );
+    // A search that ran short of the first refinement's evaluations: still
+    // not told apart, but the message says it ran and why it counts for
+    // nothing (vertical mill, impact seed 18: 1,771 against 3,564).
+    let short = above
+        .classified(SearchEvidence {
+            escaped: None,
+            short: Some((1771, 3564)),
+        })
+        .explained();
+    assert_eq!(short.cause, Cause::NotSearched);
+    assert!(
+        short
+            .message
+            .contains("1771 evaluations, fewer than the 3564")
+            && !short.message.contains("no further search"),
+        "{}",
+        short.message
     );
     // Within the noise but a mode lost.
     let lost = ModeCounts {
@@ -269,6 +293,7 @@ fn an_untested_implication_off_a_minimum_is_not_blamed_on_the_screening() {
     // other minima exist, and no refit tested the implication.
     let escaped = converged.clone().classified(SearchEvidence {
         escaped: Some(true),
+        short: None,
     });
     assert_eq!(escaped.cause, Cause::ScreeningOrLocalMinimum);
     let text = escaped.explained().message;
@@ -357,6 +382,7 @@ fn a_refit_is_evidence_for_the_screening_only_with_plausible_values() {
     // The cause survives the evidence of a further search.
     let held = SearchEvidence {
         escaped: Some(false),
+        short: None,
     };
     assert_eq!(v.classified(held).cause, Cause::ScreeningOrLocalMinimum);
     // A refit that stopped at the budget: the same cause, the budget said.

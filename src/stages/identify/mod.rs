@@ -190,8 +190,11 @@ impl Kind for Identify {
     /// parameter's conditional direction and widened by 1/√ρ where the cost
     /// is flatter than the Jacobian's quadratic, none where it does not rise
     /// (`identify::curvature`; identifiability.json `curvature`).
+    /// 37: the records' truncation (`frf_truncated`) in partial fractions,
+    /// one exponential per line instead of two per mode and line: the same
+    /// FRFs to ~10⁻¹² relative, so such fits change at the rounding level.
     fn version(&self) -> u32 {
-        36
+        37
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
