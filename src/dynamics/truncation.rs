@@ -63,7 +63,9 @@ struct Cut {
     modulus_sq: f64,
     /// −2 Re λ = 2ζω_r, rad/s.
     decay2: f64,
+    /// α = Im A / Im λ, (rad/s)ⁿ⁻¹: the numerator's factor of jω.
     alpha: f64,
+    /// β = Im(A λ̄) / Im λ, (rad/s)ⁿ: the numerator's constant.
     beta: f64,
 }
 
