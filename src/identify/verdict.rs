@@ -480,6 +480,14 @@ impl Verdict {
     /// [`Cause::ScreeningOrLocalMinimum`]); implausible ones are named in a
     /// warning whatever the cause.
     pub fn with_refitted(mut self, values: Vec<RefitValue>) -> Verdict {
+        // A fit that needed a refitted value its bounds or spread hold is
+        // not ok, even within the noise: the value says what the fit
+        // needed, not what the structure has, and a wrong basin of the
+        // identified parameters needs such compensation as readily as a
+        // screening that left something out (the cause names it).
+        if refit::any_implausible(&values) {
+            self.ok = false;
+        }
         self.refitted = values.iter().map(|v| v.parameter.clone()).collect();
         self.warnings.extend(refit::warning(&values));
         self.refit_values = values;

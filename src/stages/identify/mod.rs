@@ -193,8 +193,11 @@ impl Kind for Identify {
     /// 37: the records' truncation (`frf_truncated`) in partial fractions,
     /// one exponential per line instead of two per mode and line: the same
     /// FRFs to ~10⁻¹² relative, so such fits change at the rounding level.
+    /// 38: a fit that needed a refitted value its bounds or spread hold is
+    /// not ok even within the noise (cause `screening_or_local_minimum`);
+    /// fits are unchanged, only such verdicts.
     fn version(&self) -> u32 {
-        37
+        38
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
