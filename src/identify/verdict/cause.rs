@@ -156,7 +156,7 @@ impl Verdict {
         // nothing implicated (identify 38: such a fit is not ok; vertical
         // mill, 1 % noise, seed 33: 1.28σ after a refit that needed fb.c_y
         // at 4×, its bound, MAC 0.961 against the true modes).
-        let refit_doubted = !self.refitted.is_empty() && refit::any_implausible(&self.refit_values);
+        let refit_doubted = refit::any_implausible(&self.refit_values);
         self.cause = if self.ok {
             Cause::None
         } else if self.status == Status::BudgetExhausted && !refit_short {
