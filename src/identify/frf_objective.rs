@@ -228,9 +228,11 @@ impl FrfReference {
                 self.noise.drift
             ));
         }
-        let mut records: Vec<f64> = self.slots.iter().filter_map(|s| s.record_s).collect();
-        records.dedup();
-        if let (false, Some(t0)) = (records.is_empty(), self.noise.truncation) {
+        // Every slot has its record length exactly when the truncation is on.
+        if let Some(t0) = self.noise.truncation {
+            let mut records: Vec<f64> = self.slots.iter().filter_map(|s| s.record_s).collect();
+            records.sort_by(f64::total_cmp);
+            records.dedup();
             let list: Vec<String> = records.iter().map(|t| format!("{t}")).collect();
             text.push_str(&format!(
                 "; every mode cut at the end of an impact test's record of {} s (1/Δf, no exponential window), the hit's centre {t0} s into it",

@@ -124,7 +124,7 @@ fn clean_signals(
     );
     // Clean signals at the internal rate, then decimated to fs (eq. 2.45 modes).
     let dt_int = 1.0 / (fs * r as f64);
-    let start = (params.pre_trigger_s * fs).round() as usize;
+    let start = params.hit_start_sample();
     let pulse = half_sine_pulse(params.peak_force_n, params.pulse_duration_s, dt_int);
     let mut force_int = vec![0.0; n * r];
     for (slot, p) in force_int[start * r..].iter_mut().zip(&pulse) {

@@ -103,6 +103,20 @@ fn check_nonnegative(field: &'static str, value: f64) -> Result<(), MeasurementE
 }
 
 impl ImpactTestParams {
+    /// The analyser sample at which the hammer pulse starts: the
+    /// pre-trigger on the sample grid of `sample_rate_hz`.
+    pub fn hit_start_sample(&self) -> usize {
+        (self.pre_trigger_s * self.sample_rate_hz).round() as usize
+    }
+
+    /// Time from the record's start to the hit's centre, s: the pulse's
+    /// first sample plus half the pulse. What `identify`'s
+    /// `frf_pre_trigger_s` must be for these records (the defaults:
+    /// 20/2048 + 0.0015/2 = 0.01055 s).
+    pub fn hit_centre_s(&self) -> f64 {
+        self.hit_start_sample() as f64 / self.sample_rate_hz + 0.5 * self.pulse_duration_s
+    }
+
     /// Checks every field; errors name the field and the valid range.
     pub fn validate(&self) -> Result<(), MeasurementError> {
         check_positive("sample_rate_hz", self.sample_rate_hz)?;

@@ -151,7 +151,7 @@ fn exponential_and_force_window_add_known_damping() {
     let set = run(&model, &params, 1);
     // The window multiplies h(t) by e^{-t/τ}: the estimate is the sampled FRF of
     // the apparent modes (ζ raised by ≈ 1/(τω_r)).
-    let start = (params.pre_trigger_s * params.sample_rate_hz).round();
+    let start = params.hit_start_sample() as f64;
     let window = ExponentialWindow::from_end_value(
         1e-3,
         (params.block_size as f64 - start) / params.sample_rate_hz,

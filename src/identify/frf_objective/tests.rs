@@ -128,12 +128,7 @@ fn an_impact_tests_truncated_record_is_modelled() {
     let fit = |truncated: bool| {
         let noise = FrfNoise {
             averages: Some(params.averages),
-            // The hit's centre: the pulse starts at the sample nearest the
-            // pre-trigger (20/2048 s), plus half the pulse.
-            truncation: truncated.then_some(
-                (params.pre_trigger_s * params.sample_rate_hz).round() / params.sample_rate_hz
-                    + 0.5 * params.pulse_duration_s,
-            ),
+            truncation: truncated.then_some(params.hit_centre_s()),
             ..FrfNoise::default()
         };
         let r = one_set(&prepared, &set, noise);

@@ -1,5 +1,11 @@
 use super::*;
 
+/// A converged modal fit within the noise (9σ at the start, 1σ at the
+/// end), every mode reproduced: ok until something else is added.
+fn converged_within_noise() -> Verdict {
+    Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+}
+
 fn counts() -> ModeCounts {
     ModeCounts {
         reference: 10,
@@ -85,8 +91,7 @@ fn with_frfs_the_frf_fit_decides_and_modal_losses_are_warnings() {
     // Within the noise but smooth: ok, with a warning that the intervals
     // do not contain the systematic part.
     let f = FrfJudgement::new(fit(9.0, 0.9), fit(1.8, 0.8));
-    let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
-        .with_frf(Status::Converged, f);
+    let v = converged_within_noise().with_frf(Status::Converged, f);
     assert!(v.ok && !f.systematic);
     assert!(
         v.warnings
@@ -98,8 +103,7 @@ fn with_frfs_the_frf_fit_decides_and_modal_losses_are_warnings() {
     // Above the noise and smooth: named a systematic misfit, not ok,
     // even with the modal fit within its noise.
     let f = FrfJudgement::new(fit(30.0, 0.9), fit(6.5, 0.94));
-    let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
-        .with_frf(Status::Converged, f);
+    let v = converged_within_noise().with_frf(Status::Converged, f);
     assert!(!v.ok && f.systematic && v.fit == Fit::AboveNoise);
     assert!(v.message.contains("systematic"), "{}", v.message);
     // Above the noise and rough: not called systematic.
@@ -114,8 +118,7 @@ fn with_frfs_the_frf_fit_decides_and_modal_losses_are_warnings() {
         position: 0,
     });
     let f = FrfJudgement::new(fit(9.0, 0.9), end);
-    let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
-        .with_frf(Status::Converged, f);
+    let v = converged_within_noise().with_frf(Status::Converged, f);
     assert!(!v.ok && v.fit == Fit::AboveNoise && !f.systematic);
     assert!(
         v.message.contains("120.2 Hz at position 0"),
@@ -131,8 +134,7 @@ fn with_frfs_the_frf_fit_decides_and_modal_losses_are_warnings() {
     assert_eq!(FrfJudgement::new(fit(9.0, 0.9), end).fit, Fit::WithinNoise);
     // Worse than the modal result.
     let f = FrfJudgement::new(fit(1.5, 0.1), fit(1.8, 0.1));
-    let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
-        .with_frf(Status::Converged, f);
+    let v = converged_within_noise().with_frf(Status::Converged, f);
     assert!(!v.ok && v.worse_than_start && v.message.contains("WORSE"));
 }
 
@@ -270,14 +272,14 @@ fn an_untested_implication_off_a_minimum_is_not_blamed_on_the_screening() {
         }),
         ..fit(1.9, 0.3)
     };
-    let misplaced = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+    let misplaced = converged_within_noise()
         .with_frf(Status::Converged, FrfJudgement::new(fit(11.0, 0.9), local))
         .with_implicated(&implicated);
     assert_eq!(misplaced.cause, Cause::ScreeningOrLocalMinimum);
     let text = misplaced.clone().explained().message;
     assert!(text.contains("misplaces a resonance"), "{text}");
     // A converged fit without such a window: the score test stands.
-    let converged = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+    let converged = converged_within_noise()
         .with_frf(
             Status::Converged,
             FrfJudgement::new(fit(11.0, 0.9), fit(3.0, 0.9)),
@@ -395,7 +397,7 @@ fn a_refit_is_evidence_for_the_screening_only_with_plausible_values() {
     // and the fit is not ok (identify 38; the vertical mill's 1 % seed 33:
     // ok at 1.28σ after a refit that needed fb.c_y at its bound, MAC 0.961
     // against the true modes). With plausible values it stays ok.
-    let w = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+    let w = converged_within_noise()
         .with_refitted(seed_12())
         .explained();
     assert!(!w.ok && w.cause == Cause::ScreeningOrLocalMinimum, "{w:?}");
@@ -405,7 +407,7 @@ fn a_refit_is_evidence_for_the_screening_only_with_plausible_values() {
         "{}",
         w.message
     );
-    let fine = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+    let fine = converged_within_noise()
         .with_refitted(vec![plausible("lb.k_y")])
         .explained();
     assert!(fine.ok && fine.cause == Cause::None, "{fine:?}");
@@ -414,7 +416,7 @@ fn a_refit_is_evidence_for_the_screening_only_with_plausible_values() {
     // parameters are what the screening left out either (the vertical
     // mill's impact seed 9 at identify 33, the truth in the model class).
     let implicated = [Implication::new("colj.c_z", (0.25f64).ln(), 226.0)];
-    let still = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+    let still = converged_within_noise()
         .with_refitted(seed_12())
         .with_implicated(&implicated)
         .explained();
@@ -425,7 +427,7 @@ fn a_refit_is_evidence_for_the_screening_only_with_plausible_values() {
         still.message
     );
     // With plausible refitted values the screening is named, as before.
-    let named = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+    let named = converged_within_noise()
         .with_refitted(vec![plausible("lb.k_y")])
         .with_implicated(&implicated);
     assert_eq!(named.cause, Cause::ScreenedOut);
@@ -440,8 +442,7 @@ fn a_refit_is_evidence_for_the_screening_only_with_plausible_values() {
 #[test]
 fn an_implication_that_needs_a_value_at_a_bound_does_not_name_the_screening() {
     let converged = || {
-        Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
-            .with_refitted(vec![plausible("motor.k_t"), plausible("nut.k_y")])
+        converged_within_noise().with_refitted(vec![plausible("motor.k_t"), plausible("nut.k_y")])
     };
     let mut at_bound = Implication::new("cpl.k_ry", 4f64.ln(), 374.0);
     at_bound.at_bound = true;
@@ -463,7 +464,7 @@ fn an_implication_that_needs_a_value_at_a_bound_does_not_name_the_screening() {
     let v = converged().with_implicated(&[inside.clone(), at_bound.clone()]);
     assert_eq!(v.cause, Cause::ScreenedOut, "{v:?}");
     // Without a refit too: the rule is the implication's, not the refit's.
-    let v = Verdict::judge(Status::Converged, 9.0, 1.0, counts(), 5, 5, vec![])
+    let v = converged_within_noise()
         .with_implicated(&[at_bound.clone()])
         .explained();
     assert_eq!(v.cause, Cause::ScreeningOrLocalMinimum, "{v:?}");
