@@ -253,8 +253,8 @@ impl Correspondence {
                         p,
                         r,
                         format!(
-                            "not observable: its model mode p{}.mode{} ({:.1} Hz) moves the sensors {:.2}× as much as the median mode (threshold {})",
-                            s.position, n.number, n.frequency_hz, n.visibility, self.visibility_threshold
+                            "{}: its model mode p{}.mode{} ({:.1} Hz) moves the sensors {:.2}× as much as the median mode (threshold {})",
+                            super::local_misfit::NOT_OBSERVABLE, s.position, n.number, n.frequency_hz, n.visibility, self.visibility_threshold
                         ),
                     );
                     count += 1;

@@ -266,6 +266,19 @@ impl FrfReference {
         self.top_hz
     }
 
+    /// First and last line of the [`LocalMisfit`] window centred on the
+    /// line `centre_hz` of position `position`, Hz.
+    pub fn window_hz(&self, position: u32, centre_hz: f64) -> Option<(f64, f64)> {
+        let lines = &self.slots.iter().find(|s| s.position == position)?.lines_hz;
+        let k = lines.partition_point(|&f| f < centre_hz);
+        let half = super::local_misfit::LOCAL_LINES / 2;
+        let last = lines.len().checked_sub(1)?;
+        Some((
+            lines[k.saturating_sub(half).min(last)],
+            lines[(k + half).min(last)],
+        ))
+    }
+
     /// Number of residuals (2 per channel and line).
     pub fn count(&self) -> usize {
         self.slots

@@ -19,6 +19,8 @@ pub struct LocalMisfit {
     pub position: u32,
 }
 
+use super::ModalObjective;
+
 /// Lines in the window of [`LocalMisfit`].
 pub const LOCAL_LINES: usize = 9;
 
@@ -52,6 +54,62 @@ impl LocalMisfit {
     }
 }
 
+impl LocalMisfit {
+    /// What the modal reference holds in this window's lines `lo_hz..=hi_hz`
+    /// (a warning beside a window far above the noise): each reference mode
+    /// of the position there, and whether the modal fit used it or why not
+    /// — or that there is none, so the FRFs alone place the modes there.
+    /// On the vertical mill the failures' windows sit on pairs of modes a
+    /// quarter line wide (ζ ≈ 0.06 %) that AutoEMA finds one of, or none,
+    /// and that the correspondence leaves out as barely observable
+    /// (docs/uncertainty.md).
+    pub(super) fn reference_note(&self, o: &ModalObjective, (lo_hz, hi_hz): (f64, f64)) -> String {
+        let head = format!(
+            "the FRFs' worst window ({lo_hz:.2}–{hi_hz:.2} Hz at position {}, {:.0}σ)",
+            self.position, self.rms
+        );
+        let Some(p) = o.slot(self.position) else {
+            return format!("{head} lies at a position without reference modes");
+        };
+        let inside: Vec<String> = (0..o.modes_at(p))
+            .filter(|&r| (lo_hz..=hi_hz).contains(&o.reference_frequency(p, r)))
+            .map(|r| {
+                let f = o.reference_frequency(p, r);
+                match o.exclusion(p, r) {
+                    None => format!(
+                        "reference mode {} ({f:.2} Hz), used by the modal fit",
+                        r + 1
+                    ),
+                    Some(why) => format!(
+                        "reference mode {} ({f:.2} Hz), left out of the modal fit: {why}",
+                        r + 1
+                    ),
+                }
+            })
+            .collect();
+        if inside.is_empty() {
+            return format!(
+                "{head} holds no reference mode: the EMA found none there, so the FRFs alone place the modes there"
+            );
+        }
+        let weak = (0..o.modes_at(p)).any(|r| {
+            (lo_hz..=hi_hz).contains(&o.reference_frequency(p, r))
+                && o.exclusion(p, r)
+                    .is_some_and(|w| w.starts_with(NOT_OBSERVABLE))
+        });
+        let hint = if weak {
+            "; a lower `observability` lets a mode the sensors see weakly count, its shape too"
+        } else {
+            ""
+        };
+        format!("{head} holds {}{hint}", inside.join("; "))
+    }
+}
+
+/// How [`super::correspondence`] words a reference mode left out because its
+/// partner barely moves the sensors.
+pub(super) const NOT_OBSERVABLE: &str = "not observable";
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -76,5 +134,47 @@ mod tests {
         let flat = LocalMisfit::worst(0, &lines, &[2.0; 40], 1).unwrap();
         assert!((flat.rms - 1.0).abs() < 1e-12, "{flat:?}");
         assert!(LocalMisfit::worst(0, &lines[..8], &power[..8], 1).is_none());
+    }
+
+    /// The note names the reference modes inside the window with their
+    /// status, the `observability` hint only for a mode left out as not
+    /// observable, and says so when the window holds none.
+    #[test]
+    fn the_note_says_what_the_reference_holds_in_the_window() {
+        let mut o = crate::identify::black_box::tests::objective();
+        let position = o.position(0).index;
+        let f1 = o.reference_frequency(0, 1);
+        let window = (f1 - 0.5, f1 + 0.5);
+        let w = LocalMisfit {
+            rms: 15.0,
+            frequency_hz: f1,
+            position,
+        };
+        let used = w.reference_note(&o, window);
+        assert!(
+            used.contains("reference mode 2") && used.contains("used by the modal fit"),
+            "{used}"
+        );
+        assert!(!used.contains("observability"), "{used}");
+        o.exclude(
+            0,
+            1,
+            format!("{NOT_OBSERVABLE}: its model mode moves the sensors 0.13×"),
+        );
+        let left = w.reference_note(&o, window);
+        assert!(
+            left.contains("left out of the modal fit: not observable"),
+            "{left}"
+        );
+        assert!(left.contains("a lower `observability`"), "{left}");
+        let beside = w.reference_note(&o, (f1 * 10.0, f1 * 10.0 + 1.0));
+        assert!(beside.contains("holds no reference mode"), "{beside}");
+        let elsewhere = LocalMisfit {
+            position: position + 7,
+            ..w
+        };
+        assert!(elsewhere
+            .reference_note(&o, window)
+            .contains("without reference modes"));
     }
 }

@@ -166,3 +166,26 @@ fn truncation_refuses_unevenly_spaced_lines() {
         .expect("refused");
     assert!(e.to_string().contains("record of 2 s"), "{e}");
 }
+
+/// The window of a [`LocalMisfit`]: four lines either side of its centre
+/// line, cut at the band's edges; no window at a position without FRFs.
+#[test]
+fn the_local_window_spans_its_nine_lines() {
+    let (prepared, _, set) = light_chain(1.0, 1);
+    let r = one_set(&prepared, &set, FrfNoise::default());
+    let lines: Vec<f64> = set
+        .frequencies_hz
+        .iter()
+        .copied()
+        .filter(|f| (10.0..=400.0).contains(f))
+        .collect();
+    let p = set.position.index;
+    assert_eq!(r.window_hz(p, lines[20]), Some((lines[16], lines[24])));
+    assert_eq!(r.window_hz(p, lines[1]), Some((lines[0], lines[5])));
+    let last = lines.len() - 1;
+    assert_eq!(
+        r.window_hz(p, lines[last]),
+        Some((lines[last - 4], lines[last]))
+    );
+    assert_eq!(r.window_hz(p + 1, lines[20]), None);
+}

@@ -12,7 +12,9 @@ use super::super::follow_up::{
 use super::super::guided::GuidedResult;
 use super::super::identifiability::Identifiability;
 use super::super::objective::ModalObjective;
-use super::super::verdict::{Fit, FrfJudgement, Implication, RefitValue, Status, Verdict};
+use super::super::verdict::{
+    Fit, FrfJudgement, Implication, RefitValue, Status, Verdict, LOCAL_NOISE_RMS,
+};
 use super::super::IdentifyError;
 use super::{FinalPair, Plan};
 use crate::numbers::sig;
@@ -409,6 +411,15 @@ fn judge(
             "the score test implicated {} (held fixed by the screening); identified too and refitted",
             outcome.refitted.join(", ")
         ));
+    }
+    // A window far above the noise: what the modal reference holds there.
+    if let (Some(r), Some((reference, _))) = (&outcome.frf, plan.frf) {
+        let end = r.summary.end.local.filter(|l| l.rms > LOCAL_NOISE_RMS);
+        if let Some((l, window)) =
+            end.and_then(|l| Some((l, reference.window_hz(l.position, l.frequency_hz)?)))
+        {
+            warnings.push(l.reference_note(o, window));
+        }
     }
     let identifiable = identifiability
         .parameters

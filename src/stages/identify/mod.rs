@@ -196,8 +196,11 @@ impl Kind for Identify {
     /// 38: a fit that needed a refitted value its bounds or spread hold is
     /// not ok even within the noise (cause `screening_or_local_minimum`);
     /// fits are unchanged, only such verdicts.
+    /// 39: a window of the FRF fit far above the noise gets a warning
+    /// naming the reference modes there and whether the modal fit used
+    /// them (or that it has none); fits and verdicts are unchanged.
     fn version(&self) -> u32 {
-        38
+        39
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
