@@ -71,38 +71,37 @@ impl LocalMisfit {
         let Some(p) = o.slot(self.position) else {
             return format!("{head} lies at a position without reference modes");
         };
-        let inside: Vec<String> = (0..o.modes_at(p))
-            .filter(|&r| (lo_hz..=hi_hz).contains(&o.reference_frequency(p, r)))
-            .map(|r| {
-                let f = o.reference_frequency(p, r);
-                match o.exclusion(p, r) {
-                    None => format!(
-                        "reference mode {} ({f:.2} Hz), used by the modal fit",
-                        r + 1
-                    ),
-                    Some(why) => format!(
-                        "reference mode {} ({f:.2} Hz), left out of the modal fit: {why}",
-                        r + 1
-                    ),
-                }
-            })
+        let inside: Vec<(usize, f64, Option<&str>)> = (0..o.modes_at(p))
+            .map(|r| (r, o.reference_frequency(p, r), o.exclusion(p, r)))
+            .filter(|(_, f, _)| (lo_hz..=hi_hz).contains(f))
             .collect();
         if inside.is_empty() {
             return format!(
                 "{head} holds no reference mode: the EMA found none there, so the FRFs alone place the modes there"
             );
         }
-        let weak = (0..o.modes_at(p)).any(|r| {
-            (lo_hz..=hi_hz).contains(&o.reference_frequency(p, r))
-                && o.exclusion(p, r)
-                    .is_some_and(|w| w.starts_with(NOT_OBSERVABLE))
-        });
+        let weak = inside
+            .iter()
+            .any(|(_, _, why)| why.is_some_and(|w| w.starts_with(NOT_OBSERVABLE)));
         let hint = if weak {
             "; a lower `observability` lets a mode the sensors see weakly count, its shape too"
         } else {
             ""
         };
-        format!("{head} holds {}{hint}", inside.join("; "))
+        let modes: Vec<String> = inside
+            .iter()
+            .map(|&(r, f, why)| match why {
+                None => format!(
+                    "reference mode {} ({f:.2} Hz), used by the modal fit",
+                    r + 1
+                ),
+                Some(why) => format!(
+                    "reference mode {} ({f:.2} Hz), left out of the modal fit: {why}",
+                    r + 1
+                ),
+            })
+            .collect();
+        format!("{head} holds {}{hint}", modes.join("; "))
     }
 }
 

@@ -414,12 +414,12 @@ fn judge(
     }
     // A window far above the noise: what the modal reference holds there.
     if let (Some(r), Some((reference, _))) = (&outcome.frf, plan.frf) {
-        let end = r.summary.end.local.filter(|l| l.rms > LOCAL_NOISE_RMS);
-        if let Some((l, window)) =
-            end.and_then(|l| Some((l, reference.window_hz(l.position, l.frequency_hz)?)))
-        {
-            warnings.push(l.reference_note(o, window));
-        }
+        let far = r.summary.end.local.filter(|l| l.rms > LOCAL_NOISE_RMS);
+        let note = far.and_then(|l| {
+            let window = reference.window_hz(l.position, l.frequency_hz)?;
+            Some(l.reference_note(o, window))
+        });
+        warnings.extend(note);
     }
     let identifiable = identifiability
         .parameters
