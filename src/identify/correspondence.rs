@@ -28,6 +28,11 @@ use super::IdentifyError;
 use crate::metrics::nfd;
 use serde::Serialize;
 
+/// How a reference mode left out because its partner barely moves the
+/// sensors is worded ([`Correspondence::exclude_unobservable`]); the FRF
+/// verdict's window note ([`super::local_misfit`]) keys on it.
+pub(super) const NOT_OBSERVABLE: &str = "not observable";
+
 /// A mode of the nominal model at one position.
 #[derive(Clone, Debug, Serialize)]
 pub struct NominalMode {
@@ -254,7 +259,7 @@ impl Correspondence {
                         r,
                         format!(
                             "{}: its model mode p{}.mode{} ({:.1} Hz) moves the sensors {:.2}× as much as the median mode (threshold {})",
-                            super::local_misfit::NOT_OBSERVABLE, s.position, n.number, n.frequency_hz, n.visibility, self.visibility_threshold
+                            NOT_OBSERVABLE, s.position, n.number, n.frequency_hz, n.visibility, self.visibility_threshold
                         ),
                     );
                     count += 1;

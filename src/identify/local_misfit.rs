@@ -19,6 +19,7 @@ pub struct LocalMisfit {
     pub position: u32,
 }
 
+use super::correspondence::NOT_OBSERVABLE;
 use super::ModalObjective;
 
 /// Lines in the window of [`LocalMisfit`].
@@ -104,10 +105,6 @@ impl LocalMisfit {
         format!("{head} holds {}{hint}", modes.join("; "))
     }
 }
-
-/// How [`super::correspondence`] words a reference mode left out because its
-/// partner barely moves the sensors.
-pub(super) const NOT_OBSERVABLE: &str = "not observable";
 
 #[cfg(test)]
 mod tests {
