@@ -160,6 +160,41 @@ fn bad_params_are_rejected_before_anything_runs() {
     rejected("{guided: {repeat: 2}}", "guided");
     // A hit time for a truncation that is off would be silently ignored.
     rejected("{frf_pre_trigger_s: 0.01}", "frf_truncated: true");
+    rejected("{shape_observability: -0.1}", "shape_observability");
+}
+
+/// `shape_observability` above a mode's sensor amplitude (the median mode's
+/// is 1: of three modes, the one below it) compares that mode by its
+/// frequency alone, used, with the reason in correlation.csv; unset, every
+/// mode is compared in full. The fit still places that mode's frequency.
+#[test]
+fn a_weakly_seen_mode_counts_by_its_frequency_alone() {
+    let ws = setup(&format!(
+        "{}  weak:\n    kind: identify\n    inputs: {{model: truth.model, reference: truth.modes}}\n    params: {{strategy: black_box, optimizer: slsqp, budget: 3000, window: 0.3, observability: 0.0, shape_observability: 0.999}}\n",
+        &PIPELINE[..PIPELINE.find("  check:").unwrap()]
+    ));
+    let report = ws.run(&["weak", "fit"], 0);
+    assert!(report.all("ran"), "{:?}", report.statuses());
+    let weak = ws.read("results/id/weak/correlation.csv");
+    let rows: Vec<&str> = weak.lines().skip(1).collect();
+    assert_eq!(rows.len(), 3, "{weak}");
+    assert!(rows.iter().all(|l| l.contains(",true,")), "{weak}");
+    let by_frequency = rows
+        .iter()
+        .filter(|l| l.contains("frequency only, shape not observable"))
+        .count();
+    assert_eq!(by_frequency, 1, "{weak}");
+    let full = ws.read("results/id/fit/correlation.csv");
+    assert!(!full.contains("frequency only"), "{full}");
+    // Its frequency is fitted: the model's partner at the result sits on it
+    // (reference_hz is the third column, model_hz the fourth from the end;
+    // the quoted reason between them holds commas).
+    let row = rows.iter().find(|l| l.contains("frequency only")).unwrap();
+    let (f_ref, f_model): (f64, f64) = (
+        row.split(',').nth(2).unwrap().parse().unwrap(),
+        row.rsplit(',').nth(3).unwrap().parse().unwrap(),
+    );
+    assert!((f_model / f_ref - 1.0).abs() < 1e-4, "{weak}");
 }
 
 /// A budget below what the assessment of the result alone costs (2n + 7

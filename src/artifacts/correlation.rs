@@ -26,7 +26,7 @@ pub struct CorrelationRow {
     pub sigma_frequency: f64,
     #[serde(default)]
     pub sigma_shape: f64,
-    /// Why it is not used.
+    /// Why it is not used, or (used) why only its frequency is compared.
     pub reason: String,
     /// `p<position>.mode<r>` of its partner at the start.
     pub nominal_mode: String,

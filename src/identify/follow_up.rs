@@ -332,7 +332,7 @@ mod tests {
             },
             budget: 10_000,
             seed: 1,
-            visibility: 0.0,
+            observability: crate::identify::Observability::all(),
             exclude: &[],
             max_std_error: 0.1,
             fixed_spread: None,

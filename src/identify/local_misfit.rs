@@ -76,6 +76,10 @@ impl LocalMisfit {
             .map(|r| (r, o.reference_frequency(p, r), o.exclusion(p, r)))
             .filter(|(_, f, _)| (lo_hz..=hi_hz).contains(f))
             .collect();
+        let how = |r: usize| match o.frequency_only(p, r) {
+            Some(why) => format!("used by the modal fit, {why}"),
+            None => "used by the modal fit".to_string(),
+        };
         if inside.is_empty() {
             return format!(
                 "{head} holds no reference mode: the EMA found none there, so the FRFs alone place the modes there"
@@ -85,17 +89,14 @@ impl LocalMisfit {
             .iter()
             .any(|(_, _, why)| why.is_some_and(|w| w.starts_with(NOT_OBSERVABLE)));
         let hint = if weak {
-            "; a lower `observability` lets a mode the sensors see weakly count, its shape too"
+            "; a lower `observability` lets a mode the sensors see weakly count (by its frequency alone below `shape_observability`)"
         } else {
             ""
         };
         let modes: Vec<String> = inside
             .iter()
             .map(|&(r, f, why)| match why {
-                None => format!(
-                    "reference mode {} ({f:.2} Hz), used by the modal fit",
-                    r + 1
-                ),
+                None => format!("reference mode {} ({f:.2} Hz), {}", r + 1, how(r)),
                 Some(why) => format!(
                     "reference mode {} ({f:.2} Hz), left out of the modal fit: {why}",
                     r + 1
@@ -133,8 +134,9 @@ mod tests {
     }
 
     /// The note names the reference modes inside the window with their
-    /// status, the `observability` hint only for a mode left out as not
-    /// observable, and says so when the window holds none.
+    /// status (a mode compared by frequency alone says so), the
+    /// `observability` hint only for a mode left out as not observable, and
+    /// says so when the window holds none.
     #[test]
     fn the_note_says_what_the_reference_holds_in_the_window() {
         let mut o = crate::identify::black_box::tests::objective();
@@ -152,6 +154,13 @@ mod tests {
             "{used}"
         );
         assert!(!used.contains("observability"), "{used}");
+        let mut weak = crate::identify::black_box::tests::objective();
+        weak.compare_frequency_only(0, 1, "frequency only, shape not observable: 0.2×");
+        let by_frequency = w.reference_note(&weak, window);
+        assert!(
+            by_frequency.contains("used by the modal fit, frequency only, shape not observable"),
+            "{by_frequency}"
+        );
         o.exclude(
             0,
             1,

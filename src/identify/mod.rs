@@ -45,7 +45,7 @@ pub mod verdict;
 
 pub use black_box::{black_box, BlackBoxResult};
 pub use continuation::ContinuationParams;
-pub use correspondence::{Correspondence, NamedMode};
+pub use correspondence::{Correspondence, NamedMode, Observability};
 pub use damping::{bvls, identify_damping, DampingFit};
 pub use follow_up::{FollowUpKind, FollowUpRecord};
 pub use guided::{guided, GuidedParams, GuidedResult, Screening};

@@ -95,6 +95,9 @@ pub(crate) struct Reference {
     pub(crate) sigma_z: Vec<f64>,
     /// Why a mode is left out (`None`: usable).
     pub(crate) excluded: Vec<Option<String>>,
+    /// Why a usable mode's shape is not compared, its frequency alone
+    /// counting (`None`: frequency and shape).
+    pub(crate) frequency_only: Vec<Option<String>>,
     /// (model sensor row, sign, reference DOF) per shared DOF.
     pub(crate) rows: Vec<(usize, f64, crate::frf::Dof)>,
 }
@@ -191,6 +194,7 @@ impl ModalObjective {
                 sigma_s: vec![defaults.shape; n],
                 sigma_z: vec![defaults.damping; n],
                 excluded: vec![None; n],
+                frequency_only: vec![None; n],
                 rows,
             });
         }
@@ -222,6 +226,36 @@ impl ModalObjective {
     /// Why reference mode `r` of slot `p` is left out, if it is.
     pub fn exclusion(&self, p: usize, r: usize) -> Option<&str> {
         self.references[p].excluded[r].as_deref()
+    }
+
+    /// Compare only the frequency of reference mode `r` of slot `p`, not
+    /// its shape, saying why: the shape residuals, J's MAC term and the
+    /// subproblem's MAC leave it out, and so does the mean MAC; the pairing
+    /// still uses its shape to tell it from a neighbour.
+    pub fn compare_frequency_only(&mut self, p: usize, r: usize, reason: impl Into<String>) {
+        if self.references[p].frequency_only[r].is_none() {
+            self.references[p].frequency_only[r] = Some(reason.into());
+        }
+    }
+
+    /// Why only the frequency of reference mode `r` of slot `p` is
+    /// compared, if so.
+    pub fn frequency_only(&self, p: usize, r: usize) -> Option<&str> {
+        self.references[p].frequency_only[r].as_deref()
+    }
+
+    /// The usable modes whose shapes are compared: those of the mean MAC.
+    pub fn shapes_compared(&self) -> ModeSet {
+        self.references
+            .iter()
+            .map(|r| {
+                r.excluded
+                    .iter()
+                    .zip(&r.frequency_only)
+                    .map(|(e, f)| e.is_none() && f.is_none())
+                    .collect()
+            })
+            .collect()
     }
 
     /// The modes not excluded.
@@ -388,7 +422,11 @@ impl ModalObjective {
             self.references[p].frequencies[r],
             self.references[p].damping[r],
         );
-        let t_mac = 1.0 - m.mac;
+        let t_mac = if self.references[p].frequency_only[r].is_some() {
+            0.0
+        } else {
+            1.0 - m.mac
+        };
         let t_nfd = nfd(f, m.frequency_hz);
         let t_ndd = ndd_guarded(z, m.damping_ratio);
         match which {
@@ -414,7 +452,10 @@ impl ModalObjective {
         let Ok(all) = self.matches(x) else {
             return (f64::INFINITY, 0.0);
         };
-        (self.sum_terms(&all), mean_mac(&all, &self.usable()))
+        (
+            self.sum_terms(&all),
+            mean_mac(&all, &self.shapes_compared()),
+        )
     }
 
     fn sum_terms(&self, all: &[Vec<Option<Match>>]) -> f64 {
@@ -466,14 +507,15 @@ impl ModalObjective {
         Ok(ModeSummary {
             reference_modes: self.reference_modes(),
             paired,
-            mean_mac: mean_mac(&all, &usable),
+            mean_mac: mean_mac(&all, &self.shapes_compared()),
             mean_nfd: nfd_sum / n,
             mean_ndd: ndd_sum / n,
         })
     }
 }
 
-/// Mean MAC over the modes of `set`, an unpaired mode counting 0.
+/// Mean MAC over the modes of `set`, an unpaired mode counting 0 (callers
+/// pass [`ModalObjective::shapes_compared`] or a part of it).
 pub fn mean_mac(matches: &[Vec<Option<Match>>], set: &ModeSet) -> f64 {
     let (mut sum, mut n) = (0.0, 0usize);
     for (ms, used) in matches.iter().zip(set) {
@@ -511,6 +553,57 @@ mod tests {
         assert!(o.cost(&truth()) < 1e-12);
         let e = o.evaluate(&truth(), &o.usable()).unwrap();
         assert_eq!(e.residuals.len(), 14);
+    }
+
+    /// A mode compared by frequency alone: its shape residuals, J's MAC
+    /// term and its MAC in the mean leave; everything else is what the full
+    /// comparison gives, off the truth too.
+    #[test]
+    fn a_mode_compared_by_frequency_alone_keeps_its_frequency_residual_only() {
+        let full = objective();
+        let mut o = objective();
+        o.compare_frequency_only(0, 1, "weak");
+        assert_eq!(o.frequency_only(0, 1), Some("weak"));
+        assert_eq!(o.usable(), vec![vec![true; 3]]);
+        assert_eq!(o.shapes_compared(), vec![vec![true, false, true]]);
+        // Uneven, so the shapes move too (a uniform scale keeps them).
+        let x: Vec<f64> = truth()
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v * (1.0 + 0.04 * i as f64))
+            .collect();
+        let r_full = full.evaluate(&x, &full.usable()).unwrap().residuals;
+        let r = o.evaluate(&x, &o.usable()).unwrap().residuals;
+        // 3 shared DOFs: 7 residuals per mode; mode 2 keeps its first.
+        assert_eq!((r_full.len(), r.len()), (21, 15));
+        let kept: Vec<f64> = r_full[..8].iter().chain(&r_full[14..]).copied().collect();
+        assert_eq!(r, kept);
+        assert!(r_full[8..14].iter().any(|v| v.abs() > 1e-3), "{r_full:?}");
+        assert_eq!(
+            o.segments(&o.usable())
+                .iter()
+                .map(|s| s.2)
+                .collect::<Vec<_>>(),
+            vec![7, 1, 7]
+        );
+        let m = full.matches(&x).unwrap();
+        let mac_term = full.weights.mac * full.term(0, 1, m[0][1], Some(super::Term::Mac));
+        assert!(mac_term > 1e-6, "{mac_term}");
+        assert!((o.cost(&x) - (full.cost(&x) - mac_term)).abs() < 1e-12);
+        let mean = (m[0][0].unwrap().mac + m[0][2].unwrap().mac) / 2.0;
+        assert_eq!(o.summary(&x).unwrap().mean_mac, mean);
+        assert!((o.mode_cost(0, 1, &x, 0.0) - nfd_of(&o, &x)).abs() < 1e-12);
+    }
+
+    /// NFD of reference mode 2 against the model mode nearest in frequency.
+    fn nfd_of(o: &super::ModalObjective, x: &[f64]) -> f64 {
+        let f = o.reference_frequency(0, 1);
+        o.model_modes_at(0, x)
+            .unwrap()
+            .modes
+            .iter()
+            .map(|m| crate::metrics::nfd(f, m.frequency_hz))
+            .fold(f64::INFINITY, f64::min)
     }
 
     #[test]

@@ -419,6 +419,7 @@ pub fn solve(
 mod tests {
     use super::*;
     use crate::identify::black_box::tests::{objective, truth};
+    use crate::identify::correspondence::Observability;
 
     /// `decompose` with the correspondence at the file's values.
     fn split(
@@ -426,7 +427,7 @@ mod tests {
         specs: &[SubproblemSpec],
         significant: Option<&[String]>,
     ) -> Result<Decomposition, IdentifyError> {
-        let c = Correspondence::new(o, &o.nominal(), 0.0).unwrap();
+        let c = Correspondence::new(o, &o.nominal(), Observability::all()).unwrap();
         decompose(o, &c, &[], specs, significant)
     }
 
@@ -449,7 +450,7 @@ mod tests {
     fn outputs_of_one_mode_merge_and_damping_outputs_name_the_dampers() {
         // Excluded after the correspondence is made, as `update` does.
         let mut o = objective();
-        let c = Correspondence::new(&o, &o.nominal(), 0.0).unwrap();
+        let c = Correspondence::new(&o, &o.nominal(), Observability::all()).unwrap();
         o.exclude(0, 2, "named in exclude_modes");
         let split = |o: &ModalObjective, specs: &[SubproblemSpec], sig: Option<&[String]>| {
             decompose(o, &c, &[], specs, sig)

@@ -6,7 +6,7 @@
 
 use super::assessment::identifiability_at;
 use super::consider::Consider;
-use super::correspondence::Correspondence;
+use super::correspondence::{Correspondence, Observability};
 use super::follow_up::{escape_evidence, FollowUpRecord, Outcome};
 use super::frf_objective::FrfReference;
 use super::frf_refinement::{frf_refinement, FrfRefinement, FrfRefinementParams};
@@ -41,8 +41,9 @@ pub struct Plan<'a> {
     pub strategy: Strategy<'a>,
     pub budget: usize,
     pub seed: u64,
-    /// Observability threshold on the sensor amplitude (0 keeps every mode).
-    pub visibility: f64,
+    /// Thresholds on the sensor amplitude below which a mode is left out,
+    /// or compared by frequency alone.
+    pub observability: Observability,
     /// Modes of the nominal model to leave out: (position, number).
     pub exclude: &'a [(u32, usize)],
     /// Largest a-priori relative standard error of an identifiable parameter.
@@ -206,7 +207,7 @@ fn pair_at_start(
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Correspondence, IdentifyError> {
     Correspondence::exclude_duplicates(o);
-    let correspondence = Correspondence::new(o, start, plan.visibility)?;
+    let correspondence = Correspondence::new(o, start, plan.observability)?;
     progress(1);
     for &(position, number) in plan.exclude {
         let (slot, k) = correspondence

@@ -1,5 +1,6 @@
 use super::*;
 use crate::identify::black_box::tests::{objective, truth};
+use crate::identify::correspondence::Observability;
 
 fn specs() -> Vec<SubproblemSpec> {
     let s = |o: &str, p: &[&str]| SubproblemSpec {
@@ -19,7 +20,7 @@ fn specs() -> Vec<SubproblemSpec> {
 
 fn run(settings: &GuidedParams, budget: usize, seed: u64) -> Result<GuidedResult, IdentifyError> {
     let o = objective();
-    let c = Correspondence::new(&o, &o.nominal(), 0.0).unwrap();
+    let c = Correspondence::new(&o, &o.nominal(), Observability::all()).unwrap();
     let specs = specs();
     let screening = Screening {
         specs: &specs,
@@ -145,7 +146,7 @@ fn the_refinement_does_not_depend_on_the_start() {
     for corner in [0.1, 0.5, 0.9] {
         let u = vec![corner; o.parameters().len()];
         let start = bounds.to_physical(&u);
-        let c = Correspondence::new(&o, &start, 0.0).unwrap();
+        let c = Correspondence::new(&o, &start, Observability::all()).unwrap();
         let r = guided(
             &o,
             &c,
@@ -177,7 +178,7 @@ fn the_refinement_does_not_depend_on_the_start() {
 #[test]
 fn a_foreign_output_name_is_rejected() {
     let o = objective();
-    let c = Correspondence::new(&o, &o.nominal(), 0.0).unwrap();
+    let c = Correspondence::new(&o, &o.nominal(), Observability::all()).unwrap();
     let subs = vec![SubproblemSpec {
         output: "y1".into(),
         parameters: vec!["k1.k_x".into()],

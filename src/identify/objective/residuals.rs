@@ -42,7 +42,8 @@ impl ModalObjective {
     ///   match (eq. 2.62).
     ///
     /// An unpaired mode gives the constant residuals √w_nfd·window/σ_f and
-    /// −ψ̂_r/σ_s.
+    /// −ψ̂_r/σ_s. A mode compared by frequency alone
+    /// ([`ModalObjective::compare_frequency_only`]) has the first only.
     pub fn evaluate(&self, x: &[f64], set: &ModeSet) -> Option<Evaluation> {
         let models = self.model_modes(x).ok()?;
         let usable = self.usable();
@@ -61,7 +62,7 @@ impl ModalObjective {
             residuals,
             damping,
             cost_usable,
-            mean_mac: mean_mac(&pairs, &usable),
+            mean_mac: mean_mac(&pairs, &self.shapes_compared()),
             robust_usable,
         })
     }
@@ -99,10 +100,15 @@ impl ModalObjective {
             .zip(set)
             .enumerate()
             .flat_map(|(p, (r, used))| {
-                let len = 1 + 2 * r.rows.len();
-                (0..used.len())
-                    .filter(move |&k| used[k])
-                    .map(move |k| (p, k, len))
+                let shape = 2 * r.rows.len();
+                (0..used.len()).filter(move |&k| used[k]).map(move |k| {
+                    let len = if r.frequency_only[k].is_some() {
+                        1
+                    } else {
+                        1 + shape
+                    };
+                    (p, k, len)
+                })
             })
             .collect()
     }
@@ -126,10 +132,11 @@ impl ModalObjective {
                 let (sf, ss) = (r.sigma_f[k], r.sigma_s[k]);
                 let psi = &r.shapes[k];
                 let psi_norm = norm(psi);
+                let shape = r.frequency_only[k].is_none();
                 let Some(c) = c else {
                     damping.push(1.0 / r.sigma_z[k]);
                     out.push(wf * self.pairing.window / sf);
-                    for v in psi {
+                    for v in psi.iter().filter(|_| shape) {
                         out.extend([-ws * v.re / psi_norm / ss, -ws * v.im / psi_norm / ss]);
                     }
                     continue;
@@ -142,6 +149,9 @@ impl ModalObjective {
                     mode.damping_ratio / r.sigma_z[k]
                 });
                 out.push(wf * (mode.frequency_hz - r.frequencies[k]) / r.frequencies[k] / sf);
+                if !shape {
+                    continue;
+                }
                 let phi_norm = norm(&mode.shape);
                 let dot: Complex64 = mode.shape.iter().zip(psi).map(|(p, q)| p.conj() * q).sum();
                 let alpha = if dot.norm() > 0.0 {
@@ -163,7 +173,9 @@ impl ModalObjective {
     /// min over model modes m of w_mac (1 − MAC) + w_nfd h_δ(NFD). Taking the
     /// best match instead of the one-to-one pairing of J keeps the criterion
     /// continuous (no plateau when the pairing loses the mode); where the
-    /// pairing is unambiguous both agree. Evaluates position `p` only.
+    /// pairing is unambiguous both agree. A mode compared by frequency
+    /// alone drops the MAC term (its nearest model mode in frequency then
+    /// matches). Evaluates position `p` only.
     pub fn mode_cost(&self, p: usize, r: usize, x: &[f64], delta: f64) -> f64 {
         let Ok(model) = self.model_modes_at(p, x) else {
             return f64::INFINITY;
@@ -171,11 +183,16 @@ impl ModalObjective {
         let w = self.weights;
         let reference = &self.references[p];
         let (f, shape) = (reference.frequencies[r], &reference.shapes[r]);
+        let w_mac = if reference.frequency_only[r].is_some() {
+            0.0
+        } else {
+            w.mac
+        };
         let best = model
             .modes
             .iter()
             .map(|m| {
-                w.mac * (1.0 - mac(shape, &m.shape)) + w.nfd * huber(nfd(f, m.frequency_hz), delta)
+                w_mac * (1.0 - mac(shape, &m.shape)) + w.nfd * huber(nfd(f, m.frequency_hz), delta)
             })
             .fold(f64::INFINITY, f64::min);
         if best.is_finite() {

@@ -199,8 +199,11 @@ impl Kind for Identify {
     /// 39: a window of the FRF fit far above the noise gets a warning
     /// naming the reference modes there and whether the modal fit used
     /// them (or that it has none); fits and verdicts are unchanged.
+    /// 40: `shape_observability`: a mode seen by the sensors less than it
+    /// (and at least `observability`) is compared by its frequency alone;
+    /// unset (the default) fits are unchanged.
     fn version(&self) -> u32 {
-        39
+        40
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
@@ -312,7 +315,7 @@ impl Kind for Identify {
             strategy,
             budget: spec.budget,
             seed: ctx.seed,
-            visibility: spec.observability,
+            observability: spec.observability,
             exclude: &spec.exclude,
             max_std_error: spec.max_std_error,
             fixed_spread: spec.fixed_spread,

@@ -190,6 +190,12 @@ crate::params! {
         /// the median mode's (0 keeps all)
         pub observability: f64 = 0.25; range Range::at_least(0.0)
             => "`observability` must be a number ≥ 0", "e.g. observability: 0.25",
+        /// compare only the frequency, not the shape, of modes whose sensor
+        /// amplitude is below this fraction of the median mode's (and at
+        /// least `observability`); default: `observability` (no mode by
+        /// frequency alone)
+        pub shape_observability: Option<f64> = None; range Range::at_least(0.0)
+            => "`shape_observability` must be a number ≥ 0", "e.g. shape_observability: 0.25",
         /// weights of the criteria {mac, nfd, ndd}
         pub weights: Weights = Weights::default(),
         /// relative frequency window for pairing modes (default 0.3); short

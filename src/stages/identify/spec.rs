@@ -7,7 +7,7 @@ use super::params::{
     problem, Params, StrategyName, GUIDED_OPTIMIZER, PAIRING_MIN_MAC, PAIRING_WINDOW,
 };
 use crate::identify::frf_refinement::FrfRefinementParams;
-use crate::identify::{GuidedParams, Uncertainty, Weights};
+use crate::identify::{GuidedParams, Observability, Uncertainty, Weights};
 use crate::optimize::Optimizer;
 use crate::pairing::Pairing;
 use crate::stages::{Field, ParamProblem, ParamSet};
@@ -44,7 +44,7 @@ pub struct Spec {
     pub weights: Weights,
     pub pairing: Pairing,
     pub uncertainty: Uncertainty,
-    pub observability: f64,
+    pub observability: Observability,
     pub max_std_error: f64,
     /// σ of ln p of every fixed parameter (`None`: from its bounds).
     pub fixed_spread: Option<f64>,
@@ -86,7 +86,10 @@ pub fn spec(p: &Params) -> Result<Spec, Vec<ParamProblem>> {
             weights: p.weights,
             pairing,
             uncertainty: p.uncertainty,
-            observability: p.observability,
+            observability: Observability {
+                modes: p.observability,
+                shapes: p.shape_observability.unwrap_or(p.observability),
+            },
             max_std_error: p.max_std_error,
             // A relative σ r is σ of ln p ≈ ln(1 + r).
             fixed_spread: p.fixed_spread.map(f64::ln_1p),

@@ -15,8 +15,10 @@ fn hz(v: Option<f64>) -> String {
 }
 
 fn row_cells(r: &CorrelationRow) -> Vec<String> {
-    let used = if r.used {
+    let used = if r.used && r.reason.is_empty() {
         "yes".to_string()
+    } else if r.used {
+        format!("yes, {}", r.reason)
     } else if r.reason.is_empty() {
         "no".to_string()
     } else {
