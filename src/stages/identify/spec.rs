@@ -261,3 +261,30 @@ fn frf_settings(p: &Params, out: &mut Vec<ParamProblem>) -> (f64, f64) {
     }
     frf_band
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn observability(yaml: &str) -> Observability {
+        let map: Mapping = serde_yaml_ng::from_str(yaml).unwrap();
+        Checked::parse(&map).ok().unwrap().spec.observability
+    }
+
+    /// Unset, `shape_observability` follows `observability`, so no mode is
+    /// compared by its frequency alone (identify 39's fits); given, it sets
+    /// the upper threshold on its own.
+    #[test]
+    fn shape_observability_defaults_to_observability() {
+        let at = |modes, shapes| Observability { modes, shapes };
+        assert_eq!(observability("{model: m.yaml}"), at(0.25, 0.25));
+        assert_eq!(
+            observability("{model: m.yaml, observability: 0.05}"),
+            at(0.05, 0.05)
+        );
+        assert_eq!(
+            observability("{model: m.yaml, observability: 0.05, shape_observability: 0.25}"),
+            at(0.05, 0.25)
+        );
+    }
+}
