@@ -17,7 +17,8 @@ pub struct Evaluation {
     /// ½‖r‖² over all usable modes (the same criterion whatever the set,
     /// so stages of a continuation can be compared).
     pub cost_usable: f64,
-    /// Mean MAC over all usable modes, an unpaired mode counting 0.
+    /// Mean MAC over all usable modes whose shapes are compared, an
+    /// unpaired mode counting 0.
     pub mean_mac: f64,
     /// The robust cost over all usable modes ([`ModalObjective::robust`]).
     pub robust_usable: f64,
@@ -102,11 +103,7 @@ impl ModalObjective {
             .flat_map(|(p, (r, used))| {
                 let shape = 2 * r.rows.len();
                 (0..used.len()).filter(move |&k| used[k]).map(move |k| {
-                    let len = if r.frequency_only[k].is_some() {
-                        1
-                    } else {
-                        1 + shape
-                    };
+                    let len = if r.compares_shape(k) { 1 + shape } else { 1 };
                     (p, k, len)
                 })
             })
@@ -132,7 +129,7 @@ impl ModalObjective {
                 let (sf, ss) = (r.sigma_f[k], r.sigma_s[k]);
                 let psi = &r.shapes[k];
                 let psi_norm = norm(psi);
-                let shape = r.frequency_only[k].is_none();
+                let shape = r.compares_shape(k);
                 let Some(c) = c else {
                     damping.push(1.0 / r.sigma_z[k]);
                     out.push(wf * self.pairing.window / sf);
@@ -183,10 +180,10 @@ impl ModalObjective {
         let w = self.weights;
         let reference = &self.references[p];
         let (f, shape) = (reference.frequencies[r], &reference.shapes[r]);
-        let w_mac = if reference.frequency_only[r].is_some() {
-            0.0
-        } else {
+        let w_mac = if reference.compares_shape(r) {
             w.mac
+        } else {
+            0.0
         };
         let best = model
             .modes
