@@ -282,7 +282,9 @@ impl Correspondence {
         let mut count = 0;
         for (p, s) in self.slots.iter().enumerate() {
             for n in &s.nominal {
-                let Some(r) = n.reference else { continue };
+                let Some(r) = n.reference.filter(|_| n.visibility < modes.max(shapes)) else {
+                    continue;
+                };
                 let seen = format!(
                     "its model mode p{}.mode{} ({:.1} Hz) moves the sensors {:.2}× as much as the median mode",
                     s.position, n.number, n.frequency_hz, n.visibility
@@ -294,7 +296,7 @@ impl Correspondence {
                         format!("{NOT_OBSERVABLE}: {seen} (threshold {modes})"),
                     );
                     count += 1;
-                } else if n.visibility < shapes {
+                } else {
                     o.compare_frequency_only(
                         p,
                         r,
@@ -311,6 +313,7 @@ impl Correspondence {
 mod tests {
     use super::*;
     use crate::identify::black_box::tests::objective;
+    use crate::identify::objective::ModeUse;
 
     /// Below `modes` a mode leaves, below `shapes` its frequency alone
     /// counts, above both it is compared in full; each says why.
@@ -336,13 +339,13 @@ mod tests {
         assert_eq!(c.exclude_unobservable(&mut o), 1);
         let (low, mid, high) = (seen[0].1, seen[1].1, seen[2].1);
         assert!(o.exclusion(0, low).unwrap().starts_with(NOT_OBSERVABLE));
-        assert!(o.frequency_only(0, low).is_none());
-        assert!(o.exclusion(0, mid).is_none());
-        let why = o.frequency_only(0, mid).unwrap();
+        let ModeUse::FrequencyOnly(why) = o.mode_use(0, mid) else {
+            panic!("{:?}", o.mode_use(0, mid));
+        };
         assert!(
             why.starts_with(SHAPE_NOT_OBSERVABLE) && why.contains("shape threshold"),
             "{why}"
         );
-        assert!(o.exclusion(0, high).is_none() && o.frequency_only(0, high).is_none());
+        assert_eq!(o.mode_use(0, high), &ModeUse::Full);
     }
 }

@@ -20,6 +20,7 @@ pub struct LocalMisfit {
 }
 
 use super::correspondence::NOT_OBSERVABLE;
+use super::objective::ModeUse;
 use super::ModalObjective;
 
 /// Lines in the window of [`LocalMisfit`].
@@ -72,22 +73,18 @@ impl LocalMisfit {
         let Some(p) = o.slot(self.position) else {
             return format!("{head} lies at a position without reference modes");
         };
-        let inside: Vec<(usize, f64, Option<&str>)> = (0..o.modes_at(p))
-            .map(|r| (r, o.reference_frequency(p, r), o.exclusion(p, r)))
+        let inside: Vec<(usize, f64, &ModeUse)> = (0..o.modes_at(p))
+            .map(|r| (r, o.reference_frequency(p, r), o.mode_use(p, r)))
             .filter(|(_, f, _)| (lo_hz..=hi_hz).contains(f))
             .collect();
-        let how = |r: usize| match o.frequency_only(p, r) {
-            Some(why) => format!("used by the modal fit, {why}"),
-            None => "used by the modal fit".to_string(),
-        };
         if inside.is_empty() {
             return format!(
                 "{head} holds no reference mode: the EMA found none there, so the FRFs alone place the modes there"
             );
         }
-        let weak = inside
-            .iter()
-            .any(|(_, _, why)| why.is_some_and(|w| w.starts_with(NOT_OBSERVABLE)));
+        let weak = inside.iter().any(
+            |(_, _, u)| matches!(u, ModeUse::Excluded(why) if why.starts_with(NOT_OBSERVABLE)),
+        );
         let hint = if weak {
             "; a lower `observability` lets a mode the sensors see weakly count (by its frequency alone below `shape_observability`)"
         } else {
@@ -95,12 +92,13 @@ impl LocalMisfit {
         };
         let modes: Vec<String> = inside
             .iter()
-            .map(|&(r, f, why)| match why {
-                None => format!("reference mode {} ({f:.2} Hz), {}", r + 1, how(r)),
-                Some(why) => format!(
-                    "reference mode {} ({f:.2} Hz), left out of the modal fit: {why}",
-                    r + 1
-                ),
+            .map(|&(r, f, u)| {
+                let how = match u {
+                    ModeUse::Full => "used by the modal fit".to_string(),
+                    ModeUse::FrequencyOnly(why) => format!("used by the modal fit, {why}"),
+                    ModeUse::Excluded(why) => format!("left out of the modal fit: {why}"),
+                };
+                format!("reference mode {} ({f:.2} Hz), {how}", r + 1)
             })
             .collect();
         format!("{head} holds {}{hint}", modes.join("; "))

@@ -93,19 +93,39 @@ pub(crate) struct Reference {
     pub(crate) sigma_s: Vec<f64>,
     /// Relative standard deviation of each damping ratio.
     pub(crate) sigma_z: Vec<f64>,
-    /// Why a mode is left out (`None`: usable).
-    pub(crate) excluded: Vec<Option<String>>,
-    /// Why a usable mode's shape is not compared, its frequency alone
-    /// counting (`None`: frequency and shape).
-    pub(crate) frequency_only: Vec<Option<String>>,
+    /// How each mode takes part.
+    pub(crate) uses: Vec<ModeUse>,
     /// (model sensor row, sign, reference DOF) per shared DOF.
     pub(crate) rows: Vec<(usize, f64, crate::frf::Dof)>,
+}
+
+/// How one reference mode takes part, with the reason when not in full.
+#[derive(Clone, Debug, PartialEq)]
+pub enum ModeUse {
+    /// Frequency and shape.
+    Full,
+    /// Its frequency alone: the shape residuals, J's MAC term, the
+    /// subproblem's MAC and the mean MAC leave it; the pairing still uses
+    /// its shape to tell it from a neighbour.
+    FrequencyOnly(String),
+    /// Not at all.
+    Excluded(String),
+}
+
+impl ModeUse {
+    /// Why the mode is not used in full (`None`: it is).
+    pub fn reason(&self) -> Option<&str> {
+        match self {
+            ModeUse::Full => None,
+            ModeUse::FrequencyOnly(why) | ModeUse::Excluded(why) => Some(why),
+        }
+    }
 }
 
 impl Reference {
     /// Whether mode `k`'s shape is compared (not by frequency alone).
     pub(crate) fn compares_shape(&self, k: usize) -> bool {
-        self.frequency_only[k].is_none()
+        !matches!(self.uses[k], ModeUse::FrequencyOnly(_))
     }
 }
 
@@ -200,8 +220,7 @@ impl ModalObjective {
                 sigma_f: vec![defaults.frequency; n],
                 sigma_s: vec![defaults.shape; n],
                 sigma_z: vec![defaults.damping; n],
-                excluded: vec![None; n],
-                frequency_only: vec![None; n],
+                uses: vec![ModeUse::Full; n],
                 rows,
             });
         }
@@ -223,51 +242,52 @@ impl ModalObjective {
         })
     }
 
-    /// Leave reference mode `r` of slot `p` out, saying why.
+    /// Leave reference mode `r` of slot `p` out, saying why (the first
+    /// reason given stays).
     pub fn exclude(&mut self, p: usize, r: usize, reason: impl Into<String>) {
-        if self.references[p].excluded[r].is_none() {
-            self.references[p].excluded[r] = Some(reason.into());
+        let used = &mut self.references[p].uses[r];
+        if !matches!(used, ModeUse::Excluded(_)) {
+            *used = ModeUse::Excluded(reason.into());
         }
+    }
+
+    /// Compare only the frequency of reference mode `r` of slot `p`, not
+    /// its shape, saying why ([`ModeUse::FrequencyOnly`]); a mode already
+    /// left out or reduced stays as it is.
+    pub fn compare_frequency_only(&mut self, p: usize, r: usize, reason: impl Into<String>) {
+        let used = &mut self.references[p].uses[r];
+        if *used == ModeUse::Full {
+            *used = ModeUse::FrequencyOnly(reason.into());
+        }
+    }
+
+    /// How reference mode `r` of slot `p` takes part.
+    pub fn mode_use(&self, p: usize, r: usize) -> &ModeUse {
+        &self.references[p].uses[r]
     }
 
     /// Why reference mode `r` of slot `p` is left out, if it is.
     pub fn exclusion(&self, p: usize, r: usize) -> Option<&str> {
-        self.references[p].excluded[r].as_deref()
-    }
-
-    /// Compare only the frequency of reference mode `r` of slot `p`, not
-    /// its shape, saying why: the shape residuals, J's MAC term and the
-    /// subproblem's MAC leave it out, and so does the mean MAC; the pairing
-    /// still uses its shape to tell it from a neighbour.
-    pub fn compare_frequency_only(&mut self, p: usize, r: usize, reason: impl Into<String>) {
-        if self.references[p].frequency_only[r].is_none() {
-            self.references[p].frequency_only[r] = Some(reason.into());
+        match self.mode_use(p, r) {
+            ModeUse::Excluded(why) => Some(why),
+            _ => None,
         }
     }
 
-    /// Why only the frequency of reference mode `r` of slot `p` is
-    /// compared, if so.
-    pub fn frequency_only(&self, p: usize, r: usize) -> Option<&str> {
-        self.references[p].frequency_only[r].as_deref()
-    }
-
-    /// The usable modes whose shapes are compared: those of the mean MAC.
+    /// The modes used with their shapes: those of the mean MAC.
     pub fn shapes_compared(&self) -> ModeSet {
-        self.references
-            .iter()
-            .map(|r| {
-                (0..r.excluded.len())
-                    .map(|k| r.excluded[k].is_none() && r.compares_shape(k))
-                    .collect()
-            })
-            .collect()
+        self.mode_set(|u| *u == ModeUse::Full)
     }
 
     /// The modes not excluded.
     pub fn usable(&self) -> ModeSet {
+        self.mode_set(|u| !matches!(u, ModeUse::Excluded(_)))
+    }
+
+    fn mode_set(&self, take: impl Fn(&ModeUse) -> bool) -> ModeSet {
         self.references
             .iter()
-            .map(|r| r.excluded.iter().map(Option::is_none).collect())
+            .map(|r| r.uses.iter().map(&take).collect())
             .collect()
     }
 

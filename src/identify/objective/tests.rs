@@ -25,7 +25,11 @@ fn a_mode_compared_by_frequency_alone_keeps_its_frequency_residual_only() {
     let full = objective();
     let mut o = objective();
     o.compare_frequency_only(0, 1, "weak");
-    assert_eq!(o.frequency_only(0, 1), Some("weak"));
+    assert_eq!(
+        o.mode_use(0, 1),
+        &super::ModeUse::FrequencyOnly("weak".into())
+    );
+    assert_eq!(o.exclusion(0, 1), None);
     assert_eq!(o.usable(), vec![vec![true; 3]]);
     assert_eq!(o.shapes_compared(), vec![vec![true, false, true]]);
     // Uneven, so the shapes move too (a uniform scale keeps them).

@@ -87,11 +87,7 @@ pub fn correlation_rows(o: &ModalObjective, u: &Update) -> Vec<CorrelationRow> {
                 used: o.exclusion(p, r).is_none(),
                 sigma_frequency: o.uncertainty_of(p, r).0,
                 sigma_shape: o.uncertainty_of(p, r).1,
-                reason: o
-                    .exclusion(p, r)
-                    .or(o.frequency_only(p, r))
-                    .unwrap_or("")
-                    .to_string(),
+                reason: o.mode_use(p, r).reason().unwrap_or("").to_string(),
                 nominal_mode: nominal.map_or(String::new(), |n| {
                     format!("p{}.mode{}", slot.position, n.number)
                 }),
