@@ -13,7 +13,7 @@ import pandas as pd
 from .uff import read_frf  # noqa: F401  (re-exported: the `frf` reader)
 
 #: The newest `schema_version` of each JSON artifact this package reads.
-SCHEMA_VERSIONS = {"metrics.json": 2, "cost.json": 2, "identifiability.json": 3, "model.json": 3}
+SCHEMA_VERSIONS = {"metrics.json": 2, "cost.json": 4, "identifiability.json": 3, "model.json": 3}
 
 #: Columns renamed in schema version 2 (old → new), read under both names.
 RENAMED = {

@@ -13,8 +13,8 @@ pub const FILE: &str = "cost.json";
 
 /// The schema this build writes (2: `schema_version` stated; 3: the
 /// verdict's cause may be `minimum_or_model_error`, which a build of
-/// schema 2 cannot read).
-pub const SCHEMA_VERSION: u32 = 3;
+/// schema 2 cannot read; 4: a follow-up's kind may be `window`).
+pub const SCHEMA_VERSION: u32 = 4;
 
 /// Model evaluations per phase of the guided strategy (and the assessment
 /// every strategy ends with).

@@ -345,3 +345,26 @@ fn significant_round_trips_and_reads_the_short_form() {
     assert_eq!(short[0].score_low, None);
     assert!(short[0].significant);
 }
+
+/// The Python package refuses a JSON artifact newer than its table of
+/// schema versions: the table must name what this build writes, or every
+/// file of that kind fails to load in Python (cost.json stood at 2 there
+/// while this build wrote 3).
+#[test]
+fn the_python_package_reads_the_schema_versions_this_build_writes() {
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR"));
+    let text = std::fs::read_to_string(root.join("python/modalflow/artifacts.py")).unwrap();
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("SCHEMA_VERSIONS = {"))
+        .unwrap();
+    for (file, version) in [
+        (metrics::FILE, metrics::SCHEMA_VERSION),
+        (cost::FILE, cost::SCHEMA_VERSION),
+        (identifiability::FILE, identifiability::SCHEMA_VERSION),
+        (model::FILE, model::SCHEMA_VERSION),
+    ] {
+        let entry = format!("\"{file}\": {version}");
+        assert!(line.contains(&entry), "{entry} not in {line}");
+    }
+}

@@ -14,15 +14,22 @@
 //!   search. Whether a further start found a better fit is the evidence that
 //!   tells a local minimum from model error ([`SearchEvidence`]).
 //!
-//! Both come out of the update's budget, after the strategy; each result is
-//! assessed and judged again.
+//! - **Window** ([`super::window_search`]): the FRF fit misses a resonance
+//!   (its worst window of lines far above the noise); the parameters that
+//!   mend that window when moved alone start refinements of all, before a
+//!   refit or the escape spends the budget around it.
+//!
+//! All come out of the update's budget, after the strategy, in the order
+//! [`next_step`] gives; each result is assessed and judged again.
 
 use super::continuation::{continuation, ContinuationParams};
 use super::frf_refinement::{frf_refinement, FrfRefinement};
 use super::guided::GuidedResult;
 use super::history::Recorder;
+use super::local_misfit::LocalMisfit;
 use super::updating::Plan;
 use super::verdict::{SearchEvidence, Status};
+use super::window_search::window_search;
 use super::{IdentifyError, ModalObjective};
 use serde::{Deserialize, Serialize};
 
@@ -31,14 +38,15 @@ use serde::{Deserialize, Serialize};
 pub const ESCAPED: f64 = 0.81;
 
 /// Fewest evaluations a follow-up is started with.
-const MINIMUM: usize = 64;
+pub(super) const MINIMUM: usize = 64;
 
 /// What one follow-up did (cost.json's `follow_ups`): so that an update's
 /// evaluations add up and a reader sees what was tried before the verdict.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FollowUpRecord {
-    /// `refit` (implicated fixed parameters identified too) or `escape`
-    /// (a search over every identified parameter's box).
+    /// `refit` (implicated fixed parameters identified too), `escape` (a
+    /// search over every identified parameter's box) or `window` (over the
+    /// box of those acting on the worst FRF window).
     pub kind: FollowUpKind,
     pub evaluations: usize,
     /// Parameters it moved.
@@ -60,6 +68,9 @@ pub struct FollowUpRecord {
 pub enum FollowUpKind {
     Refit,
     Escape,
+    /// A search of the parameters acting on the worst FRF window
+    /// ([`super::window_search`]).
+    Window,
 }
 
 /// Where an update stands: its point, what it identified and how its last
@@ -92,6 +103,46 @@ pub(super) struct EscapeEnd {
     /// It fitted better, so `Step::outcome` is its point; otherwise the
     /// outcome is the point it started from (searched, its evidence new).
     pub better: bool,
+}
+
+/// What the judgement of an update allows as its next follow-up.
+pub(super) struct Next<'a> {
+    /// The worst FRF window, far above the noise and not searched yet.
+    pub window: Option<LocalMisfit>,
+    /// Fixed parameters to refit.
+    pub implicated: Option<&'a [usize]>,
+    /// Above the noise and not searched over every box yet.
+    pub escape: bool,
+}
+
+/// The next follow-up of `now` within `budget`, with its kind: a search of
+/// the misfit window first, once ([`window_search`]: a refit's parameters
+/// would compensate that resonance, and the escape samples its few
+/// directions thinly), then a refit of the implicated parameters, then
+/// the escape; the first that can run. `None` in the step: none could.
+pub(super) fn next_step(
+    o: &ModalObjective,
+    plan: &Plan,
+    start: &[f64],
+    now: &Outcome,
+    next: &Next,
+    budget: usize,
+    progress: &(dyn Fn(u64) + Sync),
+) -> Result<(FollowUpKind, Option<Step>), IdentifyError> {
+    if let Some(w) = next.window {
+        if let Some(step) = window_search(o, plan, start, now, w, budget, progress)? {
+            return Ok((FollowUpKind::Window, Some(step)));
+        }
+    }
+    if let Some(implicated) = next.implicated {
+        let step = refit(o, plan, start, now, implicated, budget, progress)?;
+        return Ok((FollowUpKind::Refit, step));
+    }
+    if next.escape {
+        let step = escape(o, plan, start, now, budget, progress)?;
+        return Ok((FollowUpKind::Escape, step));
+    }
+    Ok((FollowUpKind::Escape, None))
 }
 
 /// Refit with the `implicated` fixed parameters identified too, from the
@@ -212,42 +263,45 @@ pub(super) fn escape(
         r => r?,
     };
     let cost = r.summary.evaluations;
-    let end_rms = r.summary.end.rms;
     let escaped = r.summary.end.robust_cost < ESCAPED * before.robust_cost;
     let evidence = SearchEvidence {
         escaped: (escaped || thorough).then_some(escaped),
         short: (!escaped && !thorough).then_some((cost, first)),
     };
-    let better = r.summary.end.robust_cost < before.robust_cost;
-    let next = if better {
-        Outcome {
-            x: r.x.clone(),
-            identified: now.identified.clone(),
-            status: Status::of(&r.status),
-            frf: Some(r),
-            evidence,
-            searched: true,
-            refitted: now.refitted.clone(),
-        }
+    Ok(Some(searched_step(now, r, evidence, true, cost)))
+}
+
+/// The step of a search that ended at `r` from `now`: its point when it
+/// fits better (robust FRF cost), else `now`'s, with the search's
+/// `evidence` and `searched` (it covered every identified parameter's box).
+pub(super) fn searched_step(
+    now: &Outcome,
+    r: FrfRefinement,
+    evidence: SearchEvidence,
+    searched: bool,
+    cost: usize,
+) -> Step {
+    let before = now.frf.as_ref().map(|f| f.summary.end.robust_cost);
+    let better = before.is_some_and(|b| r.summary.end.robust_cost < b);
+    let rms = r.summary.end.rms;
+    let (x, status, frf) = if better {
+        (r.x.clone(), Status::of(&r.status), Some(r))
     } else {
-        Outcome {
-            x: now.x.clone(),
-            identified: now.identified.clone(),
-            status: now.status,
-            frf: now.frf.clone(),
-            evidence,
-            searched: true,
-            refitted: now.refitted.clone(),
-        }
+        (now.x.clone(), now.status, now.frf.clone())
     };
-    Ok(Some(Step {
-        outcome: next,
+    Step {
+        outcome: Outcome {
+            x,
+            identified: now.identified.clone(),
+            status,
+            frf,
+            evidence,
+            searched,
+            refitted: now.refitted.clone(),
+        },
         cost,
-        escape: Some(EscapeEnd {
-            rms: end_rms,
-            better,
-        }),
-    }))
+        escape: Some(EscapeEnd { rms, better }),
+    }
 }
 
 /// The guided strategy's own restarts as evidence: several refinement runs
@@ -275,12 +329,78 @@ fn restart_evidence(ends: &[f64], on_frfs: bool) -> SearchEvidence {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::dynamics::PreparedModel;
     use crate::identify::black_box::tests::{model, objective, truth};
     use crate::identify::frf_objective::{FrfNoise, FrfReference};
     use crate::identify::frf_refinement::FrfRefinementParams;
+
+    /// The three-mass chain's FRFs at 1 % noise for the values `t`, as a
+    /// reference for a model of it.
+    pub(crate) fn chain_reference(t: &[f64]) -> FrfReference {
+        let prepared = PreparedModel::new(&model()).unwrap();
+        let set = crate::identify::frf_refinement::tests::measured(&prepared, t, 0.01, 3);
+        FrfReference::new(&prepared, &[set], None, (10.0, 400.0), FrfNoise::default()).unwrap()
+    }
+
+    /// The FRF refinement of `free` from `x0` with `settings`: a planted
+    /// basin's stuck point.
+    pub(crate) fn stuck_at(
+        r: &FrfReference,
+        free: &[usize],
+        x0: &[f64],
+        settings: &FrfRefinementParams,
+    ) -> FrfRefinement {
+        let o = objective();
+        let bounds = o.bounds().unwrap();
+        frf_refinement(
+            o.prepared(),
+            &bounds,
+            r,
+            free,
+            &[],
+            x0,
+            &o.nominal(),
+            3000,
+            settings,
+            1,
+            &|_| {},
+        )
+        .unwrap()
+    }
+
+    /// A plan that refines on the FRFs `r` (a budget of 10,000, seed 1).
+    pub(in crate::identify) fn frf_plan<'a>(
+        r: &'a FrfReference,
+        settings: &'a FrfRefinementParams,
+        optimizer: &'a crate::optimize::Optimizer,
+    ) -> Plan<'a> {
+        Plan {
+            strategy: crate::identify::Strategy::BlackBox { optimizer },
+            budget: 10_000,
+            seed: 1,
+            observability: crate::identify::Observability::all(),
+            exclude: &[],
+            max_std_error: 0.1,
+            fixed_spread: None,
+            refit_implicated: true,
+            frf: Some((r, settings)),
+        }
+    }
+
+    /// An update stalled at `stuck`, every parameter identified.
+    pub(in crate::identify) fn stalled_at(stuck: FrfRefinement) -> Outcome {
+        Outcome {
+            x: stuck.x.clone(),
+            identified: (0..stuck.x.len()).collect(),
+            status: Status::Stalled,
+            frf: Some(stuck),
+            evidence: SearchEvidence::default(),
+            searched: false,
+            refitted: Vec::new(),
+        }
+    }
 
     /// A planted local minimum: the three-mass chain's stiffnesses
     /// permuted (k1 ← k12, k12 ← k23, k23 ← k3, k3 ← k1). Levenberg–Marquardt
@@ -290,12 +410,9 @@ mod tests {
     /// and records that a further start won.
     #[test]
     fn a_planted_local_minimum_is_escaped() {
-        let prepared = PreparedModel::new(&model()).unwrap();
         let o = objective();
-        let set = crate::identify::frf_refinement::tests::measured(&prepared, &truth(), 0.01, 3);
-        let r =
-            FrfReference::new(&prepared, &[set], None, (10.0, 400.0), FrfNoise::default()).unwrap();
         let t = truth();
+        let r = chain_reference(&t);
         let mut x0 = t.clone();
         for (k, from) in [1, 2, 3, 0].into_iter().enumerate() {
             x0[k] = t[from];
@@ -310,44 +427,11 @@ mod tests {
             secant: false,
             ..settings.clone()
         };
-        let stuck = frf_refinement(
-            &prepared,
-            &o.bounds().unwrap(),
-            &r,
-            &free,
-            &[],
-            &x0,
-            &o.nominal(),
-            3000,
-            &planting,
-            1,
-            &|_| {},
-        )
-        .unwrap();
+        let stuck = stuck_at(&r, &free, &x0, &planting);
         assert!(stuck.summary.end.rms > 10.0, "{:?}", stuck.summary);
         let optimizer = crate::optimize::Optimizer::from_settings("slsqp", None).unwrap();
-        let plan = Plan {
-            strategy: crate::identify::Strategy::BlackBox {
-                optimizer: &optimizer,
-            },
-            budget: 10_000,
-            seed: 1,
-            observability: crate::identify::Observability::all(),
-            exclude: &[],
-            max_std_error: 0.1,
-            fixed_spread: None,
-            refit_implicated: true,
-            frf: Some((&r, &settings)),
-        };
-        let now = Outcome {
-            x: stuck.x.clone(),
-            identified: free.clone(),
-            status: Status::Stalled,
-            frf: Some(stuck),
-            evidence: SearchEvidence::default(),
-            searched: false,
-            refitted: Vec::new(),
-        };
+        let plan = frf_plan(&r, &settings, &optimizer);
+        let now = stalled_at(stuck);
         let Step {
             outcome: next,
             cost,

@@ -279,6 +279,30 @@ impl FrfReference {
         ))
     }
 
+    /// Σ_c |d_c|² over the lines `lo_hz..=hi_hz` of position `position`
+    /// at `x` (the misfit [`LocalMisfit`] pools over its window), or `None`
+    /// when the model cannot be solved there or the position is not fitted.
+    pub fn window_power(
+        &self,
+        model: &PreparedModel,
+        x: &[f64],
+        position: u32,
+        (lo_hz, hi_hz): (f64, f64),
+    ) -> Option<f64> {
+        let k = self.slots.iter().position(|s| s.position == position)?;
+        let s = &self.slots[k];
+        let frfs = vec![self.model_frfs(model, s, x)?];
+        let lines = &s.lines_hz;
+        let power = self
+            .misfits_of_slots(frfs, &[k])
+            .iter()
+            .flat_map(|(_, d, _)| d.iter().zip(lines))
+            .filter(|(_, &f)| f >= lo_hz && f <= hi_hz)
+            .map(|(v, _)| v.norm_sqr())
+            .sum::<f64>();
+        power.is_finite().then_some(power)
+    }
+
     /// Number of residuals (2 per channel and line).
     pub fn count(&self) -> usize {
         self.slots
@@ -441,8 +465,19 @@ impl FrfReference {
         &self,
         frfs: Vec<(PerChannel<Complex64>, Option<PerChannel<f64>>)>,
     ) -> Vec<(usize, Vec<Complex64>, f64)> {
+        let all: Vec<usize> = (0..self.slots.len()).collect();
+        self.misfits_of_slots(frfs, &all)
+    }
+
+    /// [`Self::misfits_of`] for the slots `ks` only, `frfs[i]` of slot `ks[i]`.
+    fn misfits_of_slots(
+        &self,
+        frfs: Vec<(PerChannel<Complex64>, Option<PerChannel<f64>>)>,
+        ks: &[usize],
+    ) -> Vec<(usize, Vec<Complex64>, f64)> {
         let mut out = Vec::new();
-        for (k, (s, (h, drifting))) in self.slots.iter().zip(frfs).enumerate() {
+        for (&k, (h, drifting)) in ks.iter().zip(frfs) {
+            let s = &self.slots[k];
             let sigmas = drifting.as_ref().unwrap_or(&s.sigma);
             for ((m, meas), sigma) in h.iter().zip(&s.measured).zip(sigmas) {
                 let d: Vec<Complex64> = m

@@ -42,6 +42,7 @@ pub mod objective;
 pub mod subproblem;
 pub mod updating;
 pub mod verdict;
+pub mod window_search;
 
 pub use black_box::{black_box, BlackBoxResult};
 pub use continuation::ContinuationParams;

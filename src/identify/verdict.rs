@@ -225,6 +225,15 @@ fn local_excess(fit: &FrfFit) -> Option<LocalMisfit> {
     fit.local.filter(|l| l.rms > LOCAL_NOISE_RMS)
 }
 
+impl Verdict {
+    /// The worst window of lines of the result's FRF fit when it is far
+    /// above the noise ([`LOCAL_NOISE_RMS`]): a resonance the fit misses or
+    /// misplaces.
+    pub fn misplaced_window(&self) -> Option<LocalMisfit> {
+        self.frf.as_ref().and_then(|f| local_excess(&f.end))
+    }
+}
+
 /// The FRF part of a verdict.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FrfJudgement {

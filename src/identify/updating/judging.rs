@@ -1,13 +1,13 @@
 //! The judging of an update's result and its follow-ups: each outcome
 //! assessed ([`super::super::assessment`]) and judged into a [`Verdict`]; a
-//! refit of the parameters the score test implicates, or the escape search
-//! ([`super::super::follow_up`]), judged again and taken when it fits better
-//! (a refit: materially better).
+//! search of the FRF fit's misfit window, a refit of the parameters the score
+//! test implicates, or the escape search ([`super::super::follow_up`]),
+//! judged again and taken when it fits better (a refit: materially better).
 
 use super::super::assessment::{assess, bound_warnings};
 use super::super::consider::Consider;
 use super::super::follow_up::{
-    escape, refit, FollowUpKind, FollowUpRecord, Outcome, Step, ESCAPED,
+    next_step, FollowUpKind, FollowUpRecord, Next, Outcome, Step, ESCAPED,
 };
 use super::super::guided::GuidedResult;
 use super::super::identifiability::Identifiability;
@@ -68,7 +68,7 @@ impl FollowUps<'_> {
     /// taken.
     pub(super) fn run(&self, mut s: Standing) -> Result<Standing, IdentifyError> {
         let (o, plan, start, progress) = (self.o, self.plan, self.start, self.progress);
-        for _ in 0..2 {
+        for _ in 0..3 {
             // The reserve pays the judgement of what a follow-up returns;
             // one more for the result's J at the end (the strategy's share
             // keeps the same one back: `Budgets::split`). Without it a
@@ -86,13 +86,18 @@ impl FollowUps<'_> {
                 s.refutation = Some(refute_at_floor(&mut s.judged));
                 refitting = false;
             }
-            let step = if refitting {
-                refit(o, plan, start, &s.outcome, &implicated, left, progress)?
-            } else if s.judged.verdict.fit == Fit::AboveNoise && !s.outcome.searched {
-                escape(o, plan, start, &s.outcome, left, progress)?
-            } else {
-                None
+            let tried_window = s.follow_ups.iter().any(|f| f.kind == FollowUpKind::Window);
+            let next = Next {
+                window: s
+                    .judged
+                    .verdict
+                    .misplaced_window()
+                    .filter(|_| !tried_window),
+                implicated: refitting.then_some(implicated.as_slice()),
+                escape: s.judged.verdict.fit == Fit::AboveNoise && !s.outcome.searched,
             };
+            let (kind, step) = next_step(o, plan, start, &s.outcome, &next, left, progress)?;
+            refitting &= kind == FollowUpKind::Refit;
             let Some(Step {
                 outcome: next,
                 cost,
@@ -104,11 +109,7 @@ impl FollowUps<'_> {
             s.evaluations += cost;
             let before = fit_rms(&s.judged.verdict);
             let record = |rms_after: f64, taken: bool| FollowUpRecord {
-                kind: if refitting {
-                    FollowUpKind::Refit
-                } else {
-                    FollowUpKind::Escape
-                },
+                kind,
                 evaluations: cost,
                 parameters: next.identified.len(),
                 rms_before: before,

@@ -2,7 +2,7 @@
 //! verdict and the evidence of a further search, and the line that names it
 //! in the message.
 
-use super::{local_excess, refit, Fit, SearchEvidence, Status, Verdict};
+use super::{refit, Fit, SearchEvidence, Status, Verdict};
 use serde::{Deserialize, Serialize};
 
 /// Why a verdict is not ok, the first that applies in this order.
@@ -222,8 +222,7 @@ impl Verdict {
         if self.search.escaped == Some(true) {
             return Some("an escape search reached from a worse basin (the landscape has other minima, and this may be one)");
         }
-        let local = self.frf.as_ref().and_then(|f| local_excess(&f.end));
-        local.map(|_| {
+        self.misplaced_window().map(|_| {
             "misses or misplaces a resonance (its worst window of lines is far above the noise)"
         })
     }

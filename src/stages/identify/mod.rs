@@ -202,8 +202,11 @@ impl Kind for Identify {
     /// 40: `shape_observability`: a mode seen by the sensors less than it
     /// (and at least `observability`) is compared by its frequency alone;
     /// unset (the default) fits are unchanged.
+    /// 41: a window of the FRF fit far above the noise is searched first
+    /// (the parameters acting on it over their box, then all identified
+    /// ones; follow-up `window`): updates whose fit has such a window change.
     fn version(&self) -> u32 {
-        40
+        41
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
