@@ -75,6 +75,7 @@ pub enum FollowUpKind {
 
 /// Where an update stands: its point, what it identified and how its last
 /// optimizer ended.
+#[derive(Clone)]
 pub(super) struct Outcome {
     pub x: Vec<f64>,
     pub identified: Vec<usize>,
@@ -284,20 +285,21 @@ pub(super) fn searched_step(
     let before = now.frf.as_ref().map(|f| f.summary.end.robust_cost);
     let better = before.is_some_and(|b| r.summary.end.robust_cost < b);
     let rms = r.summary.end.rms;
-    let (x, status, frf) = if better {
-        (r.x.clone(), Status::of(&r.status), Some(r))
+    let outcome = if better {
+        Outcome {
+            x: r.x.clone(),
+            status: Status::of(&r.status),
+            frf: Some(r),
+            ..now.clone()
+        }
     } else {
-        (now.x.clone(), now.status, now.frf.clone())
+        now.clone()
     };
     Step {
         outcome: Outcome {
-            x,
-            identified: now.identified.clone(),
-            status,
-            frf,
             evidence,
             searched,
-            refitted: now.refitted.clone(),
+            ..outcome
         },
         cost,
         escape: Some(EscapeEnd { rms, better }),

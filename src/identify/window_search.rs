@@ -17,9 +17,9 @@
 //! ([`super::frf_refinement`]), and the first result whose robust FRF cost
 //! is below the update's replaces it.
 
-use super::follow_up::{searched_step, Outcome, Step, ESCAPED, MINIMUM};
+use super::follow_up::{searched_step, EscapeEnd, Outcome, Step, ESCAPED, MINIMUM};
 use super::frf_objective::FrfReference;
-use super::frf_refinement::frf_refinement;
+use super::frf_refinement::{frf_refinement, FrfRefinement};
 use super::local_misfit::LocalMisfit;
 use super::updating::Plan;
 use super::verdict::SearchEvidence;
@@ -104,8 +104,9 @@ pub fn window_moves(
 /// (`local`, above the noise): from each of the best [`window_moves`] in
 /// turn, refine every identified parameter on the FRFs, within `budget`
 /// (shared evenly by the starts still to run); the first that fits better
-/// than `now` is the step's outcome. `None` without FRFs, a window, a
-/// parameter that lowers it, or the budget for one refinement.
+/// than `now` is the step's outcome. `None` without FRFs, a window or the
+/// budget for the scan and one refinement; `now` unchanged (the scan's cost
+/// accounted) when no parameter lowers the window.
 pub(super) fn window_search(
     o: &ModalObjective,
     plan: &Plan,
@@ -139,12 +140,16 @@ pub(super) fn window_search(
         return Ok(None);
     };
     let bounds = o.bounds()?;
-    let mut best: Option<super::frf_refinement::FrfRefinement> = None;
+    let mut best: Option<FrfRefinement> = None;
     for (k, m) in moves.iter().enumerate() {
-        let share = budget.saturating_sub(cost) / (moves.len() - k);
-        if share < one_run {
-            break;
-        }
+        // An even share of what is left, or all of it when a share would
+        // be too small for a refinement.
+        let left = budget.saturating_sub(cost);
+        let share = match left / (moves.len() - k) {
+            s if s >= one_run => s,
+            _ if left >= one_run => left,
+            _ => break,
+        };
         let mut x0 = now.x.clone();
         x0[m.parameter] = m.value;
         let r = match frf_refinement(
@@ -175,8 +180,17 @@ pub(super) fn window_search(
             break;
         }
     }
+    // The scan was paid for even when no refinement could follow: the
+    // step leaves `now` as it was and says so.
     let Some(r) = best else {
-        return Ok(None);
+        return Ok(Some(Step {
+            outcome: now.clone(),
+            cost,
+            escape: Some(EscapeEnd {
+                rms: before.rms,
+                better: false,
+            }),
+        }));
     };
     // A better basin found is evidence of a local minimum; finding none is
     // no evidence either way (a few directions were tried).
