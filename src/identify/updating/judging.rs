@@ -68,6 +68,8 @@ impl FollowUps<'_> {
     /// taken.
     pub(super) fn run(&self, mut s: Standing) -> Result<Standing, IdentifyError> {
         let (o, plan, start, progress) = (self.o, self.plan, self.start, self.progress);
+        // At most three follow-ups: the window search once, then a refit or
+        // the escape twice (as before the window search existed).
         for _ in 0..3 {
             // The reserve pays the judgement of what a follow-up returns;
             // one more for the result's J at the end (the strategy's share
