@@ -120,7 +120,8 @@ pub(super) struct Next<'a> {
 /// the misfit window first, once ([`window_search`]: a refit's parameters
 /// would compensate that resonance, and the escape samples its few
 /// directions thinly), then a refit of the implicated parameters, then
-/// the escape; the first that can run. `None` in the step: none could.
+/// the escape; the first that can run. `None`: the one due could not run
+/// (no budget, no FRFs), or none is due.
 pub(super) fn next_step(
     o: &ModalObjective,
     plan: &Plan,
@@ -129,21 +130,20 @@ pub(super) fn next_step(
     next: &Next,
     budget: usize,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<(FollowUpKind, Option<Step>), IdentifyError> {
+) -> Result<Option<(FollowUpKind, Step)>, IdentifyError> {
     if let Some(w) = next.window {
         if let Some(step) = window_search(o, plan, start, now, w, budget, progress)? {
-            return Ok((FollowUpKind::Window, Some(step)));
+            return Ok(Some((FollowUpKind::Window, step)));
         }
     }
-    if let Some(implicated) = next.implicated {
-        let step = refit(o, plan, start, now, implicated, budget, progress)?;
-        return Ok((FollowUpKind::Refit, step));
-    }
-    if next.escape {
-        let step = escape(o, plan, start, now, budget, progress)?;
-        return Ok((FollowUpKind::Escape, step));
-    }
-    Ok((FollowUpKind::Escape, None))
+    let step = if let Some(implicated) = next.implicated {
+        refit(o, plan, start, now, implicated, budget, progress)?.map(|s| (FollowUpKind::Refit, s))
+    } else if next.escape {
+        escape(o, plan, start, now, budget, progress)?.map(|s| (FollowUpKind::Escape, s))
+    } else {
+        None
+    };
+    Ok(step)
 }
 
 /// Refit with the `implicated` fixed parameters identified too, from the
@@ -285,22 +285,16 @@ pub(super) fn searched_step(
     let before = now.frf.as_ref().map(|f| f.summary.end.robust_cost);
     let better = before.is_some_and(|b| r.summary.end.robust_cost < b);
     let rms = r.summary.end.rms;
-    let outcome = if better {
-        Outcome {
-            x: r.x.clone(),
-            status: Status::of(&r.status),
-            frf: Some(r),
-            ..now.clone()
-        }
-    } else {
-        now.clone()
-    };
+    let mut outcome = now.clone();
+    if better {
+        outcome.x = r.x.clone();
+        outcome.status = Status::of(&r.status);
+        outcome.frf = Some(r);
+    }
+    outcome.evidence = evidence;
+    outcome.searched = searched;
     Step {
-        outcome: Outcome {
-            evidence,
-            searched,
-            ..outcome
-        },
+        outcome,
         cost,
         escape: Some(EscapeEnd { rms, better }),
     }

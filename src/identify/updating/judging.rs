@@ -98,16 +98,18 @@ impl FollowUps<'_> {
                 implicated: refitting.then_some(implicated.as_slice()),
                 escape: s.judged.verdict.fit == Fit::AboveNoise && !s.outcome.searched,
             };
-            let (kind, step) = next_step(o, plan, start, &s.outcome, &next, left, progress)?;
-            refitting &= kind == FollowUpKind::Refit;
-            let Some(Step {
-                outcome: next,
-                cost,
-                escape: end,
-            }) = step
+            let Some((
+                kind,
+                Step {
+                    outcome: next,
+                    cost,
+                    escape: end,
+                },
+            )) = next_step(o, plan, start, &s.outcome, &next, left, progress)?
             else {
                 break;
             };
+            let refitting = kind == FollowUpKind::Refit;
             s.evaluations += cost;
             let before = fit_rms(&s.judged.verdict);
             let record = |rms_after: f64, taken: bool| FollowUpRecord {
