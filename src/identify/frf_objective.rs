@@ -76,6 +76,7 @@ use crate::frf::{FrfQuantity, FrfSet};
 use num_complex::Complex64;
 pub use slot::coherence_sigma;
 use slot::slot;
+use std::f64::consts::TAU;
 
 /// Per channel, one value per line.
 type PerChannel<T> = Vec<Vec<T>>;
@@ -129,6 +130,16 @@ pub struct FrfNoise {
     /// the model's modes are then truncated alike
     /// ([`crate::dynamics::truncation`]).
     pub truncation: Option<f64>,
+}
+
+/// A window's misfit power and the model's natural frequencies at one
+/// point ([`FrfReference::window_probe`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct WindowProbe {
+    /// Σ_c |d_c|² over the window's lines (noise units).
+    pub power: f64,
+    /// Undamped natural frequencies of the position's model, Hz, ascending.
+    pub hz: Vec<f64>,
 }
 
 /// Measured FRFs prepared as a reference for a model.
@@ -280,18 +291,21 @@ impl FrfReference {
     }
 
     /// Σ_c |d_c|² over the lines `lo_hz..=hi_hz` of position `position`
-    /// at `x` (the misfit [`LocalMisfit`] pools over its window), or `None`
-    /// when the model cannot be solved there or the position is not fitted.
-    pub fn window_power(
+    /// at `x` (the misfit [`LocalMisfit`] pools over its window) and the
+    /// model's natural frequencies there (Hz, ascending), or `None` when
+    /// the model cannot be solved there or the position is not fitted.
+    pub fn window_probe(
         &self,
         model: &PreparedModel,
         x: &[f64],
         position: u32,
         (lo_hz, hi_hz): (f64, f64),
-    ) -> Option<f64> {
+    ) -> Option<WindowProbe> {
         let k = self.slots.iter().position(|s| s.position == position)?;
         let s = &self.slots[k];
-        let frfs = vec![self.model_frfs(model, s, x)?];
+        // The eigensolution once, for the FRFs and the frequencies.
+        let sol = model.evaluate_modes(s.config, x, self.superposed(s)).ok()?;
+        let frfs = vec![self.frfs_of(s, &sol, &s.pairs)];
         let lines = &s.lines_hz;
         let power = self
             .misfits_of_slots(frfs, &[k])
@@ -300,7 +314,17 @@ impl FrfReference {
             .filter(|(_, &f)| f >= lo_hz && f <= hi_hz)
             .map(|(v, _)| v.norm_sqr())
             .sum::<f64>();
-        power.is_finite().then_some(power)
+        let hz = sol.eigenvalues.iter().map(|w2| w2.max(0.0).sqrt() / TAU);
+        let mut hz: Vec<f64> = hz.collect();
+        hz.sort_by(f64::total_cmp);
+        power.is_finite().then_some(WindowProbe { power, hz })
+    }
+
+    /// The lines of position `position` from `lo_hz` to `hi_hz`, Hz.
+    pub fn lines_between(&self, position: u32, (lo_hz, hi_hz): (f64, f64)) -> Vec<f64> {
+        let slot = self.slots.iter().filter(|s| s.position == position).take(1);
+        let lines = slot.flat_map(|s| s.lines_hz.iter().copied());
+        lines.filter(|&f| f >= lo_hz && f <= hi_hz).collect()
     }
 
     /// Number of residuals (2 per channel and line).

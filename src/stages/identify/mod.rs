@@ -205,8 +205,12 @@ impl Kind for Identify {
     /// 41: a window of the FRF fit far above the noise is searched first
     /// (the parameters acting on it over their box, then all identified
     /// ones; follow-up `window`): updates whose fit has such a window change.
+    /// 42: the window's scan also places each model mode that crosses a
+    /// window line between grid points on that line, and a refinement that
+    /// mends the window but settles with another far above the noise has
+    /// that one searched too, the first kept in the scan's misfit.
     fn version(&self) -> u32 {
-        41
+        42
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
