@@ -221,9 +221,10 @@ impl Scan {
 /// Search for the resonance of the worst window of `now`'s FRF fit
 /// (`local`, above the noise): from each of the best [`window_moves`] in
 /// turn, refine every identified parameter on the FRFs, within `budget`
-/// (shared evenly by the starts still to run); the first that fits better
-/// than `now` is the step's outcome. `None` without FRFs, a window or the
-/// budget for the scan and one refinement; `now` unchanged (the scan's cost
+/// (shared evenly by the starts still to run; a window a refinement opens
+/// is searched in turn, [`DEPTH`]); the first that fits better than `now`
+/// is the step's outcome. `None` without FRFs, a window or the budget for
+/// the scan's grid and one refinement; `now` unchanged (the scan's cost
 /// accounted) when no parameter lowers the window.
 pub(super) fn window_search(
     o: &ModalObjective,
@@ -318,10 +319,13 @@ struct Search<'a> {
 }
 
 impl Search<'_> {
+    /// Evaluations of a scan's grid; its crossings come out of what the
+    /// grid and one refinement leave of a budget ([`Search::descend`]).
     fn scan_cost(&self) -> usize {
         1 + SCAN * self.identified.len()
     }
 
+    /// Fewest evaluations a refinement is started with.
     fn one_run(&self) -> usize {
         MINIMUM.max(8 * (self.identified.len() + 1))
     }
