@@ -120,20 +120,11 @@ pub fn window_moves(
                     (t, scan.keep(at(t)))
                 })
                 .collect();
-            for pair in grid.windows(2) {
-                let [(ta, Some((_, fa))), (tb, Some((_, fb)))] = pair else {
-                    continue;
-                };
-                for (w, lines) in targets.iter().enumerate() {
-                    for (j, (&a, &b)) in fa[w].iter().zip(&fb[w]).enumerate() {
-                        for &line in lines.iter().filter(|&&l| (a - l) * (b - l) < 0.0) {
-                            if scan.evaluations >= scan.most {
-                                break;
-                            }
-                            scan.place(&at, (*ta, a), (*tb, b), (w, j, line));
-                        }
-                    }
+            for (lo, hi, mode) in crossings_of(&grid, &targets) {
+                if scan.evaluations >= scan.most {
+                    break;
                 }
+                scan.place(&at, lo, hi, mode);
             }
             let (best, value) = scan.best;
             let gain = 1.0 - best / p0;
@@ -155,6 +146,32 @@ pub fn window_moves(
     });
     moves.truncate(PARAMETERS);
     Ok(Some((moves, evaluations)))
+}
+
+/// A mode's crossing of a window line: the grid points on either side as
+/// (unit coordinate, the mode's frequency there) and (window, mode, line).
+type Crossing = ((f64, f64), (f64, f64), (usize, usize, f64));
+
+/// Where a model mode crosses a window line between two solvable grid
+/// points of a scan (`grid`: unit coordinate and probe; `targets`: each
+/// window's lines), in grid order.
+fn crossings_of<'a>(
+    grid: &'a [(f64, Option<Probe>)],
+    targets: &'a [Vec<f64>],
+) -> impl Iterator<Item = Crossing> + 'a {
+    let brackets = grid.windows(2).filter_map(|pair| match pair {
+        [(ta, Some((_, fa))), (tb, Some((_, fb)))] => Some((*ta, fa, *tb, fb)),
+        _ => None,
+    });
+    brackets.flat_map(move |(ta, fa, tb, fb)| {
+        targets.iter().enumerate().flat_map(move |(w, lines)| {
+            let modes = fa[w].iter().zip(&fb[w]).enumerate();
+            modes.flat_map(move |(j, (&a, &b))| {
+                let crossed = lines.iter().filter(move |&&l| (a - l) * (b - l) < 0.0);
+                crossed.map(move |&l| ((ta, a), (tb, b), (w, j, l)))
+            })
+        })
+    })
 }
 
 /// One parameter's scan: its best (power, value) so far and the probes it
