@@ -132,12 +132,11 @@ pub struct FrfNoise {
     pub truncation: Option<f64>,
 }
 
-/// A window's misfit power and the model's natural frequencies at one
-/// point ([`FrfReference::window_probe`]).
+/// Windows' misfit powers and the model's natural frequencies at one point.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WindowProbe {
-    /// Σ_c |d_c|² over the window's lines (noise units).
-    pub power: f64,
+    /// Σ_c |d_c|² over each window's lines (noise units).
+    pub powers: Vec<f64>,
     /// Undamped natural frequencies of the position's model, Hz, ascending.
     pub hz: Vec<f64>,
 }
@@ -290,34 +289,36 @@ impl FrfReference {
         ))
     }
 
-    /// Σ_c |d_c|² over the lines `lo_hz..=hi_hz` of position `position`
-    /// at `x` (the misfit [`LocalMisfit`] pools over its window) and the
-    /// model's natural frequencies there (Hz, ascending), or `None` when
-    /// the model cannot be solved there or the position is not fitted.
+    /// Σ_c |d_c|² over the lines `lo_hz..=hi_hz` of each of `windows` of
+    /// position `position` at `x` (as [`LocalMisfit`] pools them) and the
+    /// model's natural frequencies (Hz, ascending), from one eigensolution;
+    /// `None` when it cannot be solved or the position is not fitted.
     pub fn window_probe(
         &self,
         model: &PreparedModel,
         x: &[f64],
         position: u32,
-        (lo_hz, hi_hz): (f64, f64),
+        windows: &[(f64, f64)],
     ) -> Option<WindowProbe> {
         let k = self.slots.iter().position(|s| s.position == position)?;
         let s = &self.slots[k];
-        // The eigensolution once, for the FRFs and the frequencies.
         let sol = model.evaluate_modes(s.config, x, self.superposed(s)).ok()?;
-        let frfs = vec![self.frfs_of(s, &sol, &s.pairs)];
-        let lines = &s.lines_hz;
-        let power = self
-            .misfits_of_slots(frfs, &[k])
-            .iter()
-            .flat_map(|(_, d, _)| d.iter().zip(lines))
-            .filter(|(_, &f)| f >= lo_hz && f <= hi_hz)
-            .map(|(v, _)| v.norm_sqr())
-            .sum::<f64>();
+        let misfits = self.misfits_of_slots(vec![self.frfs_of(s, &sol, &s.pairs)], &[k]);
+        let d = || {
+            misfits
+                .iter()
+                .flat_map(|(_, d, _)| d.iter().zip(&s.lines_hz))
+        };
+        let power = |(lo_hz, hi_hz): (f64, f64)| {
+            let inside = d().filter(|(_, &f)| f >= lo_hz && f <= hi_hz);
+            inside.map(|(v, _)| v.norm_sqr()).sum::<f64>()
+        };
+        let powers: Vec<f64> = windows.iter().map(|&w| power(w)).collect();
         let hz = sol.eigenvalues.iter().map(|w2| w2.max(0.0).sqrt() / TAU);
         let mut hz: Vec<f64> = hz.collect();
         hz.sort_by(f64::total_cmp);
-        power.is_finite().then_some(WindowProbe { power, hz })
+        let finite = powers.iter().all(|p| p.is_finite());
+        finite.then_some(WindowProbe { powers, hz })
     }
 
     /// The lines of position `position` from `lo_hz` to `hi_hz`, Hz.

@@ -77,13 +77,26 @@ pub fn window_moves(
     crossings: usize,
 ) -> Result<Option<(Vec<WindowMove>, usize)>, IdentifyError> {
     let bounds = o.bounds()?;
+    // One eigensolution per position, however many windows it holds; the
+    // powers summed in window order.
     let probe = |x: &[f64]| -> Option<Probe> {
-        let probes = windows
-            .iter()
-            .map(|&(position, lines)| reference.window_probe(o.prepared(), x, position, lines))
-            .collect::<Option<Vec<_>>>()?;
-        let power = probes.iter().map(|p| p.power).sum();
-        Some((power, probes.into_iter().map(|p| p.hz).collect()))
+        let mut powers = vec![0.0; windows.len()];
+        let mut hz = vec![Vec::new(); windows.len()];
+        for (w, &(position, _)) in windows.iter().enumerate() {
+            if windows[..w].iter().any(|&(p, _)| p == position) {
+                continue;
+            }
+            let same: Vec<usize> = (w..windows.len())
+                .filter(|&v| windows[v].0 == position)
+                .collect();
+            let lines: Vec<(f64, f64)> = same.iter().map(|&v| windows[v].1).collect();
+            let p = reference.window_probe(o.prepared(), x, position, &lines)?;
+            for (&v, power) in same.iter().zip(p.powers) {
+                powers[v] = power;
+                hz[v] = p.hz.clone();
+            }
+        }
+        Some((powers.iter().sum(), hz))
     };
     let Some((p0, _)) = probe(x) else {
         return Ok(None);
@@ -372,7 +385,8 @@ impl Search<'_> {
             crossings,
         )?
         else {
-            return Ok((None, 0));
+            // The one probe at `x` was spent.
+            return Ok((None, 1));
         };
         let mut best: Option<FrfRefinement> = None;
         for (k, m) in moves.iter().enumerate() {
