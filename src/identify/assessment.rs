@@ -23,7 +23,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 /// What [`assess`] finds: (identifiability, consider analysis, its cost in
 /// evaluations), the final pairs, (start RMS, end RMS, mode counts) and the
-/// close-pair and unpaired-mode warnings.
+/// close-pair, unpaired-mode and undetermined-in-its-box warnings.
 pub(super) type Assessment = (
     (Identifiability, Option<Consider>, usize),
     Vec<Vec<FinalPair>>,
@@ -111,6 +111,9 @@ pub(super) fn assess(
     } else {
         0
     };
+    let p = o.parameters();
+    let at = identified.iter().map(|&i| (x[i], (p[i].lower, p[i].upper)));
+    close.extend(analysis.spanning_warning(at, considered.as_ref()));
     let identifiability = (analysis, considered, evaluations + checked);
     Ok((
         identifiability,

@@ -169,6 +169,54 @@ fn one() -> f64 {
     1.0
 }
 
+impl Identifiability {
+    /// The identifiable parameters whose stated 95 % interval
+    /// ([`interval`]) reaches both of their bounds: the data do not
+    /// determine them within their box. `at` gives each analysed
+    /// parameter's value and bounds, in the order of `parameters`; the
+    /// stated standard error of ln p is `considered`'s (with the fixed
+    /// parameters' spread) where that was computed. Identifiability rests on the design at
+    /// the noise ([`analyze`]); the stated error also counts the residuals'
+    /// correlation (the batch-means sandwich) and the cost's curvature
+    /// ([`super::curvature`]) and can be far larger, as at a lightly damped
+    /// resonance whose misfit is a needle in the parameter.
+    pub fn spanning_their_box(
+        &self,
+        at: impl IntoIterator<Item = (f64, (f64, f64))>,
+        considered: Option<&super::consider::Consider>,
+    ) -> Vec<&str> {
+        let sigma = |j: usize| {
+            let s = self.parameters[j].std_error;
+            considered.map_or(s, |c| s.and(Some(c.std_error[j])))
+        };
+        self.parameters
+            .iter()
+            .zip(at)
+            .enumerate()
+            .filter(|(_, (p, _))| p.identifiable)
+            .filter_map(|(j, (p, (value, bounds)))| {
+                let (lo, hi) = interval(value, sigma(j).filter(|s| s.is_finite())?, bounds);
+                (lo <= bounds.0 && hi >= bounds.1).then_some(p.parameter.as_str())
+            })
+            .collect()
+    }
+
+    /// A warning naming [`Self::spanning_their_box`], or `None`.
+    pub fn spanning_warning(
+        &self,
+        at: impl IntoIterator<Item = (f64, (f64, f64))>,
+        considered: Option<&super::consider::Consider>,
+    ) -> Option<String> {
+        let names = self.spanning_their_box(at, considered);
+        (!names.is_empty()).then(|| {
+            format!(
+                "{} not determined within their bounds: identifiable by the design at the noise, but the stated 95 % interval (with the residuals' correlation and the cost's curvature) spans the whole box; the value is where the update stopped, and the modes it sets are as uncertain",
+                names.join(", ")
+            )
+        })
+    }
+}
+
 /// Analyze the Jacobian `columns` (one per parameter, ∂r/∂ln p, each of
 /// length m) at residuals `r`; `names` name the parameters. `correlation`
 /// says how the residuals are correlated: its AR(1) factor multiplies the

@@ -195,3 +195,55 @@ fn a_direction_one_block_sees_is_not_structural() {
     }
     assert!((cut[2][0] - 0.5).abs() < 1e-6, "{cut:?}");
 }
+
+#[test]
+fn an_interval_spanning_its_box_is_named_as_not_determined_within_it() {
+    // The straight line of the first test, both parameters identifiable at
+    // a bar of 0.5; values 1 and 2 in boxes [0.5, 2] and [1, 4].
+    let t = [0.0, 1.0, 2.0, 3.0, 4.0];
+    let r = [0.06, -0.12, 0.1, -0.08, 0.04];
+    let cols = vec![vec![1.0; 5], t.to_vec()];
+    let id = analyze(&cols, &r, &names(2), 0.5, &Correlation::independent());
+    assert!(id.parameters.iter().all(|p| p.identifiable), "{id:?}");
+    let at = [(1.0, (0.5, 2.0)), (2.0, (1.0, 4.0))];
+    assert!(id.spanning_their_box(at, None).is_empty());
+    // ln 2 / 1.96 = 0.354 is the σ at which 95 % reaches a factor 2 each
+    // way: just below it the interval stays inside, just above it spans.
+    let edge = 2f64.ln() / Z95;
+    let with = |s: f64| {
+        let mut id = id.clone();
+        id.parameters[1].std_error = Some(s);
+        id
+    };
+    assert!(with(0.99 * edge).spanning_their_box(at, None).is_empty());
+    assert_eq!(with(1.01 * edge).spanning_their_box(at, None), vec!["p1"]);
+    // The consider error (the fixed parameters' spread) is the stated one.
+    let consider = |s: f64| super::super::consider::Consider {
+        std_error: vec![0.01, s],
+        fixed: Vec::new(),
+        critical: f64::NAN,
+    };
+    let c = consider(1.01 * edge);
+    assert_eq!(id.spanning_their_box(at, Some(&c)), vec!["p1"]);
+    let c = consider(0.99 * edge);
+    assert!(with(1.01 * edge)
+        .spanning_their_box(at, Some(&c))
+        .is_empty());
+    // Reaching one bound only is a one-sided interval, not "undetermined".
+    let off = [(1.0, (0.5, 2.0)), (2.0, (1.0, 40.0))];
+    assert!(with(1.01 * edge).spanning_their_box(off, None).is_empty());
+    // No stated error (a falling cost) is named elsewhere, as is a
+    // parameter the design cannot determine.
+    let mut hidden = with(10.0);
+    hidden.parameters[1].identifiable = false;
+    assert!(hidden.spanning_their_box(at, None).is_empty());
+    let mut none = with(10.0);
+    none.parameters[1].std_error = None;
+    assert!(none.spanning_their_box(at, None).is_empty());
+    let w = with(10.0).spanning_warning(at, None).unwrap();
+    assert!(
+        w.starts_with("p1 not determined within their bounds"),
+        "{w}"
+    );
+    assert_eq!(id.spanning_warning(at, None), None);
+}
