@@ -17,7 +17,10 @@
 //! - **Window** ([`super::window_search`]): the FRF fit misses a resonance
 //!   (its worst window of lines far above the noise); the parameters that
 //!   mend that window when moved alone start refinements of all, before a
-//!   refit or the escape spends the budget around it.
+//!   refit or the escape spends the budget around it; one that gained
+//!   materially and left such a window is followed by another (up to three
+//!   in a row: mending one resonance of a sharp pair can misplace its
+//!   partner, which the compensating parameters had held).
 //!
 //! All come out of the update's budget, after the strategy, in the order
 //! [`next_step`] gives; each result is assessed and judged again.
@@ -117,11 +120,11 @@ pub(super) struct Next<'a> {
 }
 
 /// The next follow-up of `now` within `budget`, with its kind: a search of
-/// the misfit window first, once ([`window_search`]: a refit's parameters
-/// would compensate that resonance, and the escape samples its few
-/// directions thinly), then a refit of the implicated parameters, then
-/// the escape; the first that can run. `None`: the one due could not run
-/// (no budget, no FRFs), or none is due.
+/// the misfit window first when `next` asks for one ([`window_search`]: a
+/// refit's parameters would compensate that resonance, and the escape
+/// samples its few directions thinly), then a refit of the implicated
+/// parameters, then the escape; the first that can run. `None`: the one
+/// due could not run (no budget, no FRFs), or none is due.
 pub(super) fn next_step(
     o: &ModalObjective,
     plan: &Plan,

@@ -175,11 +175,12 @@ impl Identifiability {
     /// determine them within their box. `at` gives each analysed
     /// parameter's value and bounds, in the order of `parameters`; the
     /// stated standard error of ln p is `considered`'s (with the fixed
-    /// parameters' spread) where that was computed. Identifiability rests on the design at
-    /// the noise ([`analyze`]); the stated error also counts the residuals'
-    /// correlation (the batch-means sandwich) and the cost's curvature
-    /// ([`super::curvature`]) and can be far larger, as at a lightly damped
-    /// resonance whose misfit is a needle in the parameter.
+    /// parameters' spread) where that was computed. Identifiability rests
+    /// on the design at the noise ([`analyze`]); the stated error also
+    /// counts the residuals' correlation (the batch-means sandwich) and the
+    /// cost's curvature ([`super::curvature`]) and can be far larger, as at
+    /// a lightly damped resonance whose misfit is a needle in the
+    /// parameter.
     pub fn spanning_their_box(
         &self,
         at: impl IntoIterator<Item = (f64, (f64, f64))>,

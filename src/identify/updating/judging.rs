@@ -68,9 +68,13 @@ impl FollowUps<'_> {
     /// taken.
     pub(super) fn run(&self, mut s: Standing) -> Result<Standing, IdentifyError> {
         let (o, plan, start, progress) = (self.o, self.plan, self.start, self.progress);
-        // At most three follow-ups: the window search once, then a refit or
-        // the escape twice (as before the window search existed).
-        for _ in 0..3 {
+        // At most three follow-ups: the window search, then a refit or the
+        // escape twice (as before the window search existed); a window
+        // search that gained materially and left a window far above the
+        // noise is followed by another ([`WINDOW_SEARCHES`]), on top.
+        let (mut rounds, mut round) = (3, 0);
+        while round < rounds {
+            round += 1;
             // The reserve pays the judgement of what a follow-up returns;
             // one more for the result's J at the end (the strategy's share
             // keeps the same one back: `Budgets::split`). Without it a
@@ -88,13 +92,15 @@ impl FollowUps<'_> {
                 s.refutation = Some(refute_at_floor(&mut s.judged));
                 refitting = false;
             }
-            let tried_window = s.follow_ups.iter().any(|f| f.kind == FollowUpKind::Window);
+            let windows = (s.follow_ups.iter())
+                .filter(|f| f.kind == FollowUpKind::Window)
+                .count();
             let next = Next {
                 window: s
                     .judged
                     .verdict
                     .misplaced_window()
-                    .filter(|_| !tried_window),
+                    .filter(|_| window_due(&s.follow_ups)),
                 implicated: refitting.then_some(implicated.as_slice()),
                 escape: s.judged.verdict.fit == Fit::AboveNoise && !s.outcome.searched,
             };
@@ -110,6 +116,9 @@ impl FollowUps<'_> {
                 break;
             };
             let refitting = kind == FollowUpKind::Refit;
+            if kind == FollowUpKind::Window && windows > 0 {
+                rounds += 1;
+            }
             s.evaluations += cost;
             let before = fit_rms(&s.judged.verdict);
             let record = |rms_after: f64, taken: bool| FollowUpRecord {
@@ -341,6 +350,30 @@ impl Gain {
     }
 }
 
+/// Most window searches ([`super::super::window_search`]) in a row: each
+/// one after the first runs only where the one before gained materially
+/// and a window far above the noise is left — a sharp pair at one position
+/// mended can leave its partner at the other misplaced by the compensation.
+const WINDOW_SEARCHES: usize = 3;
+
+/// Whether a window search is due after `done`, when a window far above
+/// the noise is left: none yet, or the last follow-up was a window search
+/// that was taken and gained materially, fewer than [`WINDOW_SEARCHES`] in
+/// all.
+fn window_due(done: &[FollowUpRecord]) -> bool {
+    let windows = done
+        .iter()
+        .filter(|f| f.kind == FollowUpKind::Window)
+        .count();
+    windows == 0
+        || done.last().is_some_and(|f| {
+            windows < WINDOW_SEARCHES
+                && f.kind == FollowUpKind::Window
+                && f.taken
+                && Gain::of(f.rms_before, f.rms_after) == Gain::Material
+        })
+}
+
 /// Most implicated parameters one refit adds (largest statistics first).
 const REFIT_AT_ONCE: usize = 3;
 
@@ -465,133 +498,4 @@ fn judge(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::{largest_moves, Gain, Outcome, Status};
-    use crate::identify::verdict::SearchEvidence;
-
-    /// The gain warning names the identified parameters a refit moved most,
-    /// largest |ln ratio| first, a fall as much as a rise.
-    #[test]
-    fn the_largest_moves_of_a_refit_are_named() {
-        let o = crate::identify::black_box::tests::objective();
-        let names: Vec<&str> = o.parameters().iter().map(|p| p.name.as_str()).collect();
-        let before = Outcome {
-            x: o.nominal(),
-            identified: vec![0, 1, 2, 3],
-            status: Status::Converged,
-            frf: None,
-            evidence: SearchEvidence::default(),
-            searched: false,
-            refitted: Vec::new(),
-        };
-        let mut x = o.nominal();
-        x[0] *= 1.1;
-        x[1] *= 0.25;
-        x[2] *= 3.0;
-        // Not identified before the refit: not named, however far it moved.
-        x[5] *= 9.0;
-        assert_eq!(
-            largest_moves(&o, &before, &x),
-            format!("{} ×0.25, {} ×3, {} ×1.1", names[1], names[2], names[0])
-        );
-    }
-
-    /// A refit refuted the implication of `a` and `b`; the escape that
-    /// followed is judged afresh, and its score test implicates `a` and `c`:
-    /// `a` stays refuted (with the warning that said so), `c` is new.
-    #[test]
-    fn a_refutation_holds_on_later_judgements() {
-        use super::super::super::consider::{Consider, FixedParameter};
-        use super::super::super::identifiability::Identifiability;
-        use super::super::super::verdict::{Implication, ModeCounts, Verdict};
-        use super::{Judged, Refutation};
-        let fixed = |name: &str, statistic: f64| FixedParameter {
-            parameter: name.into(),
-            spread: 0.3,
-            statistic,
-            p_value: 1e-9,
-            change: 0.2,
-            at_bound: false,
-            implicated: true,
-            influence: 0.0,
-        };
-        let untested = Verdict::judge(
-            Status::Converged,
-            9.0,
-            5.0,
-            ModeCounts::default(),
-            4,
-            4,
-            vec![],
-        );
-        let implicated = [
-            Implication::new("a", 0.2, 90.0),
-            Implication::new("c", 0.2, 40.0),
-        ];
-        let mut judged = Judged {
-            verdict: untested.clone().with_implicated(&implicated),
-            untested,
-            identifiability: Identifiability {
-                parameters: Vec::new(),
-                singular_values: Vec::new(),
-                undetermined: Vec::new(),
-                residuals: 0,
-                rank: 0,
-                residual_variance: None,
-                max_std_error: 0.1,
-                batch_lines: 0,
-                integrated_time_lines: 1.0,
-            },
-            consider: Some(Consider {
-                std_error: Vec::new(),
-                fixed: vec![fixed("a", 90.0), fixed("c", 40.0)],
-                critical: 10.0,
-            }),
-            pairs: Vec::new(),
-            evaluations: 0,
-        };
-        assert_eq!(judged.verdict.implicated, ["a", "c"]);
-        let refuted = |names: &[&str], warning: &str| Refutation {
-            names: names.iter().map(|n| n.to_string()).collect(),
-            warning: warning.into(),
-        };
-        judged.keep_refutation(&refuted(&["a", "b"], "refuted a, b"));
-        assert_eq!(judged.verdict.implicated, ["c"]);
-        assert!(judged.verdict.warnings.iter().any(|w| w == "refuted a, b"));
-        // Nothing new implicated: the untested verdict, with the warning.
-        judged.keep_refutation(&refuted(&["a", "c"], "refuted c"));
-        assert!(judged.verdict.implicated.is_empty());
-        assert_eq!(judged.verdict.warnings, judged.untested.warnings);
-        assert!(judged.verdict.warnings.iter().any(|w| w == "refuted c"));
-    }
-
-    /// At the bound, even a refit down to the lowest noise floor measured
-    /// (0.945σ) is not a material gain; just above, it would be, so the
-    /// refit runs there. Above the noise, or without FRFs, it always runs.
-    #[test]
-    fn a_refit_is_skipped_only_where_it_cannot_gain_materially() {
-        use super::{refit_can_gain, Fit, NOISE_FLOOR_BOUND};
-        assert_ne!(Gain::of(NOISE_FLOOR_BOUND, 0.945), Gain::Material);
-        assert_eq!(Gain::of(1.055, 0.945), Gain::Material);
-        assert!(!refit_can_gain(Fit::WithinNoise, Some(1.03)));
-        assert!(!refit_can_gain(Fit::WithinNoise, Some(NOISE_FLOOR_BOUND)));
-        assert!(refit_can_gain(Fit::WithinNoise, Some(1.05)));
-        assert!(refit_can_gain(Fit::AboveNoise, Some(1.03)));
-        assert!(refit_can_gain(Fit::WithinNoise, Some(f64::NAN)));
-        // Modes alone: too few residuals for the bound.
-        assert!(refit_can_gain(Fit::WithinNoise, None));
-    }
-
-    #[test]
-    fn only_a_material_gain_is_one() {
-        // The vertical mill's seed 9: six parameters added for 1.81 → 1.80σ.
-        assert_eq!(Gain::of(1.81, 1.80), Gain::Slight);
-        // 10 % lower RMS is the edge: cost 0.81 of before is not below it.
-        assert_eq!(Gain::of(2.0, 1.8), Gain::Slight);
-        assert_eq!(Gain::of(2.0, 1.79), Gain::Material);
-        assert_eq!(Gain::of(5.0, 1.0), Gain::Material);
-        assert_eq!(Gain::of(1.0, 1.0), Gain::None);
-        assert_eq!(Gain::of(1.0, 1.2), Gain::None);
-        assert_eq!(Gain::of(1.0, f64::NAN), Gain::None);
-    }
-}
+mod tests;

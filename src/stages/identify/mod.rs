@@ -211,8 +211,10 @@ impl Kind for Identify {
     /// that one searched too, the first kept in the scan's misfit.
     /// 43: a warning names the identifiable parameters whose stated 95 %
     /// interval spans their whole box (fits unchanged).
+    /// 44: a window search that gained materially and left a window far
+    /// above the noise is followed by another (up to three in a row).
     fn version(&self) -> u32 {
-        43
+        44
     }
     fn summary(&self) -> &'static str {
         "update model parameters so its modes match reference modes (black-box optimizer or sensitivity-guided subproblems and continuation), with identifiability and a verdict"
