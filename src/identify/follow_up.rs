@@ -18,9 +18,10 @@
 //!   (its worst window of lines far above the noise); the parameters that
 //!   mend that window when moved alone start refinements of all, before a
 //!   refit or the escape spends the budget around it; one that gained
-//!   materially and left such a window is followed by another (up to three
-//!   in a row: mending one resonance of a sharp pair can misplace its
-//!   partner, which the compensating parameters had held).
+//!   materially and left such a window is followed by another where the
+//!   budget allows (up to three in a row: mending one resonance of a sharp
+//!   pair can misplace its partner, which the compensating parameters had
+//!   held).
 //!
 //! All come out of the update's budget, after the strategy, in the order
 //! [`next_step`] gives; each result is assessed and judged again.

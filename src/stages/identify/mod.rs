@@ -212,7 +212,8 @@ impl Kind for Identify {
     /// 43: a warning names the identifiable parameters whose stated 95 %
     /// interval spans their whole box (fits unchanged).
     /// 44: a window search that gained materially and left a window far
-    /// above the noise is followed by another (up to three in a row).
+    /// above the noise is followed by another where the budget left pays
+    /// twice what it used (up to three in a row).
     fn version(&self) -> u32 {
         44
     }

@@ -130,7 +130,8 @@ fn only_a_material_gain_is_one() {
 
 /// A window search follows another only while each gained materially
 /// (cost below ESCAPED of before: 10 % lower RMS) and was taken, back to
-/// back, at most WINDOW_SEARCHES in all.
+/// back, at most WINDOW_SEARCHES in all, and while the budget left pays
+/// twice the last one.
 #[test]
 fn a_window_search_is_repeated_only_after_a_material_gain() {
     let record = |kind, before: f64, after: f64, taken| FollowUpRecord {
@@ -142,22 +143,41 @@ fn a_window_search_is_repeated_only_after_a_material_gain() {
         taken,
     };
     let window = |before, after| record(FollowUpKind::Window, before, after, true);
-    assert!(window_due(&[]));
-    assert!(window_due(&[window(4.66, 3.75)]), "(3.75/4.66)² = 0.65");
-    assert!(!window_due(&[window(2.0, 1.9)]), "(1.9/2)² = 0.90: slight");
-    assert!(!window_due(&[window(2.0, 2.1)]));
+    let left = 10_000;
+    assert!(window_due(&[], 0), "the first one is due whatever is left");
+    assert!(
+        window_due(&[window(4.66, 3.75)], left),
+        "(3.75/4.66)² = 0.65"
+    );
+    assert!(
+        !window_due(&[window(2.0, 1.9)], left),
+        "(1.9/2)² = 0.90: slight"
+    );
+    assert!(!window_due(&[window(2.0, 2.1)], left));
     let kept = record(FollowUpKind::Window, 4.66, 3.75, false);
-    assert!(!window_due(&[kept]), "not taken");
+    assert!(!window_due(&[kept], left), "not taken");
     let refit = record(FollowUpKind::Refit, 3.75, 1.2, true);
     assert!(
-        !window_due(&[window(4.66, 3.75), refit]),
+        !window_due(&[window(4.66, 3.75), refit], left),
         "not back to back"
+    );
+    assert!(window_due(&[window(4.66, 3.75)], 1600), "2 × 800 left");
+    assert!(
+        !window_due(&[window(4.66, 3.75)], 1599),
+        "the refit's share"
     );
     let mut chain = vec![window(15.1, 5.5)];
     while chain.len() < WINDOW_SEARCHES {
-        assert!(window_due(&chain), "{} of {WINDOW_SEARCHES}", chain.len());
+        assert!(
+            window_due(&chain, left),
+            "{} of {WINDOW_SEARCHES}",
+            chain.len()
+        );
         chain.push(window(5.5, 2.7));
     }
-    assert!(!window_due(&chain), "at most {WINDOW_SEARCHES}");
-    assert!(!window_due(&[window(f64::NAN, 1.0)]), "NaN never gains");
+    assert!(!window_due(&chain, left), "at most {WINDOW_SEARCHES}");
+    assert!(
+        !window_due(&[window(f64::NAN, 1.0)], left),
+        "NaN never gains"
+    );
 }
