@@ -170,12 +170,29 @@ fn one() -> f64 {
 }
 
 impl Identifiability {
+    /// The standard error of ln p that analysed parameter `j`'s interval
+    /// states (parameters.csv's `std_error_with_fixed_rel`): the consider
+    /// analysis's, with the fixed parameters' spread, where that was
+    /// computed, else its own; `None` without a finite one or for a
+    /// parameter the data do not determine.
+    pub fn stated_std_error(
+        &self,
+        j: usize,
+        considered: Option<&super::consider::Consider>,
+    ) -> Option<f64> {
+        let own = self.parameters[j].std_error.filter(|s| s.is_finite())?;
+        match considered {
+            Some(c) => Some(c.std_error[j]).filter(|s| s.is_finite()),
+            None => Some(own),
+        }
+    }
+
     /// The identifiable parameters whose stated 95 % interval
     /// ([`interval`]) reaches both of their bounds: the data do not
     /// determine them within their box. `at` gives each analysed
     /// parameter's value and bounds, in the order of `parameters`; the
-    /// stated standard error of ln p is `considered`'s (with the fixed
-    /// parameters' spread) where that was computed. Identifiability rests
+    /// interval is the one parameters.csv states
+    /// ([`Self::stated_std_error`]). Identifiability rests
     /// on the design at the noise ([`analyze`]); the stated error also
     /// counts the residuals' correlation (the batch-means sandwich) and the
     /// cost's curvature ([`super::curvature`]) and can be far larger, as at
@@ -186,17 +203,13 @@ impl Identifiability {
         at: impl IntoIterator<Item = (f64, (f64, f64))>,
         considered: Option<&super::consider::Consider>,
     ) -> Vec<&str> {
-        let sigma = |j: usize| {
-            let s = self.parameters[j].std_error;
-            considered.map_or(s, |c| s.and(Some(c.std_error[j])))
-        };
         self.parameters
             .iter()
             .zip(at)
             .enumerate()
             .filter(|(_, (p, _))| p.identifiable)
             .filter_map(|(j, (p, (value, bounds)))| {
-                let (lo, hi) = interval(value, sigma(j).filter(|s| s.is_finite())?, bounds);
+                let (lo, hi) = interval(value, self.stated_std_error(j, considered)?, bounds);
                 (lo <= bounds.0 && hi >= bounds.1).then_some(p.parameter.as_str())
             })
             .collect()

@@ -73,10 +73,7 @@ impl FollowUps<'_> {
         // search that gained materially and left a window far above the
         // noise is followed by another ([`WINDOW_SEARCHES`]), on top.
         for round in 0.. {
-            let windows = (s.follow_ups.iter())
-                .filter(|f| f.kind == FollowUpKind::Window)
-                .count();
-            if round >= 3 + windows.saturating_sub(1) {
+            if round >= 3 + window_searches(&s.follow_ups).saturating_sub(1) {
                 break;
             }
             // The reserve pays the judgement of what a follow-up returns;
@@ -364,10 +361,7 @@ const WINDOW_SEARCHES: usize = 3;
 /// model-error family at 8,000: four fits ended at 1.8–3.3σ instead of the
 /// refit's 1.5–2.6σ, which cost it 770–1,330 evaluations).
 fn window_due(done: &[FollowUpRecord], left: usize) -> bool {
-    let windows = done
-        .iter()
-        .filter(|f| f.kind == FollowUpKind::Window)
-        .count();
+    let windows = window_searches(done);
     windows == 0
         || done.last().is_some_and(|f| {
             windows < WINDOW_SEARCHES
@@ -376,6 +370,13 @@ fn window_due(done: &[FollowUpRecord], left: usize) -> bool {
                 && Gain::of(f.rms_before, f.rms_after) == Gain::Material
                 && left >= 2 * f.evaluations
         })
+}
+
+/// The window searches among the follow-ups `done`.
+fn window_searches(done: &[FollowUpRecord]) -> usize {
+    (done.iter())
+        .filter(|f| f.kind == FollowUpKind::Window)
+        .count()
 }
 
 /// Most implicated parameters one refit adds (largest statistics first).

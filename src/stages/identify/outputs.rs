@@ -43,11 +43,8 @@ pub fn parameter_rows(o: &ModalObjective, u: &Update) -> Vec<ParameterRow> {
                 .map(|j| &u.identifiability.parameters[j]);
             let se = analysis.and_then(|a| a.std_error).filter(|s| s.is_finite());
             let j = u.identified.iter().position(|&k| k == i);
-            let with_fixed = match (&u.consider, j, se) {
-                (Some(c), Some(j), Some(_)) => Some(c.std_error[j]).filter(|s| s.is_finite()),
-                (None, _, se) => se,
-                _ => None,
-            };
+            let with_fixed =
+                j.and_then(|j| u.identifiability.stated_std_error(j, u.consider.as_ref()));
             let test = u
                 .consider
                 .as_ref()
