@@ -16,6 +16,13 @@
 //! cached by pole, as are the Gram entries of pole pairs; a new pole set then
 //! costs O(k² n_ch + k³) instead of a pass over the data.
 //!
+//! A pole's columns over the lines are kept only while they fit in
+//! [`COLUMN_BUDGET`] bytes (least recently used go first) and recomputed when
+//! a new Gram entry needs them; what every later fit reads — the
+//! projections s and the entries against the residual columns — is kept for
+//! every pole. On the 51,201-line beam the columns of every pole a search
+//! visits had taken 446 MB.
+//!
 //! Columns are scaled to unit norm before the Cholesky factorization; a
 //! pivot below 10⁻¹⁰ (a column within 10⁻⁵ rad of the span of the previous
 //! ones: numerically coincident poles) drops that pole and is reported.
@@ -28,6 +35,26 @@ use std::f64::consts::PI;
 
 /// Pivot below which a scaled column counts as dependent.
 const DEPENDENT_PIVOT: f64 = 1e-10;
+
+/// Bytes of pole columns kept between fits (at least [`MIN_KEPT`] poles').
+pub const COLUMN_BUDGET: usize = 48 << 20;
+/// Poles whose columns are kept, whatever the budget.
+const MIN_KEPT: usize = 16;
+
+/// What every fit reads of one pole: per column (p + q, j(p − q)) its
+/// projections s on the channels and its Gram entries with the two residual
+/// columns.
+struct PoleProjection {
+    s: [Vec<Complex64>; 2],
+    residual_gram: [[f64; 2]; 2],
+}
+
+/// The planar (re, im) columns p + q and j(p − q) of one pole, with the
+/// tick of their last use.
+struct Planar {
+    cols: [(Vec<f64>, Vec<f64>); 2],
+    used: u64,
+}
 
 /// A basis column over the lines (planar) and its projections on the channels.
 struct Column {
@@ -53,7 +80,14 @@ pub struct Projector<'a> {
     h2: Vec<f64>,
     omega: Vec<f64>,
     residuals: [Column; 2],
-    poles: HashMap<Key, [Column; 2]>,
+    /// Gram entries of the residual columns, [lower, upper]².
+    residual_gram: [[f64; 2]; 2],
+    poles: HashMap<Key, PoleProjection>,
+    /// The columns of recently used poles (bounded, [`COLUMN_BUDGET`]).
+    planar: HashMap<Key, Planar>,
+    /// How many poles' columns are kept.
+    cap: usize,
+    tick: u64,
     gram: HashMap<(Key, Key), [f64; 4]>,
 }
 
@@ -157,13 +191,23 @@ impl<'a> Projector<'a> {
             h2,
             omega,
             residuals: [empty(), empty()],
+            residual_gram: [[0.0; 2]; 2],
             poles: HashMap::new(),
+            planar: HashMap::new(),
+            cap: (COLUMN_BUDGET / (32 * nf.max(1))).max(MIN_KEPT),
+            tick: 0,
             gram: HashMap::new(),
         };
         let lower: Vec<f64> = p.omega.iter().map(|w| -1.0 / (w * w)).collect();
         let upper = vec![1.0; nf];
         let zero = vec![0.0; nf];
         p.residuals = [p.column(lower, zero.clone()), p.column(upper, zero)];
+        for a in 0..2 {
+            for b in 0..2 {
+                let (ca, cb) = (&p.residuals[a], &p.residuals[b]);
+                p.residual_gram[a][b] = dot(&ca.re, &cb.re) + dot(&ca.im, &cb.im);
+            }
+        }
         p
     }
 
@@ -175,29 +219,35 @@ impl<'a> Projector<'a> {
     /// The column b(ω) with planar parts `re`, `im`, whitened like the data
     /// (u·b, [`super::whitening`]), and its projections.
     fn column(&self, mut re: Vec<f64>, mut im: Vec<f64>) -> Column {
-        let nf = self.data.n_lines();
-        for ((r, i), u) in re.iter_mut().zip(&mut im).zip(&self.data.line_weight) {
+        self.whiten(&mut re, &mut im);
+        let s = self.projections(&re, &im);
+        Column { re, im, s }
+    }
+
+    fn whiten(&self, re: &mut [f64], im: &mut [f64]) {
+        for ((r, i), u) in re.iter_mut().zip(im.iter_mut()).zip(&self.data.line_weight) {
             *r *= u;
             *i *= u;
         }
-        let s = (0..self.n_ch)
+    }
+
+    /// s_c = Σ_f H_c* b for every channel.
+    fn projections(&self, re: &[f64], im: &[f64]) -> Vec<Complex64> {
+        let nf = self.data.n_lines();
+        (0..self.n_ch)
             .into_par_iter()
             .map(|c| {
                 let (hr, hi) = (
                     &self.hr[c * nf..(c + 1) * nf],
                     &self.hi[c * nf..(c + 1) * nf],
                 );
-                Complex64::new(dot(hr, &re) + dot(hi, &im), dot(hr, &im) - dot(hi, &re))
+                Complex64::new(dot(hr, re) + dot(hi, im), dot(hr, im) - dot(hi, re))
             })
-            .collect();
-        Column { re, im, s }
+            .collect()
     }
 
-    /// Columns p + q and j(p − q) of pole λ, computed once.
-    fn ensure(&mut self, l: Complex64) {
-        if self.poles.contains_key(&key(l)) {
-            return;
-        }
+    /// The whitened planar columns p + q and j(p − q) of pole λ.
+    fn planar_columns(&self, l: Complex64) -> [(Vec<f64>, Vec<f64>); 2] {
         let nf = self.data.n_lines();
         let (mut ar, mut ai, mut br, mut bi) =
             (vec![0.0; nf], vec![0.0; nf], vec![0.0; nf], vec![0.0; nf]);
@@ -209,8 +259,58 @@ impl<'a> Projector<'a> {
             let b = Complex64::new(0.0, 1.0) * (p - q);
             (ar[f], ai[f], br[f], bi[f]) = (a.re, a.im, b.re, b.im);
         }
-        let cols = [self.column(ar, ai), self.column(br, bi)];
-        self.poles.insert(key(l), cols);
+        self.whiten(&mut ar, &mut ai);
+        self.whiten(&mut br, &mut bi);
+        [(ar, ai), (br, bi)]
+    }
+
+    /// The projections and residual Gram entries of pole λ, computed once.
+    fn ensure(&mut self, l: Complex64) {
+        if self.poles.contains_key(&key(l)) {
+            return;
+        }
+        self.keep_planar(l, None);
+        let cols = &self.planar[&key(l)].cols;
+        let proj = PoleProjection {
+            s: [
+                self.projections(&cols[0].0, &cols[0].1),
+                self.projections(&cols[1].0, &cols[1].1),
+            ],
+            residual_gram: std::array::from_fn(|i| {
+                std::array::from_fn(|j| {
+                    let r = &self.residuals[j];
+                    dot(&cols[i].0, &r.re) + dot(&cols[i].1, &r.im)
+                })
+            }),
+        };
+        self.poles.insert(key(l), proj);
+    }
+
+    /// Makes the planar columns of λ present (recomputed if they were
+    /// dropped) and most recently used, dropping the least recently used
+    /// others (never `also`) beyond the budget.
+    fn keep_planar(&mut self, l: Complex64, also: Option<Complex64>) {
+        self.tick += 1;
+        let tick = self.tick;
+        if let Some(p) = self.planar.get_mut(&key(l)) {
+            p.used = tick;
+            return;
+        }
+        let cols = self.planar_columns(l);
+        while self.planar.len() >= self.cap {
+            let keep = also.map(key);
+            let Some(oldest) = self
+                .planar
+                .iter()
+                .filter(|(k, _)| Some(**k) != keep)
+                .min_by_key(|(_, p)| p.used)
+                .map(|(k, _)| *k)
+            else {
+                break;
+            };
+            self.planar.remove(&oldest);
+        }
+        self.planar.insert(key(l), Planar { cols, used: tick });
     }
 
     /// Gram entries of the column pairs of poles `a` and `b`.
@@ -219,11 +319,13 @@ impl<'a> Projector<'a> {
         if let Some(g) = self.gram.get(&k) {
             return *g;
         }
-        let (ca, cb) = (&self.poles[&key(a)], &self.poles[&key(b)]);
+        self.keep_planar(a, None);
+        self.keep_planar(b, Some(a));
+        let (ca, cb) = (&self.planar[&key(a)].cols, &self.planar[&key(b)].cols);
         let mut g = [0.0; 4];
         for i in 0..2 {
             for j in 0..2 {
-                g[i * 2 + j] = dot(&ca[i].re, &cb[j].re) + dot(&ca[i].im, &cb[j].im);
+                g[i * 2 + j] = dot(&ca[i].0, &cb[j].0) + dot(&ca[i].1, &cb[j].1);
             }
         }
         self.gram.insert(k, g);
@@ -249,18 +351,24 @@ impl<'a> Projector<'a> {
                 }
             }
         }
-        let cols: Vec<&Column> = lambdas
-            .iter()
-            .flat_map(|l| self.poles[&key(*l)].iter())
-            .chain(self.residuals.iter())
-            .collect();
+        // Entries against the residual columns: cached per pole, and
+        // between the residuals themselves.
         for a in 0..n {
             for b in a.max(2 * np)..n {
-                let v = dot(&cols[a].re, &cols[b].re) + dot(&cols[a].im, &cols[b].im);
+                let v = if a < 2 * np {
+                    self.poles[&key(lambdas[a / 2])].residual_gram[a % 2][b - 2 * np]
+                } else {
+                    self.residual_gram[a - 2 * np][b - 2 * np]
+                };
                 g[a * n + b] = v;
                 g[b * n + a] = v;
             }
         }
+        let cols: Vec<&Vec<Complex64>> = lambdas
+            .iter()
+            .flat_map(|l| self.poles[&key(*l)].s.iter())
+            .chain(self.residuals.iter().map(|r| &r.s))
+            .collect();
         let scale: Vec<f64> = (0..n)
             .map(|k| 1.0 / g[k * n + k].max(1e-300).sqrt())
             .collect();
@@ -298,12 +406,12 @@ impl<'a> Projector<'a> {
         let per: Vec<(Vec<f64>, f64, f64)> = (0..self.n_ch)
             .into_par_iter()
             .map(|c| {
-                let r: Vec<f64> = cols.iter().map(|k| k.s[c].re).collect();
+                let r: Vec<f64> = cols.iter().map(|k| k[c].re).collect();
                 let x: Vec<f64> = (0..n)
                     .map(|a| (0..n).map(|b| ginv[a * n + b] * r[b]).sum())
                     .collect();
                 let xr: f64 = x.iter().zip(&r).map(|(u, v)| u * v).sum();
-                let xs: Complex64 = x.iter().zip(&cols).map(|(u, k)| k.s[c] * *u).sum();
+                let xs: Complex64 = x.iter().zip(&cols).map(|(u, k)| k[c] * *u).sum();
                 let h2 = self.h2[c];
                 let rss = (h2 - xr).max(0.0);
                 let frac = if h2 > 0.0 && xr > 0.0 {
@@ -380,84 +488,4 @@ fn lower_inverse(l: &[f64], n: usize) -> Vec<f64> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::ema::lsfd::lsfd;
-    use crate::ema::synthetic::{four_mode_system, lines, modal_superposition};
-    use crate::ema::Weighting;
-    use crate::metrics::pole;
-
-    fn data(noise: f64) -> FrfData {
-        let set = modal_superposition(
-            &four_mode_system(),
-            &[0, 3],
-            &lines(20.0, 260.0, 0.5),
-            noise,
-            3,
-        );
-        FrfData::from_set(&set, None, Weighting::Uniform).unwrap()
-    }
-
-    /// The normal-equation fit equals the QR fit of [`lsfd`] (residues,
-    /// FRAC) and ΔRSS of a pole equals the RSS increase of refitting without it.
-    #[test]
-    fn gram_fit_matches_qr_lsfd_and_refits() {
-        let d = data(0.02);
-        let lambdas: Vec<Complex64> = four_mode_system()
-            .iter()
-            .map(|m| pole(m.frequency_hz * 1.001, m.damping_ratio))
-            .collect();
-        let mut p = Projector::new(&d);
-        let FitOutcome::Fit(g) = p.fit(&lambdas) else {
-            panic!("dependent")
-        };
-        let q = lsfd(&d, &lambdas).unwrap();
-        for (k, res) in q.residues.iter().enumerate() {
-            for (c, r) in res.iter().enumerate() {
-                assert!(
-                    (g.residue(k, c) - r).norm() < 1e-8 * r.norm().max(1e-12),
-                    "pole {k} channel {c}"
-                );
-            }
-        }
-        let nf = d.n_lines();
-        for c in 0..d.n_out() * d.n_ref() {
-            let f = crate::metrics::frac(
-                &d.h[c * nf..(c + 1) * nf],
-                &q.reconstructed[c * nf..(c + 1) * nf],
-            );
-            assert!(
-                (g.frac[c] - f).abs() < 1e-10,
-                "channel {c}: {} vs {f}",
-                g.frac[c]
-            );
-        }
-        let without: Vec<Complex64> = lambdas
-            .iter()
-            .enumerate()
-            .filter(|(k, _)| *k != 2)
-            .map(|(_, l)| *l)
-            .collect();
-        let FitOutcome::Fit(h) = p.fit(&without) else {
-            panic!("dependent")
-        };
-        for (c, dr) in g.delta_rss(2).iter().enumerate() {
-            let want = h.rss[c] - g.rss[c];
-            assert!(
-                (dr - want).abs() < 1e-7 * want.abs().max(g.rss[c]),
-                "channel {c}: {dr} vs {want}"
-            );
-        }
-    }
-
-    #[test]
-    fn coincident_poles_are_reported_as_dependent() {
-        let d = data(0.0);
-        let l = pole(95.0, 0.015);
-        let mut p = Projector::new(&d);
-        match p.fit(&[pole(60.0, 0.01), l, l]) {
-            FitOutcome::Dependent(k) => assert_eq!(k, 2),
-            FitOutcome::Fit(_) => panic!("identical poles must be dependent"),
-        }
-    }
-}
+mod tests;
