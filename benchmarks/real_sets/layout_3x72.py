@@ -79,13 +79,16 @@ def main():
     ap.add_argument("--modes", nargs="*", default=["auto", "never"])
     a = ap.parse_args()
     f_true, frf = synthesize(a.noise)
+    os.makedirs(a.workdir, exist_ok=True)
+    uff = os.path.join(a.workdir, "frf.uff")
+    write(uff, frf)
     best = {}
     for i in range(a.n):
         for mode in a.modes:
             d = os.path.join(a.workdir, mode)
             shutil.rmtree(d, ignore_errors=True)
             os.makedirs(os.path.join(d, "data"))
-            write(os.path.join(d, "data", "frf.uff"), frf)
+            shutil.copy(uff, os.path.join(d, "data", "frf.uff"))
             open(os.path.join(d, "p.yaml"), "w").write(
                 "name: l\nstages:\n  imp: {kind: import, params: {path: data/frf.uff}}\n"
                 f"  ema: {{kind: autoema, inputs: {{frf: imp.frf}}, params: {{band: [5, 700], reciprocity: {mode}}}}}\n")

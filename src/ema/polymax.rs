@@ -231,9 +231,9 @@ pub fn polymax(data: &FrfData, params: &PolymaxParams) -> Result<Vec<PoleOrder>,
             Ok((b.T, G))
         })
         .collect::<Result<_, EmaError>>()?;
-    let (T, G): (Vec<Vec<f64>>, Vec<Vec<f64>>) = per_output.into_iter().unzip();
+    let (kernels, G): (Vec<Vec<f64>>, Vec<Vec<f64>>) = per_output.into_iter().unzip();
     let mut P = vec![0.0; m * m];
-    for T in T {
+    for T in kernels {
         for (p, t) in P.iter_mut().zip(T) {
             *p += t;
         }
