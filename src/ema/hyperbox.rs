@@ -238,8 +238,38 @@ impl AtBound {
     }
 }
 
+/// Whether two selections' modes (frequency, damping) are the same: as
+/// many, and one to one by frequency within [`SAME_MODE`].
+pub fn same_modes(a: &[(f64, f64)], b: &[(f64, f64)]) -> bool {
+    let sorted = |v: &[(f64, f64)]| {
+        let mut f: Vec<f64> = v.iter().map(|m| m.0).collect();
+        f.sort_by(f64::total_cmp);
+        f
+    };
+    let (fa, fb) = (sorted(a), sorted(b));
+    fa.len() == fb.len()
+        && fa
+            .iter()
+            .zip(&fb)
+            .all(|(x, y)| (x - y).abs() <= SAME_MODE * y.abs())
+}
+
+/// Relative frequency within which two selections hold the same mode (the
+/// seed-invariance tolerance of issue 31).
+const SAME_MODE: f64 = 1e-3;
+
 #[cfg(test)]
 mod tests {
+    /// Two selections hold the same modes when they pair one to one within
+    /// 0.1 % in frequency, whatever their order and damping.
+    #[test]
+    fn same_modes_pairs_frequencies_within_a_tenth_of_a_percent() {
+        let a = [(100.0, 0.01), (250.0, 0.02)];
+        assert!(super::same_modes(&a, &[(250.2, 0.05), (100.05, 0.01)]));
+        assert!(!super::same_modes(&a, &[(100.0, 0.01), (250.3, 0.02)]));
+        assert!(!super::same_modes(&a, &[(100.0, 0.01)]));
+    }
+
     use super::*;
 
     #[test]

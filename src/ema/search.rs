@@ -15,7 +15,7 @@
 //! the result's warnings.
 
 use super::design::SobolSearch;
-use super::hyperbox::{AtBound, DataSummary, LOG_SCALE};
+use super::hyperbox::{same_modes, AtBound, DataSummary, LOG_SCALE};
 use super::lsfd::LsfdFit;
 use super::peak_evidence::unresolved_pairs;
 use super::polymax::{polymax, PoleOrder, PolymaxParams};
@@ -577,10 +577,18 @@ fn probe_bounds(
         // either (the UFSC beam's shaker test: `cluster_distance` widened
         // from 0.05 to 0.15 gave 25 modes instead of 23, two more extras and
         // two published modes lost), so it is listed, not warned about.
+        // A better objective with the same modes (a pole a little better
+        // placed) asks nothing of the user: widening the box would give
+        // the same result (a 3 × 72 roving-hammer test at 5 % noise: the
+        // same 12 modes, mean FRAC 0.997425 against 0.997395).
         let tie = (0.01 * (1.0 - best.objective)).max(1e-6);
-        let sensitive = probe
-            .as_ref()
-            .is_some_and(|s| s.objective > best.objective + tie);
+        let sensitive = probe.as_ref().is_some_and(|s| {
+            s.objective > best.objective + tie
+                && !same_modes(
+                    &identified_modes(orders, s),
+                    &identified_modes(orders, best),
+                )
+        });
         out.push(AtBound {
             name: HYPERPARAMETER_NAMES[k].to_string(),
             value: from(x[i]),
