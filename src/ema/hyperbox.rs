@@ -208,8 +208,9 @@ pub struct AtBound {
     pub modes_beyond: Option<usize>,
     pub objective_at: f64,
     pub objective_beyond: Option<f64>,
-    /// Whether the result is better beyond the bound (an objective above
-    /// the chosen one by more than the search's tie tolerance).
+    /// Whether the result is better beyond the bound: an objective above
+    /// the chosen one by more than the search's tie tolerance, with other
+    /// modes ([`same_modes`]).
     pub sensitive: bool,
 }
 
@@ -260,6 +261,8 @@ const SAME_MODE: f64 = 1e-3;
 
 #[cfg(test)]
 mod tests {
+    use super::*;
+
     /// Two selections hold the same modes when they pair one to one within
     /// 0.1 % in frequency, whatever their order and damping.
     #[test]
@@ -269,8 +272,6 @@ mod tests {
         assert!(!super::same_modes(&a, &[(100.0, 0.01), (250.3, 0.02)]));
         assert!(!super::same_modes(&a, &[(100.0, 0.01)]));
     }
-
-    use super::*;
 
     #[test]
     fn bounds_follow_the_data() {
