@@ -245,16 +245,22 @@ fn autoema_outputs_say_what_was_decided() {
             "{r}"
         );
     }
-    // A bound that limits the result (a better objective beyond it) is a
-    // warning, in metrics.json; the others are listed only.
+    // A bound beyond which a better-fitting selection lacks modes of the
+    // result is a warning naming it and those modes; the others are listed.
     let warned = m["warnings"].as_array().unwrap();
     for b in p["at_bound"].as_array().unwrap() {
-        if b["sensitive"] != true {
+        let lacks = b["only_here_hz"].as_array().unwrap();
+        assert_eq!(b["sensitive"] == true, !lacks.is_empty(), "{b}");
+        if lacks.is_empty() {
             continue;
         }
-        let name = b["name"].as_str().unwrap();
+        let name = format!("`{}` beyond", b["name"].as_str().unwrap());
+        let hz = format!("{:.2}", lacks[0].as_f64().unwrap());
         assert!(
-            warned.iter().any(|w| w.as_str().unwrap().contains(name)),
+            warned.iter().any(|w| {
+                let w = w.as_str().unwrap();
+                w.contains(&name) && w.contains(&hz)
+            }),
             "{b}"
         );
     }

@@ -15,7 +15,7 @@
 //! the result's warnings.
 
 use super::design::SobolSearch;
-use super::hyperbox::{AtBound, DataSummary, LOG_SCALE};
+use super::hyperbox::{box_warning, AtBound, DataSummary, LOG_SCALE};
 use super::lsfd::LsfdFit;
 use super::peak_evidence::unresolved_pairs;
 use super::polymax::{polymax, PoleOrder, PolymaxParams};
@@ -28,7 +28,7 @@ use super::{adequacy, whitening, EmaError, FrfData};
 use std::collections::BTreeMap;
 
 mod bounds;
-use bounds::probe_bounds;
+use bounds::{probe_bounds, settle};
 
 /// Settings of [`auto_ema`].
 #[derive(Clone, Debug, PartialEq)]
@@ -324,14 +324,10 @@ fn warnings(
     at_bound: &[AtBound],
     residual_peaks: &[ResidualPeak],
 ) -> Vec<String> {
-    // Warnings ask the user to act: a box that limits the result, a mode the
+    // Warnings ask the user to act: modes that depend on the box, a mode the
     // data show and the fit misses, a fit the noise does not explain. Bounds
     // and residual structure that do not matter stay in metrics.json only.
-    let mut warnings: Vec<String> = at_bound
-        .iter()
-        .filter(|b| b.sensitive)
-        .map(AtBound::warning)
-        .collect();
+    let mut warnings: Vec<String> = box_warning(at_bound).into_iter().collect();
     let modes = identified_modes(orders, best);
     warnings.extend(missing_mode_warnings(residual_peaks, &modes));
     warnings.extend(inconsistent_references(screening, orders, best));
@@ -399,7 +395,7 @@ fn analyse(
         search_hyperparameters(&mut screening, &orders, &coordinates, p, on_step);
     let chosen = choose(&trace, &xs, &coordinates.search);
     let best = select_modes(&mut screening, &orders, &coordinates.point(&xs[chosen]));
-    let at_bound = probe_bounds(
+    let probes = probe_bounds(
         &mut screening,
         &orders,
         &best,
@@ -409,6 +405,7 @@ fn analyse(
         &|x| coordinates.point(x),
     );
     let mut best = refine_selection(&mut screening, &orders, &best);
+    let at_bound = settle(probes, &mut screening, &orders, &best);
     let mut fit = final_fit(data, &orders, &best)?;
     let (relative_error, residual_peaks) = check_fit(&screening, &orders, &best, &fit);
     if data.is_whitened() {
