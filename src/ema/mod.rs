@@ -46,7 +46,7 @@ pub use layout::{Layout, Reciprocity};
 pub use lsfd::{lsfd, lsfd_roots, LsfdFit};
 pub use polymax::{polymax, polymax_rebuild_per_order, Pole, PoleOrder, PolymaxParams};
 pub use roots::Root;
-pub use search::{auto_ema, AutoEmaParams, AutoEmaResult, TraceEntry};
+pub use search::{auto_ema, AutoEmaParams, AutoEmaResult, TraceEntry, CONSENSUS_MIN_LINES};
 pub use selection::{
     final_fit, select_modes, Hyperparameters, Screening, Selection, SelectionParams,
     HYPERPARAMETER_NAMES,

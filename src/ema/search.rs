@@ -28,7 +28,10 @@ use super::{adequacy, whitening, EmaError, FrfData};
 use std::collections::BTreeMap;
 
 mod bounds;
+mod consensus;
 use bounds::{probe_bounds, settle};
+use consensus::consensus;
+pub use consensus::CONSENSUS_MIN_LINES;
 
 /// Settings of [`auto_ema`].
 #[derive(Clone, Debug, PartialEq)]
@@ -53,6 +56,9 @@ pub struct AutoEmaParams {
     pub bounds: BTreeMap<String, (f64, f64)>,
     /// The noise model along the band ([`whitening::NoiseModel`]).
     pub noise: whitening::NoiseModel,
+    /// Next-best selections of the search each mode is checked against
+    /// ([`consensus`]); 0: none.
+    pub consensus: usize,
 }
 
 impl Default for AutoEmaParams {
@@ -66,6 +72,7 @@ impl Default for AutoEmaParams {
             fixed: BTreeMap::new(),
             bounds: BTreeMap::new(),
             noise: whitening::NoiseModel::Auto,
+            consensus: 12,
         }
     }
 }
@@ -86,6 +93,10 @@ pub struct TraceEntry {
 pub struct AutoEmaResult {
     pub orders: Vec<PoleOrder>,
     pub best: Selection,
+    /// Per root of `best`: how many of the `consensus_of` next-best
+    /// selections of the search hold it ([`consensus`]).
+    pub support: Vec<usize>,
+    pub consensus_of: usize,
     pub fit: LsfdFit,
     pub trace: Vec<TraceEntry>,
     pub summary: DataSummary,
@@ -404,7 +415,20 @@ fn analyse(
         &coordinates.free,
         &|x| coordinates.point(x),
     );
-    let mut best = refine_selection(&mut screening, &orders, &best);
+    let refined = refine_selection(&mut screening, &orders, &best);
+    let objectives: Vec<f64> = trace.iter().map(|t| t.objective).collect();
+    let checked = consensus(
+        &mut screening,
+        &orders,
+        &objectives,
+        &xs,
+        chosen,
+        p.consensus,
+        &|x| coordinates.point(x),
+        refined,
+        summary.line_spacing_hz,
+    );
+    let mut best = checked.selection;
     let at_bound = settle(probes, &mut screening, &orders, &best);
     let mut fit = final_fit(data, &orders, &best)?;
     let (relative_error, residual_peaks) = check_fit(&screening, &orders, &best, &fit);
@@ -422,6 +446,8 @@ fn analyse(
     Ok(AutoEmaResult {
         orders,
         best,
+        support: checked.support,
+        consensus_of: checked.of,
         fit,
         trace,
         summary,

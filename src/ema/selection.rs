@@ -21,7 +21,7 @@
 
 mod refinement;
 
-pub use refinement::refine_selection;
+pub use refinement::{refine_selection, without_roots};
 
 use super::clustering::{
     cluster_poles_with_dropped, Cluster, ClusterParams, Dropped, DroppedColumn,

@@ -75,6 +75,12 @@ pub enum Reason {
     /// On the CMIF peak of the stronger root at `of_hz` with no peak of its
     /// own ([`super::peak_evidence`]): a pole split off that mode.
     SamePeak { of_hz: f64 },
+    /// Wider than [`crate::ema::search::CONSENSUS_MIN_LINES`] line
+    /// spacings, significant by less than
+    /// [`crate::ema::search::CONSENSUS_MAX_SCORE`] and held (within 1 %) by
+    /// none of the `of` next-best selections of the search (screened): a
+    /// mode of one hyperparameter point only.
+    NoConsensus { of: usize },
     /// Refined to a frequency outside the analysed band.
     OutsideBand { band_hz: (f64, f64) },
     /// Lightly damped (ζ < 2 %) and kept for significance alone, on a stable

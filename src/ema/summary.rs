@@ -28,6 +28,9 @@ pub struct ModeSummary {
     /// about 2 the line spacing biases the damping, below 1 the lines cannot
     /// show the peak.
     pub bandwidth_lines: f64,
+    /// How many of the search's next-best selections (`consensus_of` of
+    /// the position), screened, hold this mode within 1 %.
+    pub support: Option<usize>,
     /// Why it was kept: its own CMIF peak, or significance alone.
     #[serde(flatten)]
     pub acceptance: Option<Acceptance>,
@@ -55,6 +58,9 @@ pub struct PositionSummary {
     pub mean_frac: f64,
     pub objective: f64,
     pub n_modes: usize,
+    /// Next-best selections each mode was checked against
+    /// ([`ModeSummary::support`]).
+    pub consensus_of: usize,
     pub modes: Vec<ModeSummary>,
     pub rejected: Vec<Rejection>,
     pub hyperparameters: Hyperparameters,
@@ -112,6 +118,7 @@ impl PositionSummary {
             mean_frac: r.best.mean_frac,
             objective: r.best.objective,
             n_modes: r.best.n_modes(),
+            consensus_of: r.consensus_of,
             modes: r
                 .best
                 .roots
@@ -129,6 +136,7 @@ impl PositionSummary {
                             p.damping_ratio,
                             r.summary.line_spacing_hz,
                         ),
+                        support: r.support.get(k).copied(),
                         acceptance: r.best.accepted.get(k).cloned(),
                     }
                 })

@@ -91,7 +91,7 @@ impl Kind for AutoEma {
     /// (`ema::adequacy`); each mode reports its half-power band in lines.
     /// The modes are those of 17.
     fn version(&self) -> u32 {
-        20
+        21
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"

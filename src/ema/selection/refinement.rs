@@ -41,6 +41,36 @@ pub fn refine_selection(
     let mut rejected = s.rejected.clone();
     drop_not_nested_significant(screening, orders, &mut roots, &mut rejected);
     drop_outside_band(screening, orders, &mut roots, &mut rejected);
+    revalidated(screening, orders, s, roots, rejected)
+}
+
+/// The refined selection `s` without the roots `drop` (index into
+/// `s.roots`, and why), validated again.
+pub fn without_roots(
+    screening: &mut Screening<'_>,
+    orders: &[PoleOrder],
+    s: &Selection,
+    drop: &[(usize, Reason)],
+) -> Selection {
+    let mut rejected = s.rejected.clone();
+    let mut roots = Vec::new();
+    for (k, root) in s.roots.iter().enumerate() {
+        match drop.iter().find(|(j, _)| *j == k) {
+            Some((_, reason)) => rejected.push(rejection(orders, root, reason.clone())),
+            None => roots.push(root.clone()),
+        }
+    }
+    revalidated(screening, orders, s, roots, rejected)
+}
+
+/// `roots` validated, as a selection at the hyperparameters of `s`.
+fn revalidated(
+    screening: &mut Screening<'_>,
+    orders: &[PoleOrder],
+    s: &Selection,
+    roots: Vec<Root>,
+    mut rejected: Vec<Rejection>,
+) -> Selection {
     let validated = validate_without_short_columns(screening, orders, roots, &mut rejected);
     let mean_frac = validated.fit.mean_frac();
     let n_modes: usize = validated.roots.iter().map(|r| r.multiplicity).sum();

@@ -99,6 +99,11 @@ crate::params! {
         /// profile where it spans more than 30× in variance (a receptance
         /// or accelerance over decades) and white noise otherwise
         pub noise: NoiseParam = NoiseParam::Auto,
+        /// next-best selections of the search every mode is checked
+        /// against (screened): a mode wider than 3 line spacings, with a
+        /// significance score below 50, that none of them holds (within
+        /// 1 %) is dropped as `no_consensus` (0: no check)
+        pub consensus: usize = AutoEmaParams::default().consensus; range Range::closed(0.0, 100.0),
         /// fit references × responses as measured or transposed by
         /// reciprocity (H_ij = H_ji, same poles; shapes then at the
         /// reference DOFs): auto transposes when references outnumber
@@ -173,6 +178,7 @@ pub(super) fn settings(p: &Params) -> Settings {
     let mut ema = AutoEmaParams {
         evaluations: p.iterations,
         initial: p.initial,
+        consensus: p.consensus,
         fixed: p.fixed.clone(),
         bounds: p.bounds.clone(),
         max_order: p.max_order.map(|m| match m {
