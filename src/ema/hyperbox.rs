@@ -298,20 +298,13 @@ pub fn differing_modes(a: &[f64], b: &[f64], tol: f64) -> (Vec<f64>, Vec<f64>) {
     (left(a, &used_a), left(b, &used_b))
 }
 
-/// Whether two selections' modes (frequency, damping) are the same: as
-/// many, and one to one by frequency within [`SAME_MODE`].
+/// Whether two selections' modes (frequency, damping) are the same: none
+/// left unpaired when paired one to one within [`SAME_MODE`]
+/// ([`differing_modes`]).
 pub fn same_modes(a: &[(f64, f64)], b: &[(f64, f64)]) -> bool {
-    let sorted = |v: &[(f64, f64)]| {
-        let mut f: Vec<f64> = v.iter().map(|m| m.0).collect();
-        f.sort_by(f64::total_cmp);
-        f
-    };
-    let (fa, fb) = (sorted(a), sorted(b));
-    fa.len() == fb.len()
-        && fa
-            .iter()
-            .zip(&fb)
-            .all(|(x, y)| (x - y).abs() <= SAME_MODE * y.abs())
+    let f = |v: &[(f64, f64)]| v.iter().map(|m| m.0).collect::<Vec<f64>>();
+    let (only_a, only_b) = differing_modes(&f(a), &f(b), SAME_MODE);
+    only_a.is_empty() && only_b.is_empty()
 }
 
 /// Relative frequency within which two selections hold the same mode (the

@@ -9,8 +9,10 @@
 //! Among the evaluated points whose score is within max(10⁻⁶, 1 % of
 //! 1 − J*) of the best J* and that have as many modes, the one farthest from
 //! the box's faces (in the searched, partly logarithmic, coordinates) is
-//! kept, so a flat optimum does not end at a bound by chance. A result still
-//! at a bound is probed beyond it ([`super::hyperbox::AtBound`]). The final
+//! kept, so a flat optimum does not end at a bound by chance. Its modes are
+//! checked against the selections of the next-best points ([`consensus`]).
+//! A result still at a bound is probed beyond it
+//! ([`super::hyperbox::AtBound`]). The final
 //! fit is checked against the noise floor ([`super::residual`]); both go to
 //! the result's warnings.
 
@@ -31,7 +33,7 @@ mod bounds;
 mod consensus;
 use bounds::{probe_bounds, settle};
 use consensus::consensus;
-pub use consensus::CONSENSUS_MIN_LINES;
+pub use consensus::{CONSENSUS_MAX_SCORE, CONSENSUS_MIN_LINES};
 
 /// Settings of [`auto_ema`].
 #[derive(Clone, Debug, PartialEq)]

@@ -113,11 +113,14 @@ pub(super) fn consensus(
         })
         .map(|(k, _)| (k, Reason::NoConsensus { of }))
         .collect();
-    let selection = if drop.is_empty() {
-        best
-    } else {
-        without_roots(screening, orders, &best, &drop)
-    };
+    if drop.is_empty() {
+        return Consensus {
+            selection: best,
+            support: counts,
+            of,
+        };
+    }
+    let selection = without_roots(screening, orders, &best, &drop);
     Consensus {
         support: support(&selection),
         selection,
