@@ -139,6 +139,15 @@ pub fn pair_modes(
         .collect()
 }
 
+/// Pair two sets of frequencies one to one within `window` (NFD, eq. 2.64):
+/// as many pairs as possible, and among those the least total NFD — the
+/// pairing of [`pair_modes`] with every MAC 1. Pairs (index into `a`,
+/// index into `b`), sorted by the first.
+pub fn pair_frequencies(a: &[f64], b: &[f64], window: f64) -> Vec<(usize, usize)> {
+    let macs = vec![vec![1.0; b.len()]; a.len()];
+    assign(&cost_matrix(a, b, &macs, &Pairing::within(window)))
+}
+
 /// The optimal assignment of allowed pairs, as (row, column) sorted by row.
 /// Unpairing a row costs more than any allowed pair, so the number of pairs
 /// is maximal first and the cost least among those.
