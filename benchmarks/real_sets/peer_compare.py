@@ -79,6 +79,23 @@ BUILDING = {
             "repository: local benchmark only (convert.py).",
 }
 
+# The tool holder's test (H11 alone, and all five FRFs in both layouts) shares band and reference.
+TOOL_HOLDER = {
+    "files": [os.path.join(HERE, "tool_holder_ubc", "frf.uff")],
+    "band": (100.0, 3500.0),
+    "published": [1074.0, 1961.0, 2617.0],
+    "source": "leekunhwee/Vibration-Signal-Processing ExperimentalModalAnalysis/README.md table (peak of Im, "
+              "half-power from Re extrema: zeta 3.40 / 4.54 / 4.53 %; from H11 alone); author's band 101-3500 Hz",
+}
+
+# The ModeLAB bands without a two-tool reference (each FRF has its one peak there).
+EMPTY_A = (" Every FRF has one peak in this band, at 111.99 Hz, but sdypy-EMA's automatic pick is 108.8 Hz "
+           "and PUB5 adds 106.7 Hz (no peak there in any FRF), so the two tools agree on nothing and the "
+           "reference is empty: every mode found here counts as an extra.")
+EMPTY_D = (" sdypy-EMA's automatic pick returns nothing here (at zeta ~0.01 % its stable poles scatter in "
+           "damping beyond its 5 % tolerance: no cluster holds 40 % of the orders), so the two-tool reference "
+           "is empty although every FRF peaks at 974.1-974.2 Hz: every mode found here counts as an extra.")
+
 SETS = {
     "beam_ufsc_hammer": {
         "files": [os.path.join(SHARED, "frf_hammer_as_measured.uff")],
@@ -119,11 +136,7 @@ SETS = {
                 "are poorly determined; the consensus reference says nothing about modes both tools miss.",
     },
     "tool_holder_h11": {
-        "files": [os.path.join(HERE, "tool_holder_ubc", "frf.uff")],
-        "band": (100.0, 3500.0),
-        "published": [1074.0, 1961.0, 2617.0],
-        "source": "leekunhwee/Vibration-Signal-Processing ExperimentalModalAnalysis/README.md table (peak of Im, "
-                  "half-power from Re extrema: zeta 3.40 / 4.54 / 4.53 %); author's band 101-3500 Hz",
+        **TOOL_HOLDER,
         "note": "Single driving-point FRF (SISO), receptance m/N, heavy damping (3.4-4.5 %), no coherence; "
                 "published values are SDOF peak-picking estimates (|H| peaks at 1056/1935/2607 Hz, Im extrema at "
                 "1071/1981/2607 Hz), so a 1 % match is strict (PUB5's 1059 Hz is 1.4 % off). Both tools put two poles "
@@ -132,6 +145,34 @@ SETS = {
                 "3-5 % damping the published list is probably incomplete. A further mode near 3890 Hz lies "
                 "outside the band. No licence in the repository: local benchmark only.",
     },
+    "tool_holder_roving": {
+        **TOOL_HOLDER,
+        "files": [os.path.join(HERE, "tool_holder_ubc", "frf_roving_5x1.uff")],
+        "note": "The whole roving-hammer test of the tool holder as measured: hammer at five points along the tool "
+                "(0, 55, 90, 130, 165 mm from the tip), accelerometer at the tip (5 references x 1 response, H11-H15), "
+                "receptance m/N, 0-5000 Hz at 1 Hz, no coherence. The published values are the SDOF estimates of H11. "
+                "No licence in the repository: local benchmark only (convert.py).",
+    },
+    "tool_holder_roving_1x5": {
+        **TOOL_HOLDER,
+        "files": [os.path.join(HERE, "tool_holder_ubc", "frf_roving_1x5.uff")],
+        "note": "The same five FRFs transposed by reciprocity (1 reference x 5 responses).",
+    },
+    **{f"modelab_{b}": {
+        "files": [os.path.join(HERE, "modelab_beam", f"band_{b}_as_measured.uff")],
+        "band": band,
+        "published": None,
+        "source": "none published: consensus of the two tools (the repository's setup.csv names the band "
+                  f"{name} as one mode's)",
+        "note": "ModeLAB roving-hammer beam test (GitHub alxhslm/ModeLAB, Data Physics SignalCalc ASCII export): hammer "
+                "at 9 points along the beam, one accelerometer at point 4, accelerance, 0-1000 Hz at 0.0195 Hz "
+                "(51,201 lines); only this zoom band was fetched. Very lightly damped (half-power bands 1-7 lines). "
+                "No licence in the repository: local benchmark only (convert.py)." + extra,
+    } for b, band, name, extra in [
+        ("A", (104.0, 120.0), "108-116 Hz", EMPTY_A),
+        ("B", (296.0, 316.0), "300-312 Hz", ""),
+        ("C", (586.0, 604.0), "590-600 Hz", ""),
+        ("D", (966.0, 984.0), "970-980 Hz", EMPTY_D)]},
     "building_1x3": BUILDING,
     "building_3x1": {
         **BUILDING,

@@ -45,3 +45,21 @@ def frf_record(data, freq, *, ids, rsp, ref, ordinate=UNKNOWN, denominator=UNKNO
         data=data,
         x=freq,
     )
+
+
+def write_checked(path, sets):
+    """Write the 58 records `sets` to `path` (replacing it) and read them back with pyuff:
+    the largest error relative to each record's peak must stay below 1e-5 (single precision
+    ASCII). Returns that error."""
+    import os
+    import numpy as np
+    if os.path.exists(path):
+        os.remove(path)
+    pyuff.UFF(path).write_sets(sets, mode="add")
+    back = pyuff.UFF(path).read_sets()
+    back = [back] if isinstance(back, dict) else back
+    err = max(np.max(np.abs(b["data"] - s["data"])) / np.max(np.abs(s["data"]))
+              for b, s in zip(back, sets))
+    print("wrote", path, len(back), "FRFs of", len(back[0]["data"]), "lines, max rel. error", err)
+    assert len(back) == len(sets) and err < 1e-5, path
+    return err
