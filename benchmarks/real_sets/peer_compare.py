@@ -88,6 +88,18 @@ TOOL_HOLDER = {
               "half-power from Re extrema: zeta 3.40 / 4.54 / 4.53 %; from H11 alone); author's band 101-3500 Hz",
 }
 
+def _modelab_convert():
+    """modelab_beam/convert.py as a module: its bands are the rows' bands."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location("modelab_convert",
+                                                  os.path.join(HERE, "modelab_beam", "convert.py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+MODELAB = _modelab_convert()
+
 # The ModeLAB bands without a two-tool reference (each FRF has its one peak there).
 EMPTY_A = (" Every FRF has one peak in this band, at 111.99 Hz, but sdypy-EMA's automatic pick is 108.8 Hz "
            "and PUB5 adds 106.7 Hz (no peak there in any FRF), so the two tools agree on nothing and the "
@@ -95,6 +107,7 @@ EMPTY_A = (" Every FRF has one peak in this band, at 111.99 Hz, but sdypy-EMA's 
 EMPTY_D = (" sdypy-EMA's automatic pick returns nothing here (at zeta ~0.01 % its stable poles scatter in "
            "damping beyond its 5 % tolerance: no cluster holds 40 % of the orders), so the two-tool reference "
            "is empty although every FRF peaks at 974.1-974.2 Hz: every mode found here counts as an extra.")
+MODELAB_EMPTY = {"A": EMPTY_A, "D": EMPTY_D}
 
 SETS = {
     "beam_ufsc_hammer": {
@@ -163,16 +176,12 @@ SETS = {
         "band": band,
         "published": None,
         "source": "none published: consensus of the two tools (the repository's setup.csv names the band "
-                  f"{name} as one mode's)",
+                  "%g-%g Hz as one mode's)" % MODELAB.AUTHOR_BANDS[b],
         "note": "ModeLAB roving-hammer beam test (GitHub alxhslm/ModeLAB, Data Physics SignalCalc ASCII export): hammer "
                 "at 9 points along the beam, one accelerometer at point 4, accelerance, 0-1000 Hz at 0.0195 Hz "
                 "(51,201 lines); only this zoom band was fetched. Very lightly damped (half-power bands 1-7 lines). "
-                "No licence in the repository: local benchmark only (convert.py)." + extra,
-    } for b, band, name, extra in [
-        ("A", (104.0, 120.0), "108-116 Hz", EMPTY_A),
-        ("B", (296.0, 316.0), "300-312 Hz", ""),
-        ("C", (586.0, 604.0), "590-600 Hz", ""),
-        ("D", (966.0, 984.0), "970-980 Hz", EMPTY_D)]},
+                "No licence in the repository: local benchmark only (convert.py)." + MODELAB_EMPTY.get(b, ""),
+    } for b, band in MODELAB.BANDS.items()},
     "building_1x3": BUILDING,
     "building_3x1": {
         **BUILDING,

@@ -8,6 +8,9 @@ function of an evenly spaced frequency axis, in ASCII.
 `ordinate`/`denominator`: the UFF data characteristic (e.g. 8 displacement, 12 acceleration,
 13 excitation force, 0 unknown), the length and force unit exponents and the unit label.
 """
+import os
+
+import numpy as np
 import pyuff
 
 UNKNOWN = (0, 0, 0, "NONE")
@@ -51,8 +54,6 @@ def write_checked(path, sets):
     """Write the 58 records `sets` to `path` (replacing it) and read them back with pyuff:
     the largest error relative to each record's peak must stay below 1e-5 (single precision
     ASCII). Returns that error."""
-    import os
-    import numpy as np
     if os.path.exists(path):
         os.remove(path)
     pyuff.UFF(path).write_sets(sets, mode="add")

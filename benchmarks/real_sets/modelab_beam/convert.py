@@ -25,17 +25,20 @@ sys.path.insert(0, os.path.dirname(here))
 from uff58 import frf_record, write_checked  # noqa: E402
 
 DF = 0.01953125
+# The fetched zoom bands, Hz, each around one of the author's modes (setup.csv fLMode/fHMode).
 BANDS = {"A": (104.0, 120.0), "B": (296.0, 316.0), "C": (586.0, 604.0), "D": (966.0, 984.0)}
+AUTHOR_BANDS = {"A": (108, 116), "B": (300, 312), "C": (590, 600), "D": (970, 980)}
 DRIVING = 4  # the accelerometer's point (z = 0.5 m)
 
-for band, (lo, hi) in BANDS.items():
-    points = [n for n in range(1, 10) if os.path.exists(os.path.join(here, f"{n}_{band}.txt"))]
+
+def convert(band, lo, hi):
+    paths = [os.path.join(here, f"{n}_{band}.txt") for n in range(1, 10)]
+    points = [n for n, p in zip(range(1, 10), paths) if os.path.exists(p)]
     if len(points) < 2:
         print("band", band, "has fewer than two hammer points: skipped")
-        continue
-    paths = [os.path.join(here, f"{n}_{band}.txt") for n in points]
+        return
     cols, freq = [], None
-    for p in paths:
+    for p in (paths[n - 1] for n in points):
         d = np.loadtxt(p)
         f = d[:, 0]
         assert np.allclose(np.diff(f), DF, rtol=0, atol=1e-6), p
@@ -54,3 +57,8 @@ for band, (lo, hi) in BANDS.items():
             rsp=("BEAM", rsp[0], rsp[1]), ref=("BEAM", ref[0], ref[1]),
             ordinate=(12, 1, 0, "m/s^2"), denominator=(13, 0, 1, "N"), ord_data_type=5)
             for n, h, (rsp, ref) in zip(points, cols, pairs)])
+
+
+if __name__ == "__main__":
+    for band, (lo, hi) in BANDS.items():
+        convert(band, lo, hi)
