@@ -10,13 +10,18 @@ use crate::util::{self, Workspace};
 /// imported as stage `beam` on [5, `top`] Hz with `stages` after it, run;
 /// None when ../shared is absent outside CI ([`util::real_beam_dir`]).
 fn hammer_test(top: f64, stages: &str) -> Option<Workspace> {
+    beam_test("frf_hammer_as_measured.uff", top, stages)
+}
+
+/// [`hammer_test`] for any of the beam's files.
+fn beam_test(file: &str, top: f64, stages: &str) -> Option<Workspace> {
     let dir = util::real_beam_dir()?;
     let ws = Workspace::new();
     std::os::unix::fs::symlink(&dir, ws.path().join("data")).unwrap();
     ws.write(
         "p.yaml",
         &format!(
-            "name: ema\nread_outside: [{}]\nstages:\n  beam: {{kind: import, params: {{path: data/frf_hammer_as_measured.uff, band: [5, {top}]}}}}\n{stages}",
+            "name: ema\nread_outside: [{}]\nstages:\n  beam: {{kind: import, params: {{path: data/{file}, band: [5, {top}]}}}}\n{stages}",
             dir.display()
         ),
     );
@@ -109,11 +114,9 @@ fn real_beam_warnings_are_few_and_none_at_an_identified_mode() {
     }
 }
 
-/// Measured (vibration-toolbox case 1, MIT, `benchmarks/real_sets`): the
-/// stable PolyMAX column at 162 Hz (orders 15–72, ζ ≈ 3.7 %) ends as a mode
-/// or as a rejection with its reason, never without trace (issue 31).
-#[test]
-fn a_stable_column_ends_as_a_mode_or_a_rejection() {
+/// AutoEMA's metrics.json on vibration-toolbox case 1 (MIT, in the
+/// repository), 10–490 Hz, default params.
+fn case1_metrics() -> serde_json::Value {
     let ws = Workspace::new();
     ws.copy_in(
         "benchmarks/real_sets/vibration_toolbox_cases/case1.uff",
@@ -125,6 +128,15 @@ fn a_stable_column_ends_as_a_mode_or_a_rejection() {
     );
     ws.run(&[], 0);
     let m: serde_json::Value = ws.json("results/ema/ema/metrics.json");
+    m
+}
+
+/// Measured (vibration-toolbox case 1, MIT, `benchmarks/real_sets`): the
+/// stable PolyMAX column at 162 Hz (orders 15–72, ζ ≈ 3.7 %) ends as a mode
+/// or as a rejection with its reason, never without trace (issue 31).
+#[test]
+fn a_stable_column_ends_as_a_mode_or_a_rejection() {
+    let m = case1_metrics();
     let pos = &m["positions"][0];
     let near = |v: &&serde_json::Value| (v["frequency_hz"].as_f64().unwrap() - 162.0).abs() <= 2.0;
     let modes: Vec<_> = pos["modes"]
@@ -195,4 +207,75 @@ fn a_fit_the_noise_does_not_explain_is_warned_about() {
         "{w:?}"
     );
     assert!(poor("case1").is_empty(), "{:?}", poor("case1"));
+}
+
+/// The mode's entry of `metrics.json` position 0 within 1 Hz of `f_hz`,
+/// among `modes` or `rejected`.
+fn entry_near<'a>(
+    pos: &'a serde_json::Value,
+    list: &str,
+    f_hz: f64,
+) -> Option<&'a serde_json::Value> {
+    pos[list]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|v| (v["frequency_hz"].as_f64().unwrap() - f_hz).abs() <= 1.0)
+}
+
+/// A mode kept for significance alone whose score does not exceed the
+/// inflation of its ΔRSS by the residual's serial correlation is dropped
+/// when fewer than half of the next-best selections hold it: the beam's
+/// shaker test (../shared) at 628 Hz, between the published 602 and
+/// 643 Hz modes, no peak of its own. Vibration-toolbox case 1's weak
+/// 162.4 Hz mode (MIT, in the repository) has a score below its inflation
+/// too, but 10 of 12 neighbours hold it, and it stays (issue 31, autoema 22).
+#[test]
+fn a_root_on_smooth_model_error_is_dropped_unless_its_neighbours_hold_it() {
+    let m = case1_metrics();
+    let pos = &m["positions"][0];
+    let of = pos["consensus_of"].as_u64().unwrap();
+    let weak = entry_near(pos, "modes", 162.4).expect("162.4 Hz kept");
+    assert_eq!(weak["accepted_by"], "significance", "{weak}");
+    let (score, inflation) = (
+        weak["score"].as_f64().unwrap(),
+        weak["serial_inflation"].as_f64().unwrap(),
+    );
+    assert!(score < inflation, "{weak}");
+    assert!(2 * weak["support"].as_u64().unwrap() >= of, "{weak}");
+    // The strong, lightly damped mode sits in a residual as good as white.
+    let strong = entry_near(pos, "modes", 212.1).expect("212.1 Hz");
+    assert!(
+        strong["serial_inflation"].as_f64().unwrap() < 1.5,
+        "{strong}"
+    );
+
+    let Some(ws) = beam_test(
+        "frf_shaker.uff",
+        1000.0,
+        "  ema: {kind: autoema, inputs: {frf: beam.frf}, params: {band: [5, 1000]}}\n",
+    ) else {
+        return;
+    };
+    let m: serde_json::Value = ws.json("results/ema/ema/metrics.json");
+    let pos = &m["positions"][0];
+    assert!(entry_near(pos, "modes", 628.1).is_none(), "{pos}");
+    let r = entry_near(pos, "rejected", 628.1).expect("628.1 Hz rejected");
+    assert_eq!(r["reason"], "serial_correlation", "{r}");
+    assert!(
+        r["score"].as_f64().unwrap() < r["inflation"].as_f64().unwrap(),
+        "{r}"
+    );
+    assert!(
+        2 * r["support"].as_u64().unwrap() < r["of"].as_u64().unwrap(),
+        "{r}"
+    );
+    for f in [602.3, 643.4] {
+        let near = pos["modes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|v| (v["frequency_hz"].as_f64().unwrap() - f).abs() <= 0.02 * f);
+        assert!(near, "no mode near {f} Hz");
+    }
 }

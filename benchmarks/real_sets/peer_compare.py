@@ -359,7 +359,7 @@ def reference(name, rr):
     return sorted(published + added), added
 
 
-def run_modalflow(binary, name, workdir):
+def run_modalflow(binary, name, workdir, ema_params=""):
     """modalflow on one set: a two-stage pipeline (import with `band` and the set's `import`
     params, e.g. `calibrated: false` for FRFs without units; autoema with `band` only) in a
     fresh folder with a fresh cache; CPU and peak RSS of the `modalflow run` process."""
@@ -376,7 +376,7 @@ def run_modalflow(binary, name, workdir):
     with open(os.path.join(d, "p.yaml"), "w") as f:
         f.write(f"name: {name}\nstages:\n  imp:\n    kind: import\n"
                 f"    params: {{path: \"{path}\", band: [{lo}, {hi}]{extra}}}\n"
-                f"  ema:\n    kind: autoema\n    params: {{band: [{lo}, {hi}]}}\n"
+                f"  ema:\n    kind: autoema\n    params: {{band: [{lo}, {hi}]{', ' + ema_params if ema_params else ''}}}\n"
                 f"    inputs: {{frf: imp.frf}}\n")
     cpu, rss = measured([os.path.abspath(binary), "run", "p.yaml"], cwd=d)
     m = json.load(open(os.path.join(d, "results", name, "ema", "metrics.json")))
@@ -397,6 +397,8 @@ def main():
     ap.add_argument("--report-only", action="store_true", help="rewrite the .md from an existing .json")
     ap.add_argument("--modalflow", metavar="BIN", help="also run this modalflow binary on every set and score it")
     ap.add_argument("--workdir", default="/tmp/modalflow_real_sets", help="where the modalflow runs are made")
+    ap.add_argument("--ema-params", default="", metavar="YAML",
+                    help="more autoema params for a study, e.g. 'noise: white' (use with --out elsewhere)")
     a = ap.parse_args()
     if a.child:
         return child(*a.child)
@@ -409,7 +411,7 @@ def main():
     if a.report_only or a.modalflow:
         results = json.load(open(a.out + ".json"))
         for name in a.sets if a.modalflow else []:
-            results[name]["modalflow"] = run_modalflow(a.modalflow, name, a.workdir)
+            results[name]["modalflow"] = run_modalflow(a.modalflow, name, a.workdir, a.ema_params)
             r = results[name]["modalflow"]
             print(f"{name:20s} modalflow {len(r['frequency_hz']):3d} modes  cpu {r['cpu_s']:5.2f} s  "
                   f"rss {r['peak_rss_mib']:4.0f} MiB  warnings {len(r['warnings'])}", flush=True)

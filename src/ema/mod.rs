@@ -34,6 +34,7 @@ pub mod residual;
 pub mod roots;
 pub mod search;
 pub mod selection;
+pub mod serial_correlation;
 pub mod significance;
 pub mod stabilization;
 pub mod summary;

@@ -332,6 +332,45 @@ impl<'a> Projector<'a> {
         g
     }
 
+    /// The residuals H_c − Σ_k x_{c,k} b_k of `fit`, the fit of the poles
+    /// `lambdas` in that order, on the `channels`, over every line and in
+    /// the analysed (whitened) units.
+    pub fn residuals(
+        &mut self,
+        lambdas: &[Complex64],
+        fit: &GramFit,
+        channels: &[usize],
+    ) -> Vec<Vec<Complex64>> {
+        let nf = self.data.n_lines();
+        let n = fit.n_col;
+        let mut r: Vec<Vec<Complex64>> = channels
+            .iter()
+            .map(|&c| {
+                (c * nf..(c + 1) * nf)
+                    .map(|i| Complex64::new(self.hr[i], self.hi[i]))
+                    .collect()
+            })
+            .collect();
+        let mut subtract = |re: &[f64], im: &[f64], col: usize| {
+            for (rc, &c) in r.iter_mut().zip(channels) {
+                let x = fit.x[c * n + col];
+                for ((v, a), b) in rc.iter_mut().zip(re).zip(im) {
+                    *v -= Complex64::new(a * x, b * x);
+                }
+            }
+        };
+        for (a, &l) in lambdas.iter().enumerate() {
+            self.keep_planar(l, None);
+            for (i, (re, im)) in self.planar[&key(l)].cols.iter().enumerate() {
+                subtract(re, im, 2 * a + i);
+            }
+        }
+        for (i, col) in self.residuals.iter().enumerate() {
+            subtract(&col.re, &col.im, 2 * lambdas.len() + i);
+        }
+        r
+    }
+
     /// Least squares for the poles `lambdas` (positive imaginary parts).
     pub fn fit(&mut self, lambdas: &[Complex64]) -> FitOutcome {
         for &l in lambdas {

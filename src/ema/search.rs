@@ -98,6 +98,9 @@ pub struct AutoEmaResult {
     /// Per root of `best`: how many of the `consensus_of` next-best
     /// selections of the search hold it ([`consensus`]).
     pub support: Vec<usize>,
+    /// Per root of `best`: the variance inflation of its ΔRSS by the serial
+    /// correlation of the residual ([`super::serial_correlation`]).
+    pub serial_inflation: Vec<f64>,
     pub consensus_of: usize,
     pub fit: LsfdFit,
     pub trace: Vec<TraceEntry>,
@@ -449,6 +452,7 @@ fn analyse(
         orders,
         best,
         support: checked.support,
+        serial_inflation: checked.inflation,
         consensus_of: checked.of,
         fit,
         trace,

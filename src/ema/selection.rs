@@ -30,8 +30,9 @@ use super::lsfd::{lsfd_roots, LsfdFit};
 use super::noise::{cmif, noise_variance};
 use super::peak_evidence::PeakEvidence;
 use super::polymax::PoleOrder;
-use super::projection::Projector;
+use super::projection::{FitOutcome, Projector};
 use super::roots::{roots_from_clusters, Root, COINCIDENT};
+use super::serial_correlation::ResidualCorrelation;
 use super::significance::{Acceptance, Reason, Rejection, Validated, Validation};
 use super::stabilization::{stabilize, PoleFlags, StabilizationParams};
 use super::{EmaError, FrfData};
@@ -159,6 +160,40 @@ impl<'d> Screening<'d> {
             evidence: &self.evidence,
         }
         .run(roots)
+    }
+}
+
+/// Channels, the strongest, whose residuals are pooled for the serial
+/// correlation ([`Screening::serial_inflation`]).
+pub const POOLED_CHANNELS: usize = 4;
+
+impl Screening<'_> {
+    /// The variance inflation of each root's ΔRSS in the fit of `s` by the
+    /// serial correlation of that fit's residual around the root, pooled
+    /// over the [`POOLED_CHANNELS`] strongest channels
+    /// ([`super::serial_correlation`]); 1 where it cannot be told.
+    pub fn serial_inflation(&mut self, orders: &[PoleOrder], s: &Selection) -> Vec<f64> {
+        let poles: Vec<_> = s.roots.iter().map(|r| r.pole(orders)).collect();
+        let lambdas: Vec<_> = poles.iter().map(|p| p.s).collect();
+        let FitOutcome::Fit(fit) = self.projector.fit(&lambdas) else {
+            return vec![1.0; poles.len()];
+        };
+        let h2 = self.projector.h_norm2();
+        let mut channels: Vec<usize> = (0..h2.len()).collect();
+        channels.sort_by(|&a, &b| h2[b].total_cmp(&h2[a]).then(a.cmp(&b)));
+        channels.truncate(POOLED_CHANNELS);
+        let residuals = self.projector.residuals(&lambdas, &fit, &channels);
+        let correlation = ResidualCorrelation::new(residuals);
+        let f = &self.data.frequencies_hz;
+        let step = self.data.line_spacing_hz();
+        poles
+            .iter()
+            .map(|p| {
+                let centre = f.partition_point(|&x| x < p.frequency_hz) as f64;
+                let band = super::adequacy::bandwidth_lines(p.frequency_hz, p.damping_ratio, step);
+                correlation.inflation(centre, band)
+            })
+            .collect()
     }
 }
 

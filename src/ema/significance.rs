@@ -81,6 +81,17 @@ pub enum Reason {
     /// none of the `of` next-best selections of the search (screened): a
     /// mode of one hyperparameter point only.
     NoConsensus { of: usize },
+    /// Kept for significance alone, by a `score` below the variance
+    /// `inflation` of its ΔRSS by the residual's serial correlation around
+    /// it ([`super::serial_correlation`]), and held by `support` of the `of`
+    /// next-best selections, fewer than half: a root fitted to smooth model
+    /// error.
+    SerialCorrelation {
+        score: f64,
+        inflation: f64,
+        support: usize,
+        of: usize,
+    },
     /// Refined to a frequency outside the analysed band.
     OutsideBand { band_hz: (f64, f64) },
     /// Lightly damped (ζ < 2 %) and kept for significance alone, on a stable

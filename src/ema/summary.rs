@@ -31,6 +31,12 @@ pub struct ModeSummary {
     /// How many of the search's next-best selections (`consensus_of` of
     /// the position), screened, hold this mode within 1 %.
     pub support: Option<usize>,
+    /// How much the serial correlation of the fit's residual around the
+    /// mode inflates the variance of its ΔRSS ([`super::serial_correlation`];
+    /// 1: the residual there is as good as independent from line to line).
+    /// A mode kept for significance alone needs a score above it, or the
+    /// support of half the next-best selections.
+    pub serial_inflation: Option<f64>,
     /// Why it was kept: its own CMIF peak, or significance alone.
     #[serde(flatten)]
     pub acceptance: Option<Acceptance>,
@@ -137,6 +143,7 @@ impl PositionSummary {
                             r.summary.line_spacing_hz,
                         ),
                         support: r.support.get(k).copied(),
+                        serial_inflation: r.serial_inflation.get(k).copied(),
                         acceptance: r.best.accepted.get(k).cloned(),
                     }
                 })

@@ -90,8 +90,20 @@ impl Kind for AutoEma {
     /// 18: a fit whose FRAC the noise does not explain is warned about
     /// (`ema::adequacy`); each mode reports its half-power band in lines.
     /// The modes are those of 17.
+    /// 19: a bound beyond which the selection is better but holds the same
+    /// modes is listed in `at_bound`, not warned about.
+    /// 20: the modes a better selection beyond a bound lacks are named in
+    /// one warning per position.
+    /// 21: a mode none of the 12 next-best selections holds is dropped
+    /// (`no_consensus`); every mode reports its `support`.
+    /// 22: a mode kept for significance alone whose score is below the
+    /// inflation of its ΔRSS by the residual's serial correlation, held by
+    /// fewer than half of the next-best selections, is dropped
+    /// (`serial_correlation`, `ema::serial_correlation`); every mode
+    /// reports its `serial_inflation` (issue 31: the tool holder's driving
+    /// point 8 → 3 extras).
     fn version(&self) -> u32 {
-        21
+        22
     }
     fn summary(&self) -> &'static str {
         "automated modal analysis: PolyMAX, stabilization, clustering, roots validated against the noise, LSFD, tuned by Bayesian optimization"

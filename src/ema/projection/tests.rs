@@ -118,3 +118,43 @@ fn coincident_poles_are_reported_as_dependent() {
         FitOutcome::Fit(_) => panic!("identical poles must be dependent"),
     }
 }
+
+/// The residuals over the lines are the data less the QR fit of [`lsfd`],
+/// channel by channel, and their squared norm is the fit's RSS.
+#[test]
+fn residuals_are_the_data_less_the_qr_fit() {
+    let d = data(0.02);
+    let lambdas: Vec<Complex64> = four_mode_system()
+        .iter()
+        .take(3)
+        .map(|m| pole(m.frequency_hz * 1.002, m.damping_ratio))
+        .collect();
+    let mut p = Projector::new(&d);
+    p.cap = 1; // columns recomputed as they are needed
+    let FitOutcome::Fit(g) = p.fit(&lambdas) else {
+        panic!("dependent")
+    };
+    let q = lsfd(&d, &lambdas).unwrap();
+    let nf = d.n_lines();
+    let channels = [3, 0];
+    let r = p.residuals(&lambdas, &g, &channels);
+    for (rc, &c) in r.iter().zip(&channels) {
+        let scale = d.h[c * nf..(c + 1) * nf]
+            .iter()
+            .map(|h| h.norm())
+            .fold(0.0, f64::max);
+        for (f, v) in rc.iter().enumerate() {
+            let want = d.h[c * nf + f] - q.reconstructed[c * nf + f];
+            assert!(
+                (v - want).norm() < 1e-9 * scale,
+                "channel {c} line {f}: {v} vs {want}"
+            );
+        }
+        let rss: f64 = rc.iter().map(|v| v.norm_sqr()).sum();
+        assert!(
+            (rss / g.rss[c] - 1.0).abs() < 1e-6,
+            "channel {c}: {rss} vs {}",
+            g.rss[c]
+        );
+    }
+}
