@@ -47,6 +47,9 @@ estimates are *extra*.
 modalflow: `--modalflow target/release/modalflow` runs a two-stage pipeline
 (`import` and `autoema`, only `band` set) per set in `--workdir` with a fresh
 cache, scores it the same way (reusing the stored peer results) and adds its row.
+For a study of one autoema param, `--ema-params 'noise: white' --out /tmp/white` adds it to
+every set's autoema stage and writes the tables elsewhere (copy peer_results.json to
+/tmp/white.json first: the peers' rows are read from the output's own .json).
 """
 import argparse
 import json
