@@ -116,6 +116,10 @@ impl Default for SelectionParams {
     }
 }
 
+/// Channels, the strongest, whose residuals are pooled for the serial
+/// correlation ([`Screening::serial_inflation`]).
+pub const POOLED_CHANNELS: usize = 4;
+
 /// What every selection of one FRF matrix shares: the poles' projections
 /// and the noise floor.
 pub struct Screening<'d> {
@@ -161,13 +165,7 @@ impl<'d> Screening<'d> {
         }
         .run(roots)
     }
-}
 
-/// Channels, the strongest, whose residuals are pooled for the serial
-/// correlation ([`Screening::serial_inflation`]).
-pub const POOLED_CHANNELS: usize = 4;
-
-impl Screening<'_> {
     /// The variance inflation of each root's ΔRSS in the fit of `s` by the
     /// serial correlation of that fit's residual around the root, pooled
     /// over the [`POOLED_CHANNELS`] strongest channels

@@ -45,9 +45,10 @@
 //! mean |r|² of the lines; white noise gives γ_y(0) = γ_r(0)/d and I = 1.
 //!
 //! **Only what is significant.** A window of N blocks estimates I with a
-//! standard error of about 2 (Σ_k a(kd)²/N)^½ under white noise (0.5 for
-//! the default window, whatever B: the window holds about ten independent
-//! stretches of the root's width), divided by √(channels pooled). The
+//! standard error of about 2 (Σ_k a(kd)²/N)^½ under white noise (0.54 for
+//! any root wider than 8 lines: the window holds about ten independent
+//! stretches of the root's width; 0.3 at B = 2, where the window's floor of
+//! 41 lines is wider), divided by √(channels pooled). The
 //! inflation used is 1 + max(0, Î − 1 − 2 se): a residual whose correlation
 //! the window cannot tell from white noise counts as white, so synthetic
 //! data with white noise and a sufficient model analyse as before.
