@@ -169,8 +169,14 @@ impl<'d> Screening<'d> {
     /// The variance inflation of each root's ΔRSS in the fit of `s` by the
     /// serial correlation of that fit's residual around the root, pooled
     /// over the [`POOLED_CHANNELS`] strongest channels
-    /// ([`super::serial_correlation`]); 1 where it cannot be told.
-    pub fn serial_inflation(&mut self, orders: &[PoleOrder], s: &Selection) -> Vec<f64> {
+    /// ([`super::serial_correlation`]), on lines `step_hz` apart; 1 where it
+    /// cannot be told.
+    pub fn serial_inflation(
+        &mut self,
+        orders: &[PoleOrder],
+        s: &Selection,
+        step_hz: f64,
+    ) -> Vec<f64> {
         let poles: Vec<_> = s.roots.iter().map(|r| r.pole(orders)).collect();
         let lambdas: Vec<_> = poles.iter().map(|p| p.s).collect();
         let FitOutcome::Fit(fit) = self.projector.fit(&lambdas) else {
@@ -183,12 +189,12 @@ impl<'d> Screening<'d> {
         let residuals = self.projector.residuals(&lambdas, &fit, &channels);
         let correlation = ResidualCorrelation::new(residuals);
         let f = &self.data.frequencies_hz;
-        let step = self.data.line_spacing_hz();
         poles
             .iter()
             .map(|p| {
                 let centre = f.partition_point(|&x| x < p.frequency_hz) as f64;
-                let band = super::adequacy::bandwidth_lines(p.frequency_hz, p.damping_ratio, step);
+                let band =
+                    super::adequacy::bandwidth_lines(p.frequency_hz, p.damping_ratio, step_hz);
                 correlation.inflation(centre, band)
             })
             .collect()

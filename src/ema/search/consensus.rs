@@ -117,7 +117,7 @@ pub(super) fn consensus(
     };
     let of = others.len();
     let counts = support(&best);
-    let inflation = screening.serial_inflation(orders, &best);
+    let inflation = screening.serial_inflation(orders, &best, step_hz);
     let drop: Vec<(usize, Reason)> = identified_modes(orders, &best)
         .iter()
         .zip(&counts)
@@ -161,7 +161,7 @@ pub(super) fn consensus(
     let selection = without_roots(screening, orders, &best, &drop);
     Consensus {
         support: support(&selection),
-        inflation: screening.serial_inflation(orders, &selection),
+        inflation: screening.serial_inflation(orders, &selection, step_hz),
         selection,
         of,
     }
