@@ -21,7 +21,9 @@ from pathlib import Path
 from typing import Dict, Optional
 
 from .artifacts import (
+    AutoemaAccount,
     Modes,
+    autoema_account,
     read_frf,
     read_json,
     read_modes,
@@ -32,7 +34,7 @@ from .artifacts import (
 from .uff import FrfSet
 
 __all__ = [
-    "FrfSet", "Modes", "Stage", "load", "run", "read_frf", "read_json", "read_modes",
+    "AutoemaAccount", "FrfSet", "Modes", "Stage", "autoema_account", "load", "run", "read_frf", "read_json", "read_modes",
     "read_parameters", "read_path", "read_table",
 ]
 __version__ = "0.1.0"

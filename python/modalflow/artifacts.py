@@ -122,6 +122,56 @@ def read_modes(path) -> Modes:
     )
 
 
+@dataclass
+class AutoemaAccount:
+    """Why an autoema stage kept or dropped each root, from its metrics.json,
+    as tables: `modes`, one row per identified mode (position, frequency_hz,
+    damping_ratio, multiplicity, stable_orders, bandwidth_lines, support,
+    serial_inflation, accepted_by and what it was accepted by: score,
+    peak_hz, ratio); `rejected`, one row per root validation removed
+    (position, frequency_hz, damping_ratio, n_orders, reason and the
+    reason's own figures; a figure another reason lacks is NaN); and
+    `positions`, one row per position (goal_reached, mean_frac, n_modes,
+    consensus_of, the number of warnings). The fields are those of
+    docs/stage-kinds.md (autoema)."""
+
+    modes: pd.DataFrame
+    rejected: pd.DataFrame
+    positions: pd.DataFrame
+
+
+def autoema_account(metrics) -> AutoemaAccount:
+    """An `AutoemaAccount` of an autoema stage's metrics (the dict a `Stage`
+    holds as `metrics`, or the path of its metrics.json)."""
+    if not isinstance(metrics, dict):
+        metrics = read_json(metrics)
+    positions = metrics.get("positions")
+    if positions is None:
+        raise ValueError("not an autoema metrics.json: it has no `positions` (other kinds' metrics differ)")
+
+    def rows(key):
+        return [{"position": p["index"], **r} for p in positions for r in p.get(key, [])]
+
+    def frame(records, first):
+        df = pd.DataFrame.from_records(records)
+        if df.empty:
+            return pd.DataFrame(columns=first)
+        df["position"] = df["position"].astype("Int64")
+        for c in ("accepted_by", "reason"):
+            if c in df.columns:
+                df[c] = df[c].astype("string")
+        return df[first + [c for c in df.columns if c not in first]]
+
+    summary = [{"position": p["index"], "goal_reached": p["goal_reached"], "mean_frac": p["mean_frac"],
+                "n_modes": p["n_modes"], "consensus_of": p.get("consensus_of"),
+                "warnings": len(p.get("warnings", []))} for p in positions]
+    return AutoemaAccount(
+        modes=frame(rows("modes"), ["position", "frequency_hz", "damping_ratio"]),
+        rejected=frame(rows("rejected"), ["position", "frequency_hz", "damping_ratio", "reason"]),
+        positions=pd.DataFrame.from_records(summary),
+    )
+
+
 def read_parameters(path) -> pd.DataFrame:
     """A parameters.csv indexed by parameter name: value, bounds and (from an
     identification) the relative standard errors and the absolute 95 %

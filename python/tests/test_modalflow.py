@@ -155,3 +155,28 @@ def test_quickstart_mac_matches_an_independent_computation(quickstart):
         macs.append(abs(np.vdot(a, b)) ** 2 / (np.vdot(a, a).real * np.vdot(b, b).real))
     assert len(macs) == 3
     assert np.mean(macs) == pytest.approx(score["metrics"]["modes"]["mean_mac"], abs=1e-12)
+
+
+def test_autoema_account_tables_why_each_root_was_kept_or_dropped(quickstart):
+    """The account's modes are the stage's modes (same frequencies, per
+    position), each with why it was kept; its rejections carry a reason."""
+    ema = quickstart["ema[measurement=noisy]"]
+    account = modalflow.autoema_account(ema["metrics"])
+    modes = ema["modes"].modes
+    assert len(account.modes) == len(modes)
+    for pos, group in modes.groupby("position"):
+        mine = account.modes[account.modes["position"] == pos]
+        np.testing.assert_allclose(sorted(mine["frequency_hz"]), sorted(group["frequency_hz"]), rtol=1e-12)
+    assert account.modes["accepted_by"].notna().all()
+    assert set(account.modes["accepted_by"]) <= {"cmif_peak", "significance", "data_peak"}
+    assert (account.modes["serial_inflation"] >= 1.0).all()
+    assert (account.modes["support"] <= account.positions["consensus_of"].max()).all()
+    if len(account.rejected):
+        assert account.rejected["reason"].notna().all()
+    assert list(account.positions["n_modes"]) == [
+        int((account.modes["position"] == p).sum()) for p in account.positions["position"]]
+    # The same from the file, and a clear refusal of another kind's metrics.
+    same = modalflow.autoema_account(ema.path / "metrics.json")
+    pd.testing.assert_frame_equal(same.modes, account.modes)
+    with pytest.raises(ValueError, match="not an autoema metrics.json"):
+        modalflow.autoema_account(quickstart["score[measurement=noisy]"]["metrics"])
