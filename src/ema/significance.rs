@@ -140,6 +140,18 @@ pub enum Acceptance {
     },
 }
 
+impl Acceptance {
+    /// Its significance score max(T_sum/threshold, T_max/threshold),
+    /// whatever kept the root.
+    pub fn score(&self) -> f64 {
+        match self {
+            Acceptance::CmifPeak { score, .. }
+            | Acceptance::Significance { score }
+            | Acceptance::DataPeak { score, .. } => *score,
+        }
+    }
+}
+
 /// The roots kept, their fit and what was removed.
 #[derive(Clone, Debug)]
 pub struct Validated {

@@ -123,13 +123,9 @@ pub(super) fn consensus(
         .zip(&counts)
         .enumerate()
         .filter_map(|(k, (&(f, zeta), &n))| {
-            let score = match best.accepted.get(k) {
-                Some(Acceptance::CmifPeak { score, .. })
-                | Some(Acceptance::Significance { score })
-                | Some(Acceptance::DataPeak { score, .. }) => *score,
-                None => 0.0,
-            };
-            let alone = matches!(best.accepted.get(k), Some(Acceptance::Significance { .. }));
+            let accepted = best.accepted.get(k);
+            let score = accepted.map_or(0.0, Acceptance::score);
+            let alone = matches!(accepted, Some(Acceptance::Significance { .. }));
             if of > 0
                 && n == 0
                 && bandwidth_lines(f, zeta, step_hz) > CONSENSUS_MIN_LINES

@@ -102,7 +102,10 @@ crate::params! {
         /// next-best selections of the search every mode is checked
         /// against (screened): a mode wider than 3 line spacings, with a
         /// significance score below 50, that none of them holds (within
-        /// 1 %) is dropped as `no_consensus` (0: no check)
+        /// 1 %) is dropped as `no_consensus`; a mode kept for significance
+        /// alone, held by fewer than half of them and scoring below the
+        /// inflation of its evidence by the residual's serial correlation,
+        /// as `serial_correlation` (0: neither check)
         pub consensus: usize = AutoEmaParams::default().consensus; range Range::closed(0.0, 100.0),
         /// fit references × responses as measured or transposed by
         /// reciprocity (H_ij = H_ji, same poles; shapes then at the
