@@ -7,6 +7,7 @@ mod util;
 
 mod autoema;
 mod autoema_real;
+mod beam_sections;
 mod cli;
 mod docs;
 mod dynamics;

@@ -3,6 +3,7 @@
 
 #![allow(dead_code)]
 
+pub mod models;
 pub mod slurm;
 
 use modalflow::artifacts::cost::Cost;
