@@ -296,7 +296,7 @@ pub(crate) fn modes_csv(ws: &Workspace, stage: &str) -> Vec<(f64, f64)> {
 }
 
 /// Shapes of mode_shapes.csv: per mode, (node, direction) → complex value.
-fn shapes_csv(
+pub(crate) fn shapes_csv(
     ws: &Workspace,
     stage: &str,
 ) -> Vec<std::collections::BTreeMap<(u32, String), num_complex::Complex64>> {

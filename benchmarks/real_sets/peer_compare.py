@@ -91,6 +91,23 @@ TOOL_HOLDER = {
               "half-power from Re extrema: zeta 3.40 / 4.54 / 4.53 %; from H11 alone); author's band 101-3500 Hz",
 }
 
+# The two-girder structure of dam0.unv (both layouts share everything but the file and the note).
+DAM0 = {
+    "files": [os.path.join(HERE, "cermelj_dam0", "dam0.unv")],
+    "band": (1.5, 5.0),
+    "import": {"calibrated": False},
+    # cermelj_dam0/README.md: the geometry is that of the I-40 bridge over the Rio Grande (LANL, 1993).
+    "published": [2.48, 2.96, 3.50, 4.08, 4.17, 4.63],
+    "source": "the undamaged I-40 bridge's six modes below 5 Hz as the literature gives them (Farrar et al. 1994, "
+              "LA-12767-MS; Farrar & Jauregui 1998), quoted from memory and NOT checked against the report on "
+              "this machine (cermelj_dam0/README.md); the file itself states no modal parameters",
+    "note": "dam0.unv, the example data of Primoz Cermelj's readuff/writeuff (GitHub murmlgrmpf/uff, BSD-2-Clause): "
+            "26 accelerances (two lines of 13 points 360 units apart, 'SOUTH/NORTH TRACE' in its coords.unv) over "
+            "one excitation at point 3, 0-12.5 Hz at 0.03125 Hz, no unit labels, dated 10-NOV-93, as measured "
+            "(1 x 26). Power-of-two quantisation per channel (an analyser's fixed-point output); near-DC "
+            "leakage below 1.5 Hz, so the band starts there.",
+}
+
 def _modelab_convert():
     """modelab_beam/convert.py as a module: its bands are the rows' bands."""
     import importlib.util
@@ -190,6 +207,13 @@ SETS = {
         **BUILDING,
         "files": [os.path.join(HERE, "ufsc_three_storey", "frf_3x1.uff")],
         "note": "The same three FRFs transposed by reciprocity (3 references x 1 response, a roving-hammer layout).",
+    },
+    "dam0_1x26": DAM0,
+    "dam0_26x1": {
+        **DAM0,
+        "files": [os.path.join(HERE, "cermelj_dam0", "frf_26x1.uff")],
+        "note": "The same 26 FRFs transposed by reciprocity (26 references x 1 response, a roving-hammer layout; "
+                "cermelj_dam0/convert.py).",
     },
     "vtb_case1": {
         "files": [os.path.join(HERE, "vibration_toolbox_cases", "case1.uff")],
