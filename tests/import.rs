@@ -472,3 +472,48 @@ fn geometry_comes_from_the_first_universal_file_with_nodes() {
     assert_eq!(g["lines"].as_array().map(Vec::len), Some(10), "{g}");
     assert_eq!(artifact(&ws, "psv").len(), 2, "one position per file");
 }
+
+/// `geometry:` names a universal file of its own (test software often
+/// exports the geometry apart from the FRFs): the bridge's `coords.unv`,
+/// 26 nodes and 37 trace segments (12 along each girder, 13 cross
+/// members), replaces whatever the FRF file holds, and its skipped
+/// datasets are warned about; a file without nodes is an error naming it.
+#[test]
+fn geometry_comes_from_the_file_the_param_names() {
+    let ws = Workspace::new();
+    for f in ["dam0.unv", "coords.unv"] {
+        ws.copy_in(&format!("benchmarks/real_sets/cermelj_dam0/{f}"), f);
+    }
+    let pipeline = |geometry: &str| {
+        format!(
+            "name: imp\nstages:\n  b: {{kind: import, params: {{path: dam0.unv, geometry: {geometry}, calibrated: false}}}}\n"
+        )
+    };
+    ws.write("p.yaml", &pipeline("coords.unv"));
+    let r0 = ws.run(&[], 0);
+    let g: serde_json::Value = ws.json("results/imp/b/geometry.json");
+    assert_eq!(g["nodes"].as_array().map(Vec::len), Some(26), "{g}");
+    assert_eq!(g["lines"].as_array().map(Vec::len), Some(37), "{g}");
+    let node = |id: u64| {
+        g["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|n| n["id"] == id)
+            .map(|n| n["xyz"].clone())
+    };
+    assert_eq!(node(113), Some(serde_json::json!([0.0, 360.0, 5080.0])));
+    let warnings = r0.stage("b")["warnings"].to_string();
+    assert!(
+        warnings.contains("coords.unv") && warnings.contains("734"),
+        "{warnings}"
+    );
+    // A file without nodes: the FRF file itself.
+    ws.write("p.yaml", &pipeline("dam0.unv"));
+    let r = ws.run(&[], 1);
+    let err = r.stage("b")["error"].as_str().unwrap();
+    assert!(
+        err.contains("dam0.unv") && err.contains("no node coordinates"),
+        "{err}"
+    );
+}

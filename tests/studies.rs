@@ -377,3 +377,40 @@ fn new_user_study_runs_as_one_pipeline() {
         .join("results/new_user_study/report/report/index.html")
         .is_file());
 }
+
+/// The measured bridge (pipelines/real_bridge.yaml, data in
+/// benchmarks/real_sets/cermelj_dam0): the six literature modes within
+/// 1 %, none left over, the two layouts the same modes (MAC > 0.99), and
+/// the report's figures (stabilization, MAC, shapes on the girders).
+#[test]
+fn real_bridge_finds_its_modes_in_both_layouts() {
+    let dir = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/benchmarks/real_sets/cermelj_dam0"
+    );
+    let ws = study(
+        "real_bridge",
+        &[
+            (
+                "read_outside: [../benchmarks/real_sets/cermelj_dam0]",
+                &format!("read_outside: [{dir}]"),
+            ),
+            ("../benchmarks/real_sets/cermelj_dam0/", "data/"),
+        ],
+    );
+    std::os::unix::fs::symlink(dir, ws.path().join("data")).unwrap();
+    ws.run(&[], 0);
+    let m: Value = ws.json("results/real_bridge/against_literature/metrics.json");
+    let pos = &m["modes"]["positions"][0];
+    assert_eq!(pos["paired"], 6, "{m}");
+    assert_eq!(pos["unpaired_reference"].as_array().map(Vec::len), Some(0));
+    assert_eq!(pos["unpaired_candidate"].as_array().map(Vec::len), Some(0));
+    assert!(pos["max_nfd"].as_f64().unwrap() < 0.01, "{m}");
+    let m: Value = ws.json("results/real_bridge/layouts/metrics.json");
+    assert_eq!(m["modes"]["paired"], 6, "{m}");
+    assert!(
+        m["modes"]["positions"][0]["min_mac"].as_f64().unwrap() > 0.99,
+        "{m}"
+    );
+    assert!(util::assert_report_figures(&ws, "real_bridge") >= 3);
+}

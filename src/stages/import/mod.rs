@@ -13,9 +13,10 @@
 //! axes' labels, dataset 164) are converted to SI and each conversion is
 //! listed under `units` in import.json (a file in g/N becomes m/s²/N,
 //! × 9.80665); an unknown unit is an error naming the file and the record.
-//! The first UFF file's node coordinates (15/2411) and trace lines (82)
-//! become the `geometry` output (geometry.json, empty without nodes), which
-//! `evaluate` draws mode shapes on.
+//! The first UFF file's node coordinates (15/2411) and trace lines (82),
+//! or those of the file `geometry` names, become the `geometry` output
+//! (geometry.json, empty without nodes), which `evaluate` draws mode
+//! shapes on.
 //!
 //! Voltage or uncalibrated FRFs (`V/V`, no scale) import with `calibrated:
 //! false` or `units: {response: V, reference: V}`: values as measured, the
@@ -25,6 +26,7 @@
 //! are a stage warning. `content: modes` reads reference modes instead
 //! ([`modes`]).
 
+mod geometry_file;
 mod modes;
 
 use super::{
@@ -136,6 +138,10 @@ crate::params! {
         /// with content modes and a CSV table: the mode_shapes.csv table
         /// (position,mode,node,direction,real,imag); optional
         pub shapes: Option<String> = None,
+        /// UFF file with the test geometry (nodes 15/2411, trace lines 82)
+        /// when the measurement files hold none (test software often
+        /// exports it apart); replaces theirs; optional
+        pub geometry: Option<String> = None,
         /// coherence γ² outside [0, 1]: check = an error at the value's
         /// line; clamp = values in [-0.01, 2] become 0 or 1 (one warning,
         /// listed in import.json), beyond that or NaN still an error;
@@ -264,7 +270,8 @@ fn selection(p: &Params) -> Result<Selection, Vec<ParamProblem>> {
 impl Kind for Import {
     type Params = Params;
     const NAME: &'static str = "import";
-    const FILE_PARAMS: &'static [(&'static str, bool)] = &[("path", true), ("shapes", false)];
+    const FILE_PARAMS: &'static [(&'static str, bool)] =
+        &[("path", true), ("shapes", false), ("geometry", false)];
 
     /// 2: UFF units converted to SI, `units` and `quantity` in import.json.
     /// 3: `calibrated` in import.json, the reader's warnings as stage
@@ -306,12 +313,14 @@ impl Kind for Import {
             path: p.path.clone(),
             glob: true,
         }];
-        if let Some(s) = &p.shapes {
-            out.push(FileRef {
-                param: "shapes".into(),
-                path: s.clone(),
-                glob: false,
-            });
+        for (param, path) in [("shapes", &p.shapes), ("geometry", &p.geometry)] {
+            if let Some(path) = path {
+                out.push(FileRef {
+                    param: param.into(),
+                    path: path.clone(),
+                    glob: false,
+                });
+            }
         }
         out
     }
@@ -372,6 +381,11 @@ impl Kind for Import {
             }
             sets.extend(file_sets);
             ctx.progress.inc(1);
+        }
+        if let Some(g) = &params.geometry {
+            let (g, w) = geometry_file::read(ctx, g)?;
+            geometry = g;
+            warnings.extend(w);
         }
         let mut sets = merge_positions(sets)?;
         let clamped = apply_coherence(params.coherence, &mut sets);

@@ -68,6 +68,11 @@ pub fn run(params: &Params, ctx: &StageContext) -> Result<StageOutputs, StageErr
         warnings.extend(imported.warnings.iter().map(|w| format!("{rel}: {w}")));
         imported.models
     };
+    if let Some(g) = &params.geometry {
+        let (g, w) = super::geometry_file::read(ctx, g)?;
+        geometry = g;
+        warnings.extend(w);
+    }
     if let Some((lo, hi)) = params.band {
         for m in &mut models {
             m.modes.retain(|x| (lo..=hi).contains(&x.frequency_hz));
