@@ -2,7 +2,7 @@
 //! known answer and the errors of a bad section reference.
 #![allow(non_snake_case)]
 
-use crate::util::models::{err_of, no_files};
+use crate::util::models::{assert_errors, no_files};
 use modalflow::dynamics::{Model, PreparedModel};
 
 /// A simply supported steel strip (800 × 50 × 5 mm) whose E and G are
@@ -111,11 +111,5 @@ fn beam_section_parameters_are_checked_like_joint_references() {
             "must all be positive",
         ),
     ];
-    for (text, expect) in cases {
-        let e = err_of(&text);
-        assert!(
-            e.contains("bad.yaml") && e.contains(expect),
-            "expected `{expect}` in: {e}"
-        );
-    }
+    assert_errors(&cases);
 }

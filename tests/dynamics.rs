@@ -3,7 +3,7 @@
 //! are in `beam_sections.rs`.
 #![allow(non_snake_case)]
 
-use crate::util::models::{err_of, no_files};
+use crate::util::models::{assert_errors, err_of, no_files};
 use modalflow::dynamics::{Model, PreparedModel};
 
 fn load(name: &str) -> PreparedModel {
@@ -260,13 +260,7 @@ fn bad_model_files_name_file_and_field() {
             "parameters[1]",
         ),
     ];
-    for (text, expect) in cases {
-        let e = err_of(&text);
-        assert!(
-            e.contains("bad.yaml") && e.contains(expect),
-            "expected `{expect}` in: {e}"
-        );
-    }
+    assert_errors(&cases);
     // serde errors keep line and column.
     let e = err_of(&base.replace("  - name: m1\n", "  - name: m1\n    colour: red\n"));
     assert!(e.contains("line "), "{e}");

@@ -17,3 +17,15 @@ pub fn err_of(text: &str) -> String {
         Err(e) => e.to_string(),
     }
 }
+
+/// Each bad model text gives an error naming `bad.yaml` and its expected
+/// part (the field, the unknown name).
+pub fn assert_errors(cases: &[(String, &str)]) {
+    for (text, expect) in cases {
+        let e = err_of(text);
+        assert!(
+            e.contains("bad.yaml") && e.contains(expect),
+            "expected `{expect}` in: {e}"
+        );
+    }
+}
