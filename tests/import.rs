@@ -481,12 +481,13 @@ fn geometry_comes_from_the_first_universal_file_with_nodes() {
 #[test]
 fn geometry_comes_from_the_file_the_param_names() {
     let ws = Workspace::new();
-    for f in ["dam0.unv", "coords.unv"] {
+    for f in ["dam0.unv", "coords.unv", "literature_modes.csv"] {
         ws.copy_in(&format!("benchmarks/real_sets/cermelj_dam0/{f}"), f);
     }
+    // Reference modes (`content: modes`) take the param too.
     let pipeline = |geometry: &str| {
         format!(
-            "name: imp\nstages:\n  b: {{kind: import, params: {{path: dam0.unv, geometry: {geometry}, calibrated: false}}}}\n"
+            "name: imp\nstages:\n  b: {{kind: import, params: {{path: dam0.unv, geometry: {geometry}, calibrated: false}}}}\n  lit: {{kind: import, params: {{path: literature_modes.csv, content: modes, geometry: {geometry}}}}}\n"
         )
     };
     ws.write("p.yaml", &pipeline("coords.unv"));
@@ -503,6 +504,8 @@ fn geometry_comes_from_the_file_the_param_names() {
             .map(|n| n["xyz"].clone())
     };
     assert_eq!(node(113), Some(serde_json::json!([0.0, 360.0, 5080.0])));
+    let lit: serde_json::Value = ws.json("results/imp/lit/geometry.json");
+    assert_eq!(lit, g);
     let warnings = r0.stage("b")["warnings"].to_string();
     assert!(
         warnings.contains("coords.unv") && warnings.contains("734"),
