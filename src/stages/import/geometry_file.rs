@@ -14,8 +14,7 @@ pub(super) fn read(ctx: &StageContext, rel: &str) -> Result<(Geometry, Vec<Strin
         input: rel.to_string(),
         message,
     };
-    let bytes = std::fs::read(ctx.pipeline_dir.join(rel))
-        .map_err(|e| StageError::io(format!("cannot read {rel}"), e))?;
+    let bytes = super::read_file(&ctx.pipeline_dir.join(rel), rel)?;
     let file = io::read_uff(&bytes, rel).map_err(|e| invalid(e.to_string()))?;
     let geometry = Geometry::from_uff(&file).ok_or_else(|| {
         invalid(format!(

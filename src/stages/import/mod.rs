@@ -460,6 +460,12 @@ pub(super) fn write_json(
     Ok(path)
 }
 
+/// The bytes of the file at `path`, an error naming it as `rel` (the
+/// pipeline's spelling) when it cannot be read.
+pub(super) fn read_file(path: &Path, rel: &str) -> Result<Vec<u8>, StageError> {
+    std::fs::read(path).map_err(|e| StageError::io(format!("cannot read {rel}"), e))
+}
+
 pub(super) fn by_extension(path: &Path) -> Format {
     match path.extension().and_then(|e| e.to_str()) {
         Some(e) if e.eq_ignore_ascii_case("csv") => Format::Csv,
@@ -510,7 +516,7 @@ fn read_one(
     coherence: CoherencePolicy,
     log: &mut Log<'_>,
 ) -> Result<Vec<FrfSet>, StageError> {
-    let bytes = std::fs::read(path).map_err(|e| StageError::io(format!("cannot read {rel}"), e))?;
+    let bytes = read_file(path, rel)?;
     let invalid = |e: io::IoError| StageError::InvalidInput {
         input: rel.to_string(),
         message: e.to_string(),

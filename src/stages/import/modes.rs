@@ -15,12 +15,11 @@
 //! NDD and MACXP for such pairs and says so. Modes without shapes are paired
 //! by frequency alone. `band` keeps the modes inside it.
 
-use super::{by_extension, write_json, Format, Params};
+use super::{by_extension, read_file, write_json, Format, Params};
 use crate::artifacts;
 use crate::io;
 use crate::modal::ModalModel;
 use crate::stages::{StageContext, StageError, StageOutputs};
-use std::path::Path;
 
 /// Reads the reference modes `params.path` (and `params.shapes`) names.
 pub fn run(params: &Params, ctx: &StageContext) -> Result<StageOutputs, StageError> {
@@ -40,9 +39,6 @@ pub fn run(params: &Params, ctx: &StageContext) -> Result<StageOutputs, StageErr
             ),
         });
     };
-    let read = |p: &Path, rel: &str| {
-        std::fs::read(p).map_err(|e| StageError::io(format!("cannot read {rel}"), e))
-    };
     let invalid = |input: &str| {
         let input = input.to_string();
         move |e: io::IoError| StageError::InvalidInput {
@@ -50,13 +46,13 @@ pub fn run(params: &Params, ctx: &StageContext) -> Result<StageOutputs, StageErr
             message: e.to_string(),
         }
     };
-    let bytes = read(path, rel)?;
+    let bytes = read_file(path, rel)?;
     let mut warnings = Vec::new();
     let mut geometry = crate::geometry::Geometry::default();
     let format = params.format.unwrap_or_else(|| by_extension(path));
     let mut models = if format == Format::Csv {
         let (shapes, shapes_rel) = match &params.shapes {
-            Some(s) => (read(&ctx.pipeline_dir.join(s), s)?, s.clone()),
+            Some(s) => (read_file(&ctx.pipeline_dir.join(s), s)?, s.clone()),
             None => (Vec::new(), String::new()),
         };
         io::read_modal_csv(&bytes, rel, &shapes, &shapes_rel).map_err(invalid(rel))?
